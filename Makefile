@@ -1,0 +1,41 @@
+# navbench: `make run` (set up + main job on bundled data) and `make test` (set up + tests).
+# Works as root on a fresh Debian 12 machine: creates .venv, installs the OSMesa libraries only when
+# missing, then installs navbench with its dev extra.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: setup osmesa run test test-slow bench clean
+
+$(BIN)/python:
+	$(PY) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+
+# OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing.
+osmesa:
+	@if ! ldconfig -p | grep -q libOSMesa.so; then \
+	  echo "installing libosmesa6 (apt)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 libosmesa6-dev >/dev/null; \
+	fi
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/pip install -q -e ".[dev]"
+	touch $(STAMP)
+
+setup: osmesa $(STAMP)
+
+run: setup
+	$(BIN)/navbench run --split val_unseen
+
+test: setup
+	$(BIN)/python -m pytest
+
+test-slow: setup
+	$(BIN)/python -m pytest -m slow
+
+bench: setup
+	$(BIN)/navbench bench
+
+clean:
+	rm -rf $(VENV) .pytest_cache
