@@ -1,0 +1,44 @@
+"""``oracle``: follows the geodesic shortest path to the nearest goal and stops inside the success
+distance, like Habitat's ShortestPathFollower. Its SR/SPL are the ceiling a benchmark split allows;
+if they are low, the geodesics, view points or motion model are wrong."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from navbench.agents.base import PoseTracker
+from navbench.env.base import resolve_scene_path
+from navbench.env.config import EnvConfig
+from navbench.episodes.types import Episode
+from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.follower import GreedyFollower
+from navbench.scene.navigability import NavGridConfig
+from navbench.scene.pose import quat_from_yaw
+
+
+class OracleAgent:
+    sensors: tuple[str, ...] = ()  # privileged: needs no rendered observation
+
+    def __init__(self, scene_dir: str | Path, success_distance: float, env_config: EnvConfig = EnvConfig()):
+        self.scene_dir = Path(scene_dir)
+        self.success_distance = success_distance
+        self.env_config = env_config
+        self.nav_config = NavGridConfig(agent_height=env_config.agent_height, agent_radius=env_config.agent_radius,
+                                        max_climb=env_config.max_climb, cell_size=env_config.cell_size)
+        self._pose = PoseTracker()
+        self._grids: dict[Path, object] = {}
+
+    def reset(self, episode: Episode) -> None:
+        path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        if path not in self._grids:
+            self._grids = {path: load_scene_and_navgrid(path, self.nav_config)[1]}  # keep one scene
+        self._pose.reset(episode)
+        self._follower = GreedyFollower(self._grids[path], episode.goal_positions(), self.success_distance,
+                                        forward_step=self.env_config.forward_step,
+                                        turn_angle_deg=self.env_config.turn_angle_deg)
+
+    def act(self, observations: dict[str, np.ndarray]) -> int:
+        position, yaw = self._pose(observations)
+        return int(self._follower.next_action(position, quat_from_yaw(yaw)))

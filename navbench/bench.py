@@ -1,0 +1,170 @@
+"""``navbench bench``: simulator, geodesic and policy speed on a bundled scene.
+
+    navbench bench            # human-readable
+    navbench bench --json     # one JSON object (keys below), for scripts and the README table
+
+Keys: ``rgbd_steps_per_s``, ``depth_steps_per_s``, ``rgbd_ids_steps_per_s`` (one process, env.step
+with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one llvmpipe thread each),
+``geodesic_cached_us`` (a geodesic query whose goal set's field is cached), ``geodesic_field_ms``
+(building the field for a new goal set), ``scene_load_s`` (mesh load + navigability build, no cache),
+``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import resource
+import time
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+from navbench.env.config import EnvConfig
+from navbench.env.pointnav import PointNavEnv
+from navbench.episodes.types import Episode, EpisodeDataset, NavigationGoal
+from navbench.paths import SCENES_DIR
+from navbench.scene.asset import load_scene
+from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.navigability import NavGrid, NavGridConfig
+from navbench.scene.pose import quat_from_yaw
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    scene: str | None = None  # default: the first bundled val scene
+    seconds: float = 3.0
+    policy: bool = True
+
+
+def default_scene() -> Path:
+    scenes = sorted((SCENES_DIR / "houses" / "val").glob("*.glb"))
+    if not scenes:
+        raise FileNotFoundError(f"{SCENES_DIR / 'houses' / 'val'}: no bundled scenes")
+    return scenes[0]
+
+
+def _bench_dataset(scene: Path, grid: NavGrid, n: int = 20) -> EpisodeDataset:
+    rng = np.random.default_rng(0)
+    eps = []
+    for i in range(n):
+        s, g = grid.sample_navigable_point(rng), grid.sample_navigable_point(rng)
+        eps.append(Episode(str(i), str(scene.resolve()), [float(v) for v in s],
+                           [float(v) for v in quat_from_yaw(float(rng.uniform(0, 6.28)))],
+                           goals=[NavigationGoal([float(v) for v in g])]))
+    return EpisodeDataset(episodes=eps)
+
+
+def env_steps_per_s(scene: Path, config: EnvConfig, seconds: float) -> float:
+    _, grid = load_scene_and_navgrid(scene)
+    env = PointNavEnv(_bench_dataset(scene, grid), scene_dir="/", config=config)
+    rng = np.random.default_rng(0)
+    env.reset(seed=0)
+    for _ in range(20):  # warm-up: shader compile, first-frame allocation
+        env.step(int(rng.integers(1, 4)))
+    steps, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        # random moves, never STOP, so this measures steps rather than resets
+        _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
+        steps += 1
+        if term or trunc:
+            env.reset()
+    rate = steps / (time.perf_counter() - t0)
+    env.close()
+    return rate
+
+
+def _proc_worker(scene: str, config: EnvConfig, seconds: float, barrier, queue) -> None:
+    os.environ["LP_NUM_THREADS"] = "1"
+    _, grid = load_scene_and_navgrid(Path(scene))
+    env = PointNavEnv(_bench_dataset(Path(scene), grid), scene_dir="/", config=config)
+    env.reset(seed=0)
+    rng = np.random.default_rng(os.getpid())
+    for _ in range(20):
+        env.step(int(rng.integers(1, 4)))
+    barrier.wait()
+    steps, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
+        steps += 1
+        if term or trunc:
+            env.reset()
+    queue.put(steps / (time.perf_counter() - t0))
+    env.close()
+
+
+def multiprocess_steps_per_s(scene: Path, config: EnvConfig, seconds: float, procs: int = 2) -> float:
+    ctx = get_context("spawn")
+    barrier, queue = ctx.Barrier(procs), ctx.Queue()
+    ps = [ctx.Process(target=_proc_worker, args=(str(scene), config, seconds, barrier, queue)) for _ in range(procs)]
+    for p in ps:
+        p.start()
+    rates = [queue.get(timeout=120 + seconds) for _ in ps]
+    for p in ps:
+        p.join()
+    return float(sum(rates))
+
+
+def geodesic_figures(grid: NavGrid, seconds: float) -> dict[str, float]:
+    rng = np.random.default_rng(1)
+    goal = grid.sample_navigable_point(rng)
+    starts = [grid.sample_navigable_point(rng) for _ in range(256)]
+    grid.geodesic_distance(starts[0], goal)  # build and cache the field
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < min(seconds, 1.0):
+        for s in starts:
+            grid.geodesic_distance(s, goal)
+        n += len(starts)
+    cached_us = (time.perf_counter() - t0) / n * 1e6
+    times = []
+    for _ in range(10):
+        g = grid.sample_navigable_point(rng) + np.array([rng.uniform(-1e-3, 1e-3), 0, 0])  # a new goal set
+        t0 = time.perf_counter()
+        grid.distance_field(g)
+        times.append(time.perf_counter() - t0)
+    return {"geodesic_cached_us": cached_us, "geodesic_field_ms": float(np.median(times) * 1e3)}
+
+
+def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str]:
+    scene = Path(cfg.scene) if cfg.scene else default_scene()
+    t0 = time.perf_counter()
+    asset = load_scene(scene)
+    grid = NavGrid.from_mesh(asset.mesh, NavGridConfig())
+    result: dict[str, float | str] = {"scene": str(scene), "scene_triangles": int(len(asset.mesh.faces)),
+                                      "scene_load_s": time.perf_counter() - t0}
+    result["grid_shape"] = "x".join(map(str, grid.navigable.shape))
+    result.update(geodesic_figures(grid, cfg.seconds))
+    rgbd = EnvConfig(rgb=True, depth=True)
+    result["rgbd_steps_per_s"] = env_steps_per_s(scene, rgbd, cfg.seconds)
+    result["depth_steps_per_s"] = env_steps_per_s(scene, dataclasses.replace(rgbd, rgb=False), cfg.seconds)
+    result["rgbd_ids_steps_per_s"] = env_steps_per_s(scene, dataclasses.replace(rgbd, semantic=True), cfg.seconds)
+    result["rgbd_steps_per_s_2proc"] = multiprocess_steps_per_s(scene, rgbd, cfg.seconds)
+    result["scaling_2proc"] = result["rgbd_steps_per_s_2proc"] / result["rgbd_steps_per_s"]
+    if cfg.policy:
+        from navbench.policy.speed import measure_policy_speed
+        result.update(measure_policy_speed(seconds=cfg.seconds))
+    result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
+
+
+def format_report(r: dict) -> str:
+    lines = [f"scene: {r['scene']} ({r['scene_triangles']} triangles, grid {r['grid_shape']})"]
+    labels = {
+        "rgbd_steps_per_s": "env steps/s, RGB-D 224x224",
+        "depth_steps_per_s": "env steps/s, depth only",
+        "rgbd_ids_steps_per_s": "env steps/s, RGB-D + instance ids",
+        "rgbd_steps_per_s_2proc": "env steps/s, RGB-D, 2 processes (total)",
+        "scaling_2proc": "2-process scaling (x)",
+        "geodesic_cached_us": "geodesic query, cached field (us)",
+        "geodesic_field_ms": "geodesic field for a new goal set (ms)",
+        "scene_load_s": "scene load + navigability build (s)",
+        "policy_steps_per_s_b1": "policy steps/s, batch 1",
+        "policy_frames_per_s_b8": "policy frames/s, batch 8",
+        "peak_rss_mb": "peak RSS (MB)",
+    }
+    for k, label in labels.items():
+        if k in r:
+            lines.append(f"{label:<44} {r[k]:>10.2f}")
+    return "\n".join(lines)

@@ -1,0 +1,255 @@
+"""The core both navigation envs share: scene switching, the motion model, sensors and running metrics.
+
+Concrete envs (``pointnav.py``, ``objectnav.py``) only add their goal sensor and observation space.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from navbench.env.config import MOVE_FORWARD, STOP, SUCCESS_DISTANCE, TURN_LEFT, TURN_RIGHT, EnvConfig
+from navbench.env.sensors import compass, gps
+from navbench.episodes.io import load_dataset
+from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
+from navbench.metrics import episode_metrics
+from navbench.paths import SCENES_DIR
+from navbench.render.renderer import CameraConfig, Renderer
+from navbench.scene.asset import SceneAsset
+from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.navigability import NavGrid, NavGridConfig
+from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat
+
+
+def resolve_scene_path(scene_id: str, scene_dir: Path) -> Path:
+    p = Path(scene_id)
+    return p if p.is_absolute() else scene_dir / p
+
+
+class NavEnv(gym.Env):
+    """Shared machinery; see :class:`navbench.env.pointnav.PointNavEnv` for the documented interface."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    task: str = "pointnav"
+
+    def __init__(self, dataset: str | Path | EpisodeDataset, scene_dir: str | Path | None = None,
+                 config: EnvConfig | None = None, render_mode: str | None = None):
+        self.config = config or EnvConfig()
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.render_mode = render_mode
+        self.dataset = dataset if isinstance(dataset, EpisodeDataset) else load_dataset(dataset)
+        if not self.dataset.episodes:
+            raise EpisodeError(f"{dataset}: dataset has no episodes")
+        self.scene_dir = Path(scene_dir) if scene_dir is not None else SCENES_DIR
+        self.success_distance = (self.config.success_distance if self.config.success_distance is not None
+                                 else SUCCESS_DISTANCE[self.task])
+        self.nav_config = NavGridConfig(agent_height=self.config.agent_height, agent_radius=self.config.agent_radius,
+                                        max_climb=self.config.max_climb, cell_size=self.config.cell_size)
+        self.camera = CameraConfig(width=self.config.width, height=self.config.height, hfov_deg=self.config.hfov_deg)
+        self.action_space = spaces.Discrete(4)
+        self.observation_space = spaces.Dict(self._observation_spaces())
+
+        self._scene_path: Path | None = None
+        self.asset: SceneAsset | None = None
+        self.navgrid: NavGrid | None = None
+        self._renderer: Renderer | None = None
+        self.episode: Episode | None = None
+        self._done = True
+        self._last_rgb: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ spaces
+    def _observation_spaces(self) -> dict[str, spaces.Space]:
+        c = self.config
+        obs: dict[str, spaces.Space] = {}
+        if c.rgb:
+            obs["rgb"] = spaces.Box(0, 255, (c.height, c.width, 3), np.uint8)
+        if c.depth:
+            hi = 1.0 if c.normalize_depth else c.max_depth
+            lo = 0.0 if c.normalize_depth else c.min_depth
+            obs["depth"] = spaces.Box(lo, hi, (c.height, c.width, 1), np.float32)
+        if c.semantic:
+            obs["semantic"] = spaces.Box(-1, np.iinfo(np.int32).max, (c.height, c.width, 1), np.int32)
+        big = np.finfo(np.float32).max  # Habitat's GPS bounds: any finite float32
+        obs["gps"] = spaces.Box(-big, big, (2,), np.float32)
+        obs["compass"] = spaces.Box(-np.pi, np.pi, (1,), np.float32)
+        return obs
+
+    # ------------------------------------------------------------------ scene
+    def _load_scene(self, scene_id: str) -> None:
+        path = resolve_scene_path(scene_id, self.scene_dir)
+        if path == self._scene_path:
+            return
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        self.asset, self.navgrid = load_scene_and_navgrid(path, self.nav_config)
+        self._scene_path = path
+        if self.config.rgb or self.config.depth or self.config.semantic or self.render_mode == "rgb_array":
+            self._renderer = Renderer(self.asset, self.camera, platform=self.config.gl_platform)
+
+    # ------------------------------------------------------------------ episode selection
+    def _select_episode(self, options: dict[str, Any] | None) -> Episode:
+        ep = (options or {}).get("episode")
+        if ep is None:  # seeded draw, so reset(seed=s) picks the same episode every time
+            return self.dataset.episodes[int(self.np_random.integers(len(self.dataset.episodes)))]
+        if isinstance(ep, Episode):
+            return ep
+        if isinstance(ep, (int, np.integer)):
+            return self.dataset.episodes[int(ep)]
+        for e in self.dataset.episodes:
+            if e.episode_id == str(ep):
+                return e
+        raise EpisodeError(f"episode {ep!r} is not in the dataset")
+
+    def _goal_points(self, episode: Episode) -> np.ndarray:
+        return episode.goal_positions()
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        episode = self._select_episode(options)
+        self._load_scene(episode.scene_id)
+        assert self.navgrid is not None
+        start = np.asarray(episode.start_position, np.float64)
+        if not np.isfinite(start).all() or not np.isfinite(episode.start_rotation).all():
+            raise EpisodeError(f"episode {episode.episode_id}: non-finite start pose {episode.start_position}")
+        if not self.navgrid.is_navigable(start):
+            snapped = self.navgrid.snap_point(start)
+            if not np.isfinite(snapped).all() or \
+                    np.linalg.norm((snapped - start)[[0, 2]]) > self.config.start_snap_tolerance:
+                raise EpisodeError(f"episode {episode.episode_id} ({episode.scene_id}): start position "
+                                   f"{[round(v, 3) for v in start]} is not navigable")
+            start = snapped
+        self.episode = episode
+        self._position = np.array([start[0], self.navgrid.floor_height, start[2]])
+        self._yaw = yaw_from_quat(np.asarray(episode.start_rotation, np.float64))
+        # GPS is measured from the episode's declared start (not the snapped one), so agents that add
+        # GPS to the declared start pose recover their true world position.
+        declared = np.asarray(episode.start_position, np.float64)
+        self._start_position = np.array([declared[0], self.navgrid.floor_height, declared[2]])
+        self._start_yaw = self._yaw
+        self._goals = self._goal_points(episode)
+        self._field = self.navgrid.distance_field(self._goals)
+        self._d0 = float(self._field.distance(self._position))
+        self._num_steps = 0
+        self._collisions = 0
+        self._path_length = 0.0
+        self._stop_called = False
+        self._done = False
+        return self._observe(), self._info()
+
+    def step(self, action):
+        if self._done:
+            raise RuntimeError("episode is over: call reset() before step()")
+        if not self.action_space.contains(action):
+            try:
+                a = int(action)
+            except (TypeError, ValueError):
+                raise ValueError(f"action must be an int in 0..3, got {action!r}") from None
+            if not 0 <= a < 4 or a != action:
+                raise ValueError(f"action must be an int in 0..3 (STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT), "
+                                 f"got {action!r}")
+        action = int(action)
+        self._num_steps += 1
+        if action == STOP:
+            self._stop_called = True
+        elif action == MOVE_FORWARD:
+            fwd = heading_vector(self._yaw)
+            new, collided = self.navgrid.try_step(self._position, self._position + self.config.forward_step * fwd,
+                                                  sliding=self.config.allow_sliding)
+            self._path_length += float(np.linalg.norm((new - self._position)[[0, 2]]))
+            self._position = np.asarray(new, np.float64)
+            self._collisions += int(collided)
+        elif action in (TURN_LEFT, TURN_RIGHT):
+            sign = 1.0 if action == TURN_LEFT else -1.0
+            self._yaw = wrap_angle(self._yaw + sign * math.radians(self.config.turn_angle_deg))
+        terminated = self._stop_called
+        truncated = not terminated and self._num_steps >= self.config.max_steps
+        self._done = terminated or truncated
+        return self._observe(), 0.0, terminated, truncated, self._info()
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._last_rgb is None:
+            out = self._renderer.render(*self.camera_pose(), rgb=True, depth=False, ids=False)
+            self._last_rgb = out.rgb
+        return self._last_rgb
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        self._scene_path = None
+
+    # ------------------------------------------------------------------ state
+    @property
+    def agent_position(self) -> np.ndarray:
+        return self._position.copy()
+
+    @property
+    def agent_rotation(self) -> np.ndarray:
+        return quat_from_yaw(self._yaw)
+
+    @property
+    def agent_yaw(self) -> float:
+        return self._yaw
+
+    @property
+    def goal_points(self) -> np.ndarray:
+        return self._goals
+
+    def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._position + np.array([0.0, self.config.agent_height, 0.0]), quat_from_yaw(self._yaw)
+
+    def distance_to_goal(self) -> float:
+        return float(self._field.distance(self._position))
+
+    # ------------------------------------------------------------------ sensors
+    def _observe(self) -> dict[str, np.ndarray]:
+        c = self.config
+        obs: dict[str, np.ndarray] = {}
+        self._last_rgb = None
+        if self._renderer is not None and (c.rgb or c.depth or c.semantic):
+            out = self._renderer.render(*self.camera_pose(), rgb=c.rgb, depth=c.depth, ids=c.semantic)
+            if c.rgb:
+                obs["rgb"] = out.rgb
+                self._last_rgb = out.rgb
+            if c.depth:
+                # Habitat: clip to [min, max] (so "nothing hit" = 0 becomes min), then normalise.
+                d = np.clip(out.depth, c.min_depth, c.max_depth)
+                if c.normalize_depth:
+                    d = (d - c.min_depth) / (c.max_depth - c.min_depth)
+                obs["depth"] = d.astype(np.float32)[..., None]
+            if c.semantic:
+                obs["semantic"] = out.ids.astype(np.int32)[..., None]
+        obs["gps"] = gps(self._position, self._start_position, self._start_yaw)
+        obs["compass"] = compass(self._yaw, self._start_yaw)
+        obs.update(self._goal_observation())
+        return obs
+
+    def _goal_observation(self) -> dict[str, np.ndarray]:
+        return {}
+
+    def _info(self) -> dict[str, Any]:
+        d = self.distance_to_goal()
+        m = episode_metrics(self._stop_called, d, self._d0, self._path_length, self.success_distance)
+        return {
+            "episode_id": self.episode.episode_id,
+            "scene_id": self.episode.scene_id,
+            "distance_to_goal": d,
+            "success": m["success"],
+            "spl": m["spl"],
+            "soft_spl": m["soft_spl"],
+            "num_steps": self._num_steps,
+            "collisions": self._collisions,
+            "path_length": self._path_length,
+            "stop_called": self._stop_called,
+            "geodesic_distance": self._d0,
+        }

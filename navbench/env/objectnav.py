@@ -1,0 +1,73 @@
+"""``navbench/ObjectNav-v0``: find any instance of a named object category.
+
+Run it::
+
+    import gymnasium as gym, navbench
+    env = gym.make("navbench/ObjectNav-v0")           # bundled ObjectNav val_seen split
+    obs, info = env.reset(seed=0)
+    env.unwrapped.episode.object_category             # e.g. "chair"
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from gymnasium import spaces
+
+from navbench.env.base import NavEnv
+from navbench.env.config import EnvConfig
+from navbench.episodes.types import EpisodeDataset, EpisodeError
+from navbench.paths import split_file
+
+
+class ObjectNavEnv(NavEnv):
+    """Object-goal navigation (Habitat ObjectNav-v1 semantics).
+
+    ## Action space
+    As :class:`navbench.env.pointnav.PointNavEnv`: ``Discrete(4)`` STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT.
+
+    ## Observation space (``Dict``)
+    ``rgb``, ``depth``, optional ``semantic``, ``gps``, ``compass`` as in PointNav, plus
+    ``objectgoal``: ``Box(0, C-1, (1,), int64)`` the goal category's id in the dataset's
+    ``category_to_task_category_id``. There is no point-goal sensor: the goal must be found.
+
+    ## Episode end and success
+    Terminated by STOP, truncated after ``max_steps`` (500). Success = STOP with the geodesic distance
+    to the nearest view point of any goal instance < ``success_distance`` (0.1 m, Habitat's HM3D
+    ObjectNav value; navbench's OVON-style splits are evaluated at 0.25 m by ``navbench run``).
+    Distance-to-goal and SPL are measured to view points, as Habitat does.
+
+    ## Arguments
+    ``dataset`` (ObjectNav-v1 file or :class:`EpisodeDataset`; default: bundled ``val_seen``),
+    ``scene_dir``, ``config``, ``render_mode`` as for PointNav.
+
+    ## Version history
+    - v0: initial release.
+    """
+
+    task = "objectnav"
+
+    def __init__(self, dataset: str | Path | EpisodeDataset | None = None, scene_dir: str | Path | None = None,
+                 config: EnvConfig | None = None, render_mode: str | None = None):
+        super().__init__(dataset if dataset is not None else split_file("objectnav", "val_seen"), scene_dir,
+                         config, render_mode)
+
+    def _observation_spaces(self):
+        obs = super()._observation_spaces()
+        # Called from NavEnv.__init__ once the dataset is loaded; a dataset without the category table
+        # (a hand-written file) gets one in sorted category order.
+        if not self.dataset.category_to_task_category_id:
+            self.dataset.category_to_task_category_id = {
+                c: i for i, c in enumerate(sorted({e.object_category for e in self.dataset.episodes}))}
+        cats = self.dataset.category_to_task_category_id
+        obs["objectgoal"] = spaces.Box(0, max(cats.values()), (1,), np.int64)
+        return obs
+
+    def _goal_observation(self):
+        cat = self.episode.object_category
+        cats = self.dataset.category_to_task_category_id
+        if cat not in cats:
+            raise EpisodeError(f"episode {self.episode.episode_id}: category {cat!r} is not in "
+                               f"category_to_task_category_id")
+        return {"objectgoal": np.array([cats[cat]], np.int64)}

@@ -1,0 +1,51 @@
+"""Habitat's episodic pose sensors and their inverse, as plain functions of (position, yaw).
+
+Yaw is the rotation about +y; at yaw 0 the agent faces -z, and positive yaw turns it left
+(counter-clockwise seen from above).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from navbench.scene.pose import wrap_angle
+
+
+def to_agent_frame(vec: np.ndarray, yaw: float) -> tuple[float, float]:
+    """World xz offset -> (forward, right) in the frame of an agent with heading ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    x = c * vec[0] - s * vec[2]  # rotate by -yaw about +y
+    z = s * vec[0] + c * vec[2]
+    return -z, x
+
+
+def from_agent_frame(forward: float, right: float, yaw: float) -> np.ndarray:
+    """Inverse of :func:`to_agent_frame`: (forward, right) -> world xz offset as a 3-vector (y = 0)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    x, z = right, -forward
+    return np.array([c * x + s * z, 0.0, -s * x + c * z])
+
+
+def gps(position: np.ndarray, start_position: np.ndarray, start_yaw: float) -> np.ndarray:
+    """Habitat's 2-D EpisodicGPSSensor: [forward, right] of the agent in the start frame."""
+    return np.array(to_agent_frame(np.asarray(position) - np.asarray(start_position), start_yaw), np.float32)
+
+
+def compass(yaw: float, start_yaw: float) -> np.ndarray:
+    return np.array([wrap_angle(yaw - start_yaw)], np.float32)
+
+
+def pointgoal_polar(goal: np.ndarray, position: np.ndarray, yaw: float) -> np.ndarray:
+    """[rho, theta] of the goal in the agent frame; theta counter-clockwise positive (Habitat's polar)."""
+    fwd, right = to_agent_frame(np.asarray(goal) - np.asarray(position), yaw)
+    return np.array([math.hypot(fwd, right), -math.atan2(right, fwd)], np.float32)
+
+
+def world_pose(gps_obs: np.ndarray, compass_obs: np.ndarray, start_position: np.ndarray,
+               start_yaw: float) -> tuple[np.ndarray, float]:
+    """World (position, yaw) from GPS+compass and the episode's start pose, as Habitat agents recover it.
+    The returned position is on the start's floor level (y of the start)."""
+    offset = from_agent_frame(float(gps_obs[0]), float(gps_obs[1]), start_yaw)
+    return np.asarray(start_position, np.float64) + offset, wrap_angle(start_yaw + float(compass_obs[0]))

@@ -1,0 +1,207 @@
+"""Seeded PointNav / ObjectNav episode generation on navbench scenes, and the bundled splits.
+
+Regenerate everything in ``episodes/`` (deterministic for a seed)::
+
+    navbench generate episodes            # = generate_bundled_splits(seed=0)
+
+Episodes follow Habitat's generators: starts are navigable and on the goal's island; the geodesic
+distance to the goal lies in [1, 20] m; episodes whose geodesic/euclidean ratio is below 1.1 are
+rejected with probability 0.9 (Habitat keeps a few easy straight-line episodes the same way); start
+headings are uniform. ObjectNav goals are every instance of the category in the scene, each with
+its dense view points (:mod:`navbench.episodes.viewpoints`), and ``info.geodesic_distance`` is the
+distance to the nearest view point.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from navbench.episodes.categories import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, categories_table
+from navbench.episodes.io import goals_key, save_dataset
+from navbench.episodes.types import AgentState, Episode, EpisodeDataset, NavigationGoal, ObjectGoal, ViewPoint
+from navbench.episodes.viewpoints import ViewPointConfig, ViewPointFinder
+from navbench.paths import EPISODES_DIR, SCENES_DIR
+from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.pose import quat_from_yaw
+
+
+@dataclass(frozen=True)
+class GeneratorConfig:
+    min_geodesic: float = 1.0
+    max_geodesic: float = 20.0
+    min_ratio: float = 1.1
+    low_ratio_reject_prob: float = 0.9
+    max_tries: int = 2000  # per episode, before the scene is declared too small for the request
+
+
+def _rel(scene_path: Path, scene_dir: Path) -> str:
+    return scene_path.resolve().relative_to(scene_dir.resolve()).as_posix()
+
+
+def _random_yaw_quat(rng: np.random.Generator) -> list[float]:
+    return [float(v) for v in quat_from_yaw(float(rng.uniform(0, 2 * math.pi)))]
+
+
+def _accept(rng: np.random.Generator, geo: float, euc: float, cfg: GeneratorConfig) -> bool:
+    if not (cfg.min_geodesic <= geo <= cfg.max_geodesic):
+        return False
+    ratio = geo / max(euc, 1e-6)
+    return ratio >= cfg.min_ratio or rng.random() > cfg.low_ratio_reject_prob
+
+
+# ------------------------------------------------------------------------------------------- PointNav
+def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.Generator,
+                      cfg: GeneratorConfig = GeneratorConfig(), id_offset: int = 0) -> list[Episode]:
+    _, grid = load_scene_and_navgrid(scene_path)
+    scene_id = _rel(scene_path, scene_dir)
+    episodes: list[Episode] = []
+    for k in range(n):
+        for _ in range(cfg.max_tries):
+            goal = grid.sample_navigable_point(rng)
+            start = grid.sample_navigable_point(rng)
+            geo = grid.geodesic_distance(start, goal)
+            euc = float(np.linalg.norm((goal - start)[[0, 2]]))
+            if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
+                break
+        else:
+            raise RuntimeError(f"{scene_path}: no PointNav episode satisfies {cfg} after {cfg.max_tries} tries")
+        episodes.append(Episode(
+            episode_id=str(id_offset + k), scene_id=scene_id,
+            start_position=[float(v) for v in start], start_rotation=_random_yaw_quat(rng),
+            goals=[NavigationGoal(position=[float(v) for v in goal], radius=None)],
+            info={"geodesic_distance": geo, "euclidean_distance": euc,
+                  "difficulty": "easy" if geo < 6 else "medium" if geo < 12 else "hard"},
+        ))
+    return episodes
+
+
+# ------------------------------------------------------------------------------------------ ObjectNav
+class SceneGoals:
+    """Per-scene ObjectNav goals: each category's instances with view points, computed once."""
+
+    def __init__(self, scene_path: Path, scene_dir: Path, vp_config: ViewPointConfig = ViewPointConfig()):
+        self.asset, self.grid = load_scene_and_navgrid(scene_path)
+        self.scene_id = _rel(scene_path, scene_dir)
+        self._finder = ViewPointFinder(self.asset, self.grid, vp_config)
+        self._cache: dict[str, list[ObjectGoal]] = {}
+
+    def goals(self, category: str) -> list[ObjectGoal]:
+        if category not in self._cache:
+            out = []
+            for obj in sorted(self.asset.objects_of(category), key=lambda o: o.id):
+                pos, rot, frac = self._finder.find(obj)
+                if len(pos) == 0:
+                    continue  # never visible from the navigable area: not a valid goal
+                out.append(ObjectGoal(
+                    position=[float(v) for v in obj.center], object_id=obj.id, object_category=category,
+                    object_name=f"{category}_{obj.id}", room_id=obj.room, room_name=obj.room,
+                    view_points=[ViewPoint(AgentState([float(v) for v in p], [float(v) for v in q]), float(f))
+                                 for p, q, f in zip(pos, rot, frac)],
+                ))
+            self._cache[category] = out
+        return self._cache[category]
+
+    def available(self, categories: tuple[str, ...]) -> list[str]:
+        """Categories with at least one reachable goal instance on the main island."""
+        return [c for c in categories if self.goals(c)]
+
+
+def objectnav_episodes(sg: SceneGoals, categories: list[str], n: int, rng: np.random.Generator,
+                       names: dict[str, str] | None = None, cfg: GeneratorConfig = GeneratorConfig(),
+                       id_offset: int = 0) -> tuple[list[Episode], dict[str, list[ObjectGoal]]]:
+    """``n`` episodes cycling over ``categories``; ``names`` renames categories (synonym splits)."""
+    names = names or {}
+    episodes: list[Episode] = []
+    table: dict[str, list[ObjectGoal]] = {}
+    order = list(categories)
+    rng.shuffle(order)
+    for k in range(n):
+        cat = order[k % len(order)]
+        name = names.get(cat, cat)
+        goals = sg.goals(cat)
+        vps = np.concatenate([g.view_point_positions() for g in goals])
+        field = sg.grid.distance_field(vps)
+        for _ in range(cfg.max_tries):
+            start = sg.grid.sample_navigable_point(rng)
+            geo = float(field.distance(start))
+            euc = float(np.min(np.linalg.norm((vps - start)[:, [0, 2]], axis=1)))
+            if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
+                break
+        else:
+            raise RuntimeError(f"{sg.scene_id}: no ObjectNav episode for '{cat}' after {cfg.max_tries} tries")
+        key = goals_key(sg.scene_id, name)
+        if key not in table:
+            table[key] = [ObjectGoal(position=g.position, object_id=g.object_id, object_category=name,
+                                     object_name=g.object_name, room_id=g.room_id, room_name=g.room_name,
+                                     view_points=g.view_points) for g in goals]
+        closest = min(goals, key=lambda g: sg.grid.geodesic_distance(start, g.view_point_positions()))
+        episodes.append(Episode(
+            episode_id=str(id_offset + k), scene_id=sg.scene_id,
+            start_position=[float(v) for v in start], start_rotation=_random_yaw_quat(rng),
+            info={"geodesic_distance": geo, "euclidean_distance": euc, "closest_goal_object_id": closest.object_id},
+            object_category=name,
+        ))
+    return episodes, table
+
+
+# ------------------------------------------------------------------------------------- bundled splits
+@dataclass(frozen=True)
+class SplitPlan:
+    pointnav_train_per_scene: int = 100
+    pointnav_val_per_scene: int = 50
+    objectnav_train_per_scene: int = 60
+    objectnav_val_per_scene: int = 40
+
+
+def scene_files(scene_dir: Path, split: str) -> list[Path]:
+    files = sorted((scene_dir / "houses" / split).glob("*.glb"))
+    if not files:
+        raise FileNotFoundError(f"{scene_dir / 'houses' / split}: no scenes (run `navbench generate scenes`)")
+    return files
+
+
+def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
+                            plan: SplitPlan = SplitPlan(), log=print) -> dict[str, int]:
+    """Write every bundled split; returns {"task/split": number of episodes}."""
+    counts: dict[str, int] = {}
+    for split, per_scene in (("train", plan.pointnav_train_per_scene), ("val", plan.pointnav_val_per_scene)):
+        rng = np.random.default_rng([seed, 0, 0 if split == "train" else 1])
+        eps: list[Episode] = []
+        for path in scene_files(scene_dir, split):
+            eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
+        save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / split / f"{split}.json.gz")
+        counts[f"pointnav/{split}"] = len(eps)
+        log(f"pointnav/{split}: {len(eps)} episodes")
+
+    scene_goals = {s: [SceneGoals(p, scene_dir) for p in scene_files(scene_dir, s)] for s in ("train", "val")}
+    plans = {
+        "train": ("train", TRAIN_CATEGORIES, False, plan.objectnav_train_per_scene),
+        "val_seen": ("val", TRAIN_CATEGORIES, False, plan.objectnav_val_per_scene),
+        "val_seen_synonyms": ("val", TRAIN_CATEGORIES, True, plan.objectnav_val_per_scene),
+        "val_unseen": ("val", UNSEEN_CATEGORIES, False, plan.objectnav_val_per_scene),
+    }
+    for i, (split, (scenes, cats, synonyms, per_scene)) in enumerate(plans.items()):
+        rng = np.random.default_rng([seed, 1, i])
+        ds = EpisodeDataset()
+        for sg in scene_goals[scenes]:
+            avail = sg.available(cats)
+            if not avail:
+                raise RuntimeError(f"{sg.scene_id}: none of the {split} categories has a reachable instance")
+            names = {c: SYNONYMS[c][int(rng.integers(len(SYNONYMS[c])))] for c in avail} if synonyms else None
+            eps, table = objectnav_episodes(sg, avail, per_scene, rng, names=names, id_offset=len(ds.episodes))
+            ds.episodes += eps
+            ds.goals_by_category.update(table)
+        used = sorted({e.object_category for e in ds.episodes})
+        ds.category_to_task_category_id = {c: i for i, c in enumerate(used)}
+        ds.category_to_scene_annotation_category_id = {c: i for i, c in enumerate(used)}
+        save_dataset(ds, out_dir / "objectnav" / split / f"{split}.json.gz")
+        counts[f"objectnav/{split}"] = len(ds.episodes)
+        log(f"objectnav/{split}: {len(ds.episodes)} episodes over {len(used)} categories")
+    (out_dir / "objectnav" / "categories.json").write_text(json.dumps(categories_table(), indent=1) + "\n")
+    return counts
+

@@ -1,0 +1,241 @@
+"""Run an agent over an episode dataset and record Habitat's metrics, one JSON line per episode.
+
+    navbench run --split val_unseen --agent oracle --out runs/oracle_val_unseen
+
+Writes ``OUT/episodes.jsonl`` (appended and flushed as each episode finishes, so a killed run loses at
+most the episodes in flight), ``OUT/config.json`` (everything needed to rerun) and ``OUT/summary.json``.
+``resume=True`` skips episodes already in ``episodes.jsonl``; it refuses a run directory whose
+config differs in anything that changes results.
+
+Parallelism: ``workers`` processes, each with its own env (and renderer) and agent, one episode per
+task. Every episode's outcome depends only on the episode and the seed, never on which worker ran
+it or in what order, so the same seed gives the same records and summary to the last digit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+from navbench import __version__
+from navbench.agents.base import Agent, episode_log
+from navbench.env.base import NavEnv
+from navbench.env.config import EnvConfig
+from navbench.env.objectnav import ObjectNavEnv
+from navbench.env.pointnav import PointNavEnv
+from navbench.episodes.io import load_dataset
+from navbench.episodes.types import Episode, EpisodeDataset
+from navbench.metrics import aggregate
+
+
+class RunError(ValueError):
+    """A run cannot start or continue (bad config, incompatible resume); the message says why."""
+
+
+@dataclass
+class RunConfig:
+    task: str  # "pointnav" | "objectnav"
+    split: str | None  # bundled split name, or None for a user's file
+    agent: str
+    episodes: str  # dataset file
+    scene_dir: str
+    success_distance: float
+    seed: int = 0
+    limit: int | None = None
+    workers: int = 1
+    env: dict[str, Any] = field(default_factory=dict)  # EnvConfig overrides
+    agent_options: dict[str, Any] = field(default_factory=dict)  # e.g. {"checkpoint": ...}
+
+    def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
+        base = EnvConfig(success_distance=self.success_distance, **self.env)
+        # Render only what the agent reads: the oracle needs no images, a PointNav policy only depth.
+        return dataclasses.replace(base, rgb="rgb" in sensors, depth="depth" in sensors,
+                                   semantic="semantic" in sensors)
+
+
+# Keys that may differ between a run and its resumption without changing any episode's result.
+_RESUME_FREE_KEYS = ("limit", "workers", "navbench_version")
+
+AgentFactory = Callable[[RunConfig], Agent]
+
+
+# ----------------------------------------------------------------------------------------- episodes
+def select_episodes(dataset: EpisodeDataset, limit: int | None) -> list[Episode]:
+    """The first ``limit`` episodes in file order (Habitat's convention for partial evaluation)."""
+    return dataset.episodes[:limit] if limit is not None else list(dataset.episodes)
+
+
+def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) -> NavEnv:
+    env_cls = ObjectNavEnv if cfg.task == "objectnav" else PointNavEnv
+    env = env_cls(dataset, scene_dir=cfg.scene_dir, config=cfg.env_config(sensors))
+    env.reset(seed=cfg.seed)  # seeds the env's generator; episodes are then given explicitly
+    return env
+
+
+def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    obs, info = env.reset(options={"episode": episode})
+    record: dict[str, Any] = {
+        "episode_id": episode.episode_id, "scene_id": episode.scene_id, "split": cfg.split, "task": cfg.task,
+        "agent": cfg.agent, "object_category": episode.object_category,
+    }
+    if not math.isfinite(info["geodesic_distance"]):
+        record.update(skipped=True, skip_reason="unreachable: no goal on the start's navigable island",
+                      geodesic_distance=None, elapsed_s=round(time.perf_counter() - t0, 4))
+        return record
+    agent.reset(episode)
+    actions = []
+    while True:
+        action = agent.act(obs)
+        actions.append(int(action))
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    record.update(
+        success=info["success"], spl=info["spl"], soft_spl=info["soft_spl"],
+        distance_to_goal=info["distance_to_goal"], geodesic_distance=info["geodesic_distance"],
+        path_length=info["path_length"], num_steps=info["num_steps"], stop_called=info["stop_called"],
+        collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
+    )
+    log = episode_log(agent)
+    if log:
+        record["log"] = log
+    return record
+
+
+# ------------------------------------------------------------------------------------------ workers
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) -> None:
+    if single_thread:
+        # One llvmpipe thread and one torch thread per process: two processes then use both cores
+        # about twice as well as one process with two threads (platform notes).
+        os.environ["LP_NUM_THREADS"] = "1"
+        import torch
+        torch.set_num_threads(1)
+    dataset = load_dataset(cfg.episodes)
+    agent = make_agent(cfg)
+    _WORKER.update(cfg=cfg, dataset=dataset, agent=agent,
+                   env=make_env(cfg, dataset, tuple(getattr(agent, "sensors", ("rgb", "depth")))),
+                   by_key={(e.scene_id, e.episode_id): e for e in dataset.episodes})
+
+
+def _worker_run(key: tuple[str, str]) -> dict[str, Any]:
+    w = _WORKER
+    return run_episode(w["env"], w["agent"], w["by_key"][key], w["cfg"])
+
+
+# -------------------------------------------------------------------------------------------- files
+def read_records(path: Path) -> list[dict[str, Any]]:
+    """Records of ``episodes.jsonl``; a truncated last line (a run killed mid-write) is dropped."""
+    if not path.is_file():
+        return []
+    records, lines = [], path.read_text().splitlines()
+    for i, line in enumerate(lines):
+        if not line.strip():
+            continue
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            if i == len(lines) - 1:
+                break
+            raise RunError(f"{path}: line {i + 1} is corrupt") from None
+    return records
+
+
+def _append(fh, record: dict[str, Any]) -> None:
+    fh.write(json.dumps(record, allow_nan=False) + "\n")
+    fh.flush()
+    os.fsync(fh.fileno())
+
+
+def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
+              extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    summary = aggregate(records, by="object_category" if cfg.task == "objectnav" else None)
+    summary.update(task=cfg.task, split=cfg.split, agent=cfg.agent, success_distance=cfg.success_distance,
+                   seed=cfg.seed, complete=complete)
+    if extra:
+        summary.update(extra)
+    return summary
+
+
+def _check_resume(out: Path, cfg_json: dict[str, Any]) -> None:
+    old_path = out / "config.json"
+    if not old_path.is_file():
+        return
+    old = json.loads(old_path.read_text())
+    diff = sorted(k for k in set(old) | set(cfg_json)
+                  if k not in _RESUME_FREE_KEYS and old.get(k) != cfg_json.get(k))
+    if diff:
+        raise RunError(f"{old_path}: cannot --resume, the run's config differs in {', '.join(diff)} "
+                       f"(use another --out or drop --resume to start over)")
+
+
+# ---------------------------------------------------------------------------------------------- run
+def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = False,
+        progress: Callable[[dict[str, Any], int, int], None] | None = None) -> dict[str, Any]:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    cfg_json = dict(dataclasses.asdict(cfg), navbench_version=__version__)
+    jsonl = out / "episodes.jsonl"
+    if resume:
+        _check_resume(out, cfg_json)
+        records = read_records(jsonl)
+    else:
+        records = []
+    (out / "config.json").write_text(json.dumps(cfg_json, indent=1) + "\n")
+    # Rewrite the kept records so a torn last line does not stay in the file.
+    with open(jsonl, "w") as fh:
+        for r in records:
+            fh.write(json.dumps(r) + "\n")
+
+    dataset = load_dataset(cfg.episodes)
+    episodes = select_episodes(dataset, cfg.limit)
+    done = {(r["scene_id"], r["episode_id"]) for r in records}
+    todo = [(e.scene_id, e.episode_id) for e in episodes if (e.scene_id, e.episode_id) not in done]
+    todo.sort()  # group by scene so each worker loads a scene once
+    wanted = {(e.scene_id, e.episode_id) for e in episodes}
+    total = len(episodes)
+
+    complete = False
+    try:
+        with open(jsonl, "a") as fh:
+            def finish(rec):
+                records.append(rec)
+                _append(fh, rec)
+                if progress:
+                    progress(rec, len([r for r in records if (r["scene_id"], r["episode_id"]) in wanted]), total)
+
+            if cfg.workers <= 1 or len(todo) <= 1:
+                _worker_init(cfg, make_agent, single_thread=False)
+                for key in todo:
+                    finish(_worker_run(key))
+            else:
+                with ProcessPoolExecutor(max_workers=cfg.workers, mp_context=get_context("spawn"),
+                                         initializer=_worker_init, initargs=(cfg, make_agent, True)) as pool:
+                    pending = {pool.submit(_worker_run, k) for k in todo}
+                    try:
+                        while pending:
+                            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                            for f in finished:
+                                finish(f.result())
+                    except BaseException:
+                        for f in pending:
+                            f.cancel()
+                        raise
+        complete = True
+    finally:
+        kept = [r for r in records if (r["scene_id"], r["episode_id"]) in wanted]
+        summary = summarize(kept, cfg, complete)
+        (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    return summary

@@ -1,0 +1,54 @@
+"""Load a scene together with its navigability grid, caching the grid on disk.
+
+The grid is keyed by the mesh file's bytes and the grid config, so editing a scene or changing the
+agent's radius rebuilds it, and nothing else does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from functools import lru_cache
+from pathlib import Path
+
+from navbench.paths import cache_dir
+from navbench.scene.asset import SceneAsset, SceneError, load_scene
+from navbench.scene.navigability import NavGrid, NavGridConfig
+
+
+@lru_cache(maxsize=64)
+def file_digest(path: Path, mtime_ns: int, size: int) -> str:
+    h = hashlib.sha1()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def scene_digest(path: str | Path) -> str:
+    """sha1 of the scene file's bytes (memoised on path, mtime and size)."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"{path}: scene file not found")
+    st = path.stat()
+    return file_digest(path.resolve(), st.st_mtime_ns, st.st_size)
+
+
+def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConfig(),
+                           use_cache: bool = True) -> tuple[SceneAsset, NavGrid]:
+    path = Path(path)
+    asset = load_scene(path)
+    key = hashlib.sha1((scene_digest(path) + json.dumps(dataclasses.asdict(config), sort_keys=True)).encode())
+    cached = cache_dir("navgrid") / f"{path.name.split('.')[0]}-{key.hexdigest()[:16]}.npz"
+    if use_cache and cached.is_file():
+        try:
+            return asset, NavGrid.load(cached)
+        except (OSError, ValueError, KeyError):
+            pass  # a stale or partial cache file is rebuilt below
+    grid = NavGrid.from_mesh(asset.mesh, config)
+    if use_cache:
+        tmp = cached.with_name(cached.stem + ".tmp.npz")
+        grid.save(tmp)
+        tmp.replace(cached)
+    return asset, grid
