@@ -3,6 +3,7 @@
     navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes [--seed 0]
+    navbench train pointnav [--out policies/pointnav_navbench.pth] [--resume]
     navbench bench [--json]
 
 Bad input (missing scene, corrupt JSON, unknown category, bad checkpoint...) prints one line naming
@@ -100,6 +101,11 @@ def cmd_generate(args) -> int:
     return 0
 
 
+def cmd_train(args) -> int:
+    from navbench.policy.train import main_args
+    return main_args(args)
+
+
 def cmd_bench(args) -> int:
     from navbench.bench import BenchConfig, format_report, run_bench
     result = run_bench(BenchConfig(scene=args.scene, seconds=args.seconds, policy=not args.no_policy))
@@ -137,6 +143,18 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)
+
+    tr = sub.add_parser("train", help="train the PointNav policy (DAgger imitation of the geodesic oracle)")
+    tr.add_argument("what", choices=("pointnav",))
+    tr.add_argument("--out", default="policies/pointnav_navbench.pth")
+    tr.add_argument("--state-dir", default="runs/train_pointnav", help="resumable training state")
+    tr.add_argument("--resume", action="store_true")
+    tr.add_argument("--iterations", type=int)
+    tr.add_argument("--frames-per-iteration", type=int)
+    tr.add_argument("--num-envs", type=int)
+    tr.add_argument("--val-episodes", type=int)
+    tr.add_argument("--seed", type=int)
+    tr.set_defaults(func=cmd_train)
 
     b = sub.add_parser("bench", help="simulator, geodesic and policy speed")
     b.add_argument("--json", action="store_true")

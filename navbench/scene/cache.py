@@ -14,6 +14,7 @@ from pathlib import Path
 
 from navbench.paths import cache_dir
 from navbench.scene.asset import SceneAsset, SceneError, load_scene
+from navbench.scene import navigability
 from navbench.scene.navigability import NavGrid, NavGridConfig
 
 
@@ -35,11 +36,19 @@ def scene_digest(path: str | Path) -> str:
     return file_digest(path.resolve(), st.st_mtime_ns, st.st_size)
 
 
+@lru_cache(maxsize=1)
+def _builder_digest() -> str:
+    return hashlib.sha1(Path(navigability.__file__).read_bytes()).hexdigest()
+
+
 def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConfig(),
                            use_cache: bool = True) -> tuple[SceneAsset, NavGrid]:
     path = Path(path)
     asset = load_scene(path)
-    key = hashlib.sha1((scene_digest(path) + json.dumps(dataclasses.asdict(config), sort_keys=True)).encode())
+    # The key covers the scene's bytes, the grid config and the grid-building code itself, so a change
+    # to any of them rebuilds instead of silently reusing a grid made by other rules.
+    key = hashlib.sha1((scene_digest(path) + json.dumps(dataclasses.asdict(config), sort_keys=True)
+                        + _builder_digest()).encode())
     cached = cache_dir("navgrid") / f"{path.name.split('.')[0]}-{key.hexdigest()[:16]}.npz"
     if use_cache and cached.is_file():
         try:
