@@ -58,7 +58,8 @@ def cmd_run(args) -> int:
     else:
         split = args.split or "val_unseen"
         if task is None:
-            task = "pointnav" if split not in OBJECTNAV_SPLITS else "objectnav"
+            # ObjectNav unless the split exists only for PointNav ("val")
+            task = "pointnav" if split in POINTNAV_SPLITS and split not in OBJECTNAV_SPLITS else "objectnav"
         valid = POINTNAV_SPLITS if task == "pointnav" else OBJECTNAV_SPLITS
         if split not in valid:
             raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(valid)}")

@@ -1,0 +1,153 @@
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+from navbench.cli import main, make_oracle
+from navbench.episodes.io import load_dataset, save_dataset
+from navbench.eval.runner import RunConfig, RunError, read_records, run
+from navbench.eval.table import render, runs_frame
+from navbench.paths import SCENES_DIR
+
+
+def _cfg(path, task, **kw):
+    base = dict(task=task, split=None, agent="oracle", episodes=str(path), scene_dir=str(SCENES_DIR),
+                success_distance=0.2 if task == "pointnav" else 0.1)
+    base.update(kw)
+    return RunConfig(**base)
+
+
+def _strip(records):
+    return sorted(({k: v for k, v in r.items() if k != "elapsed_s"} for r in records),
+                  key=lambda r: r["episode_id"])
+
+
+def test_smoke_oracle_objectnav_end_to_end(objectnav_file, tmp_path):
+    summary = run(_cfg(objectnav_file, "objectnav"), make_oracle, tmp_path / "run")
+    recs = read_records(tmp_path / "run" / "episodes.jsonl")
+    assert len(recs) == 6 and summary["num_episodes"] == 6 and summary["complete"]
+    assert summary["success"] == 1.0 and summary["spl"] > 0.9
+    for r in recs:
+        assert r["stop_called"] and r["distance_to_goal"] < 0.1 and r["path_length"] >= r["geodesic_distance"] - 0.1
+    assert set(summary["by_object_category"]) == {r["object_category"] for r in recs}
+    cfg = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert cfg["episodes"] == str(objectnav_file) and cfg["agent"] == "oracle"
+
+
+def test_same_seed_same_records_with_parallel_workers(pointnav_file, tmp_path):
+    a = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3), _random, tmp_path / "a")
+    b = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3, workers=2), _random, tmp_path / "b")
+    assert _strip(read_records(tmp_path / "a" / "episodes.jsonl")) == _strip(read_records(tmp_path / "b" / "episodes.jsonl"))
+    assert a == b
+
+
+def _random(cfg):
+    from navbench.agents.random_agent import RandomAgent
+    return RandomAgent(cfg.success_distance, seed=cfg.seed)
+
+
+def test_unreachable_goal_is_skipped_with_reason(pointnav_file, tmp_path):
+    ds = load_dataset(pointnav_file)
+    ds.episodes = ds.episodes[:2]
+    ds.episodes[1].goals[0].position = [500.0, 0.0, 500.0]  # far off the navigable grid
+    path = save_dataset(ds, tmp_path / "eps.json.gz")
+    summary = run(_cfg(path, "pointnav"), make_oracle, tmp_path / "run")
+    recs = {r["episode_id"]: r for r in read_records(tmp_path / "run" / "episodes.jsonl")}
+    bad = recs[ds.episodes[1].episode_id]
+    assert bad["skipped"] and "unreachable" in bad["skip_reason"] and "success" not in bad
+    assert summary["num_episodes"] == 1 and summary["num_skipped"] == 1 and summary["success"] == 1.0
+
+
+SLOW_RUN = """
+import sys, time
+from navbench.eval.runner import RunConfig, run
+from navbench.agents.oracle import OracleAgent
+
+class Slow(OracleAgent):
+    def act(self, obs):
+        time.sleep(0.01)
+        return super().act(obs)
+
+def make(cfg):
+    return Slow(cfg.scene_dir, cfg.success_distance)
+
+cfg = RunConfig(task="pointnav", split=None, agent="oracle", episodes=sys.argv[1], scene_dir=sys.argv[2],
+                success_distance=0.2)
+run(cfg, make, sys.argv[3], resume=len(sys.argv) > 4)
+"""
+
+
+def test_resume_after_kill_loses_at_most_the_episode_in_flight(pointnav_file, tmp_path):
+    script = tmp_path / "slow.py"
+    script.write_text(textwrap.dedent(SLOW_RUN))
+    out = tmp_path / "run"
+    args = [sys.executable, str(script), str(pointnav_file), str(SCENES_DIR), str(out)]
+    proc = subprocess.Popen(args)
+    jsonl = out / "episodes.jsonl"
+    deadline = time.time() + 120
+    while time.time() < deadline and len(read_records(jsonl)) < 2:
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    done = read_records(jsonl)
+    assert 2 <= len(done) < 6, "the run must be killed mid-way for this test to mean anything"
+    subprocess.run(args + ["--resume"], check=True)
+    recs = read_records(jsonl)
+    assert len(recs) == 6 and len({r["episode_id"] for r in recs}) == 6
+    assert all(r["success"] == 1.0 for r in recs)
+    # what finished before the kill is kept as it was
+    assert recs[:len(done)] == done
+
+
+def test_resume_refuses_incompatible_config(pointnav_file, tmp_path):
+    run(_cfg(pointnav_file, "pointnav", limit=2), make_oracle, tmp_path / "r")
+    run(_cfg(pointnav_file, "pointnav", limit=4), make_oracle, tmp_path / "r", resume=True)  # limit may change
+    assert len(read_records(tmp_path / "r" / "episodes.jsonl")) == 4
+    with pytest.raises(RunError, match="success_distance"):
+        run(_cfg(pointnav_file, "pointnav", success_distance=0.5), make_oracle, tmp_path / "r", resume=True)
+
+
+def test_cli_run_and_table(pointnav_file, tmp_path, capsys):
+    for agent in ("oracle", "random"):
+        assert main(["run", "--episodes", str(pointnav_file), "--agent", agent, "--out", str(tmp_path / agent),
+                     "--workers", "1", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "| all " in out and "SPL" in out
+    df = runs_frame([tmp_path / "oracle", tmp_path / "random"])
+    assert list(df["agent"]) == ["oracle", "random"] and df.loc[0, "SR"] == 100.0
+    assert "oracle" in render(df, "latex") and render(df, "csv").count("\n") == 3
+    assert main(["table", str(tmp_path / "oracle"), str(tmp_path / "random")]) == 0
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["run", "--agent", "nobody", "--split", "val_unseen"], "unknown agent 'nobody'"),
+    (["run", "--split", "val_nowhere"], "unknown objectnav split 'val_nowhere'"),
+    (["table", "/nonexistent/run"], "no summary.json"),
+])
+def test_cli_bad_input_exits_2_with_one_line(argv, needle, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0]
+
+
+def test_cli_corrupt_episode_file(tmp_path, capsys):
+    bad = tmp_path / "broken.json.gz"
+    bad.write_bytes(b"\x1f\x8b\x08\x00\x00\x00\x00\x00truncated")
+    assert main(["run", "--episodes", str(bad), "--task", "pointnav", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "corrupt or truncated" in err
+
+
+def test_cli_missing_scene(tmp_path, pointnav_file, capsys):
+    ds = load_dataset(pointnav_file)
+    for e in ds.episodes:
+        e.scene_id = "houses/val/no_such_house.glb"
+    path = save_dataset(ds, tmp_path / "eps.json.gz")
+    assert main(["run", "--episodes", str(path), "--out", str(tmp_path / "o"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "no_such_house.glb: scene file not found" in err
