@@ -1,0 +1,180 @@
+"""The memory agent's decision rules on scripted situations (no renderer, no localiser, no network)."""
+
+import numpy as np
+import pytest
+
+from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
+from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, EnvConfig
+from navbench.episodes.types import Episode
+from navbench.localize.fusion import GoalCandidate
+
+ENV = EnvConfig()
+H = W = 224
+
+
+class ScriptedPolicy:
+    def __init__(self, action):
+        self.action, self.hidden_resets, self.calls, self.last_goal = action, 0, 0, None
+
+    def reset(self, i=None):
+        pass
+
+    def reset_hidden(self, i=None):
+        self.hidden_resets += 1
+
+    def act(self, depth, pointgoal):
+        self.calls += 1
+        self.last_goal = pointgoal[0].copy()
+        return np.array([self.action])
+
+
+def wall_depth(metres):
+    """Normalised depth image of a fronto-parallel wall ``metres`` in front of the camera."""
+    return np.full((H, W, 1), (metres - ENV.min_depth) / (ENV.max_depth - ENV.min_depth), np.float32)
+
+
+def obs_at(depth, forward=0.0, right=0.0, compass=0.0):
+    return {"depth": depth, "gps": np.array([forward, right], np.float32),
+            "compass": np.array([compass], np.float32)}
+
+
+def plane_points(z, y=0.88, half=0.3, n=11):
+    """A square patch of points at world depth z (the agent starts at the origin facing -z)."""
+    xs, ys = np.meshgrid(np.linspace(-half, half, n), np.linspace(y - half, y + half, n))
+    return np.stack([xs.ravel(), ys.ravel(), np.full(xs.size, z)], axis=1)
+
+
+EPISODE = Episode("0", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], object_category="chair")
+
+
+def make_agent(candidates, action=MOVE_FORWARD, **cfg):
+    policy = ScriptedPolicy(action)
+    agent = MemoryAgent(lambda ep: candidates, policy, MemoryAgentConfig(**cfg), ENV)
+    agent.reset(EPISODE)
+    return agent, policy
+
+
+def cand(points):
+    return GoalCandidate(centre=points.mean(axis=0), points=points, keyframe_ids=(0,), score=1.0)
+
+
+def test_visibility_on_synthetic_depth():
+    agent, _ = make_agent([cand(plane_points(-2.0))])
+    depth = agent.depth_metres(obs_at(wall_depth(2.0)))
+    on_wall = plane_points(-2.0)
+    behind = plane_points(-3.0)      # hidden behind the wall: depth disagrees by 1 m
+    just_off = plane_points(-2.2)    # within the 0.3 m tolerance
+    vis, n = agent.visibility(on_wall, depth, np.zeros(3), 0.0)
+    assert n == len(on_wall) and len(vis) == len(on_wall)
+    vis, n = agent.visibility(behind, depth, np.zeros(3), 0.0)
+    assert n == len(behind) and len(vis) == 0
+    assert len(agent.visibility(just_off, depth, np.zeros(3), 0.0)[0]) == len(just_off)
+    # turned 180 deg the points are behind the camera: none in view
+    assert agent.visibility(on_wall, depth, np.zeros(3), np.pi)[1] == 0
+
+
+def test_stops_when_close_and_visible():
+    pts = plane_points(-0.7)
+    agent, policy = make_agent([cand(pts)], action=TURN_LEFT)
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP
+    assert policy.calls == 0
+    assert agent.episode_log()["events"][-1]["event"] == "stop"
+
+
+def test_close_but_hidden_does_not_stop_and_stop_override_is_bounded():
+    pts = plane_points(-0.85)
+    agent, policy = make_agent([cand(pts)], action=STOP)
+    hidden = wall_depth(0.5)  # something 0.35 m in front of the target hides it
+    actions = [agent.act(obs_at(hidden)) for _ in range(7)]
+    assert actions[:5] == [MOVE_FORWARD] * 5 and actions[5] == STOP
+    assert sum(e["event"] == "stop_override" for e in agent.episode_log()["events"]) == 5
+
+
+def test_ablation_without_visibility_stop_stops_on_distance():
+    agent, _ = make_agent([cand(plane_points(-0.85))], action=TURN_LEFT, visibility_stop=False)
+    assert agent.act(obs_at(wall_depth(0.5))) == STOP
+
+
+def test_goal_update_thresholds_far_and_near():
+    # candidate cloud: a patch 4 m ahead; the initial goal is its nearest point (xz) to the start
+    pts = plane_points(-4.0)
+    agent, policy = make_agent([cand(pts)])
+    g0 = agent.goal.copy()
+    # far from the goal (> 2 m): visible points whose nearest is < 0.5 m from the goal -> no update
+    agent.act(obs_at(wall_depth(4.0)))
+    assert np.allclose(agent.goal, g0) and policy.hidden_resets == 0
+    # now only the right-hand part of the patch is visible (the rest hidden by a nearer surface)
+    depth = wall_depth(4.0)
+    depth[:, : W // 2 + 30] = wall_depth(1.0)[:, : W // 2 + 30]
+    agent.act(obs_at(depth))
+    moved = np.hypot(*(agent.goal - g0)[[0, 2]])
+    assert moved == 0.0 or moved >= 0.5  # a far goal moves only by >= 0.5 m
+    # near the goal (< 2 m): a 0.1-0.5 m shift is enough
+    agent2, policy2 = make_agent([cand(plane_points(-1.5))])
+    g1 = agent2.goal.copy()
+    depth = wall_depth(1.5)
+    depth[:, : W // 2 + 20] = wall_depth(0.6)[:, : W // 2 + 20]  # hide the left and centre
+    agent2.act(obs_at(depth))
+    moved = np.hypot(*(agent2.goal - g1)[[0, 2]])
+    assert 0.1 <= moved < 0.5 and policy2.hidden_resets == 1
+    assert agent2.episode_log()["events"][0]["event"] == "goal_update"
+
+
+def test_no_tracking_ablation_keeps_the_goal():
+    agent, _ = make_agent([cand(plane_points(-1.5))], goal_tracking=False)
+    g = agent.goal.copy()
+    depth = wall_depth(1.5)
+    depth[:, : W // 2 + 20] = wall_depth(0.6)[:, : W // 2 + 20]
+    agent.act(obs_at(depth))
+    assert np.array_equal(agent.goal, g)
+
+
+def test_stuck_switches_to_next_candidate_at_most_max_switches():
+    far = [cand(plane_points(-6.0 - 2 * k) + np.array([3.0 * k, 0, 0])) for k in range(7)]
+    agent, policy = make_agent(far, action=TURN_LEFT)
+    empty = wall_depth(0.5)  # nothing visible; the agent turns in place and never progresses
+    for _ in range(400):
+        agent.act(obs_at(empty))
+    switches = [e for e in agent.episode_log()["events"] if e["event"] == "switch"]
+    assert len(switches) == 4 and agent.current == 4
+    assert policy.hidden_resets >= 4
+
+
+def test_oscillation_counts_as_stuck():
+    class Alternating(ScriptedPolicy):
+        def act(self, depth, pointgoal):
+            self.calls += 1
+            return np.array([2 + self.calls % 2])  # LEFT, RIGHT, LEFT, ...
+
+    far = [cand(plane_points(-6.0)), cand(plane_points(-8.0) + np.array([3.0, 0, 0]))]
+    agent = MemoryAgent(lambda ep: far, Alternating(0), MemoryAgentConfig(), ENV)
+    agent.reset(EPISODE)
+    for _ in range(10):
+        agent.act(obs_at(wall_depth(0.5)))
+    assert any(e["event"] == "oscillating" for e in agent.episode_log()["events"])
+    assert agent.current == 1
+
+
+def test_opportunistic_stop_on_another_candidate():
+    near_other = cand(plane_points(-0.7))
+    far_first = cand(plane_points(-5.0) + np.array([4.0, 0, 0]))
+    agent, _ = make_agent([far_first, near_other], action=MOVE_FORWARD)
+    # candidates are sorted by distance from the start, so force the far one first
+    agent.candidates, agent._clouds = [far_first, near_other], [far_first.points, near_other.points]
+    agent.current, agent.goal = 0, far_first.points[0]
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP
+    assert agent.episode_log()["events"][-1]["event"] == "opportunistic_stop"
+
+
+def test_no_candidates_stops_and_says_so():
+    agent, _ = make_agent([])
+    assert agent.act(obs_at(wall_depth(2.0))) == STOP
+    assert agent.episode_log()["events"][0]["event"] == "no_candidates"
+
+
+def test_pointgoal_to_goal_is_polar_in_agent_frame():
+    agent, policy = make_agent([cand(plane_points(-3.0))])
+    agent.act(obs_at(wall_depth(0.5)))
+    rho, theta = policy.last_goal
+    assert rho == pytest.approx(np.hypot(*agent.goal[[0, 2]]), abs=1e-5)
+    assert abs(theta) < 0.2  # the patch is straight ahead
