@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup osmesa run test test-slow bench clean
+.PHONY: setup osmesa run test test-slow bench clean results-oracle
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -39,3 +39,11 @@ bench: setup
 
 clean:
 	rm -rf $(VENV) .pytest_cache
+
+# Reference tables in results/ (each command is also printed in results/README.md).
+ORACLE_SPLITS := val_seen val_seen_synonyms val_unseen
+results-oracle: setup
+	for s in $(ORACLE_SPLITS); do $(BIN)/navbench run --split $$s --agent oracle --out results/runs/oracle_$$s -q || exit 1; done
+	$(BIN)/navbench run --task pointnav --split val --agent oracle --out results/runs/oracle_pointnav_val -q
+	$(BIN)/navbench table $(addprefix results/runs/oracle_,$(ORACLE_SPLITS)) > results/oracle_objectnav.md
+	$(BIN)/navbench table results/runs/oracle_pointnav_val --long > results/oracle_pointnav.md

@@ -1,0 +1,205 @@
+"""Save and load PointNav policy checkpoints in habitat-baselines' layout.
+
+On disk a checkpoint is ``torch.save({"state_dict": {...}, "config": {...}})``: the layout
+habitat-baselines (0.3) writes and VLFM's ``load_pointnav_policy`` reads, with keys relative to the
+policy (``net.…``, ``action_distribution.…``, ``critic.…``). The loader also accepts keys prefixed
+``actor_critic.`` (older habitat-baselines trainers save the PPO agent, whose state_dict nests the
+policy under that name) and a bare state_dict.
+
+We write fp16 tensors (a 17 MB file instead of 34 MB) and load them back as fp32.
+
+Loading uses ``torch.load(weights_only=True)``, which never runs code from the file. habitat's
+checkpoints pickle their config as OmegaConf objects, which weights_only refuses; for those the
+loader retries with every global the file names replaced by an inert placeholder class (the real
+one is never imported or called; torch still refuses modules such as os/subprocess outright), keeps
+the tensors, and drops the config. Our own checkpoints store a plain dict config.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import torch
+
+from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
+
+HABITAT_PREFIX = "actor_critic."
+_NORMALIZER = "net.visual_encoder.running_mean_and_var."
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file is missing, unreadable or does not fit the policy; the message names the file."""
+
+
+@dataclass
+class CheckpointData:
+    state_dict: dict[str, torch.Tensor]  # keys relative to the policy, tensors as stored
+    config: dict[str, Any] | None  # None when the file's config could not be read safely
+
+
+def _json_scalar(value: object) -> object:
+    """Paths become strings and numpy scalars Python numbers; anything else is refused."""
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} value {value!r} is not JSON-like")
+
+
+def save_checkpoint(
+    path: str | Path, policy: PointNavResNetPolicy, config: Mapping[str, Any], fp16: bool = True
+) -> Path:
+    """Write ``{"state_dict": ..., "config": dict(config)}``; floating tensors as fp16 when ``fp16``.
+
+    ``config`` must be JSON-like (dicts, lists, str, numbers, bools, None; paths and numpy scalars
+    are converted) so that it loads back under ``weights_only=True``.
+    """
+    path = Path(path)
+    try:
+        config = json.loads(json.dumps(dict(config), default=_json_scalar))
+    except (TypeError, ValueError) as e:
+        raise CheckpointError(f"{path}: config must be JSON-like to be loadable safely ({e})") from None
+    state = {
+        k: (v.detach().half() if fp16 and v.is_floating_point() else v.detach()).cpu().clone()
+        for k, v in policy.state_dict().items()
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save({"state_dict": state, "config": config}, path)
+    return path
+
+
+class _Placeholder:
+    """Stands in for any class a checkpoint names but weights_only does not allow (e.g. OmegaConf)."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        pass
+
+    def __setstate__(self, state: object) -> None:
+        pass
+
+
+def _placeholder_globals(path: Path) -> list[tuple[type, str]]:
+    names = torch.serialization.get_unsafe_globals_in_checkpoint(str(path))
+    return [(type(name.rsplit(".", 1)[-1], (_Placeholder,), {}), name) for name in names]
+
+
+def _reason(e: BaseException) -> str:
+    """The informative line of a torch.load error (its weights_only errors start with boilerplate)."""
+    boilerplate = ("Weights only load failed", "(1)", "(2)", "Check the documentation")
+    lines = [line.strip() for line in str(e).splitlines() if line.strip()]
+    useful = [line.removeprefix("WeightsUnpickler error:").strip() for line in lines if not line.startswith(boilerplate)]
+    return (useful or lines or [type(e).__name__])[0]
+
+
+def _torch_load(path: Path) -> tuple[Any, bool]:
+    """Load with weights_only=True; returns (object, whether placeholders replaced foreign classes)."""
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True), False
+    except pickle.UnpicklingError as e:
+        refused = _reason(e)
+        if not zipfile.is_zipfile(path):
+            raise CheckpointError(f"{path}: not a PyTorch checkpoint ({refused})") from None
+    except Exception as e:  # torch.load raises many types on garbage (RuntimeError, EOFError, IndexError...)
+        raise CheckpointError(f"{path}: not a PyTorch checkpoint ({_reason(e)})") from None
+    try:
+        with torch.serialization.safe_globals(_placeholder_globals(path)):
+            return torch.load(path, map_location="cpu", weights_only=True), True
+    except Exception as e:
+        raise CheckpointError(
+            f"{path}: refused by torch.load(weights_only=True) ({refused}) and still unreadable with"
+            f" placeholder classes ({_reason(e)})"
+        ) from None
+
+
+def read_checkpoint(path: str | Path) -> CheckpointData:
+    """Read a checkpoint's state_dict (``actor_critic.`` prefix removed) and config, without a policy."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: no such checkpoint file")
+    obj, stubbed = _torch_load(path)
+    if not isinstance(obj, Mapping):
+        raise CheckpointError(f"{path}: holds a {type(obj).__name__}, not a checkpoint dict or state_dict")
+    config: dict[str, Any] | None = None
+    if isinstance(obj.get("state_dict"), Mapping):
+        state = obj["state_dict"]
+        raw_config = obj.get("config")
+        config = raw_config if isinstance(raw_config, dict) and not stubbed else None
+    elif obj and all(isinstance(v, torch.Tensor) for v in obj.values()):
+        state = obj
+    else:
+        keys = ", ".join(map(str, list(obj)[:5]))
+        raise CheckpointError(f"{path}: has no 'state_dict' and is not a state_dict (keys: {keys})")
+    bad = [k for k, v in state.items() if not isinstance(v, torch.Tensor)]
+    if bad:
+        raise CheckpointError(f"{path}: state_dict entry {bad[0]!r} is not a tensor")
+    state_dict = {(k[len(HABITAT_PREFIX) :] if k.startswith(HABITAT_PREFIX) else k): v for k, v in state.items()}
+    return CheckpointData(state_dict=state_dict, config=config)
+
+
+def infer_net_config(state_dict: Mapping[str, torch.Tensor]) -> PolicyNetConfig:
+    """The architecture a state_dict was saved from, as far as the shapes tell.
+
+    Hidden size, LSTM depth, base planes, action count and whether the running normaliser exists
+    are read off the tensors; group count follows habitat's base_planes // 2 and the input size
+    stays 224x224 (a checkpoint for another size then fails on ``net.visual_fc.1.weight``).
+    """
+    defaults = PolicyNetConfig()
+    critic = state_dict.get("critic.fc.weight")
+    actor = state_dict.get("action_distribution.linear.weight")
+    conv1 = state_dict.get("net.visual_encoder.backbone.conv1.0.weight")
+    layers = sum(1 for k in state_dict if k.startswith("net.state_encoder.rnn.weight_ih_l"))
+    base = int(conv1.shape[0]) if conv1 is not None else defaults.base_planes
+    return PolicyNetConfig(
+        hidden_size=int(critic.shape[1]) if critic is not None else defaults.hidden_size,
+        num_layers=layers or defaults.num_layers,
+        base_planes=base,
+        ngroups=max(base // 2, 1),
+        num_actions=int(actor.shape[0]) if actor is not None else defaults.num_actions,
+        normalize_visual_inputs=any(k.startswith(_NORMALIZER) for k in state_dict),
+    )
+
+
+def _names(keys: list[str], limit: int = 3) -> str:
+    more = f" (+{len(keys) - limit} more)" if len(keys) > limit else ""
+    return ", ".join(keys[:limit]) + more
+
+
+def load_checkpoint(path: str | Path, policy: PointNavResNetPolicy | None = None) -> PointNavResNetPolicy:
+    """Load weights into ``policy`` (built from the checkpoint's shapes when None); returns it in eval mode.
+
+    fp16 tensors are converted to the policy's dtype. Any missing or unexpected key, or a shape
+    mismatch, raises :class:`CheckpointError` naming the file and the first offending tensors; nothing
+    is copied into ``policy`` in that case.
+    """
+    path = Path(path)
+    data = read_checkpoint(path)
+    built_here = policy is None
+    if policy is None:
+        # On the meta device: skips the random (orthogonal, QR-based: seconds on 2 cores) init that
+        # the checkpoint's tensors replace anyway; they are assigned as the parameters below.
+        with torch.device("meta"):
+            policy = PointNavResNetPolicy(infer_net_config(data.state_dict))
+    own = policy.state_dict()
+    missing = [k for k in own if k not in data.state_dict]
+    unexpected = [k for k in data.state_dict if k not in own]
+    if missing:
+        raise CheckpointError(f"{path}: missing {len(missing)} tensor(s): {_names(missing)}")
+    if unexpected:
+        raise CheckpointError(f"{path}: {len(unexpected)} unexpected tensor(s): {_names(unexpected)}")
+    mismatched = [
+        f"{k} {tuple(v.shape)} vs policy {tuple(own[k].shape)}"
+        for k, v in data.state_dict.items()
+        if tuple(v.shape) != tuple(own[k].shape)
+    ]
+    if mismatched:
+        raise CheckpointError(f"{path}: shape mismatch: {_names(mismatched, 2)}")
+    converted = {k: v.to(own[k].dtype) if v.is_floating_point() else v for k, v in data.state_dict.items()}
+    policy.load_state_dict(converted, strict=True, assign=built_here)
+    return policy.eval()

@@ -1,0 +1,254 @@
+"""PointNav policy network: habitat key layout, recurrence/reset semantics, stateful wrapper."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import torch
+
+from navbench.policy import (
+    InferenceConfig,
+    PointNavAgentPolicy,
+    PointNavResNetPolicy,
+    PolicyNetConfig,
+    load_checkpoint,
+    prepare_depth,
+)
+from navbench.policy.resnet import RunningMeanAndVar
+
+
+def _block(prefix: str, cin: int, cout: int, downsample: bool) -> dict[str, tuple[int, ...]]:
+    keys = {
+        f"{prefix}.convs.0.weight": (cout, cin, 3, 3),
+        f"{prefix}.convs.1.weight": (cout,),
+        f"{prefix}.convs.1.bias": (cout,),
+        f"{prefix}.convs.3.weight": (cout, cout, 3, 3),
+        f"{prefix}.convs.4.weight": (cout,),
+        f"{prefix}.convs.4.bias": (cout,),
+    }
+    if downsample:
+        keys |= {
+            f"{prefix}.downsample.0.weight": (cout, cin, 1, 1),
+            f"{prefix}.downsample.1.weight": (cout,),
+            f"{prefix}.downsample.1.bias": (cout,),
+        }
+    return keys
+
+
+def habitat_depth_pointnav_shapes() -> dict[str, tuple[int, ...]]:
+    """habitat-baselines PointNavResNetPolicy (depth 224x224x1, resnet18, 32 planes, LSTM 2x512, 4 actions).
+
+    Written from habitat's resnet.py / resnet_policy.py / rnn_state_encoder.py / policy.py, not from our model.
+    """
+    bb = "net.visual_encoder.backbone"
+    shapes: dict[str, tuple[int, ...]] = {
+        "net.prev_action_embedding.weight": (5, 32),
+        "net.tgt_embeding.weight": (32, 3),
+        "net.tgt_embeding.bias": (32,),
+        f"{bb}.conv1.0.weight": (32, 1, 7, 7),
+        f"{bb}.conv1.1.weight": (32,),
+        f"{bb}.conv1.1.bias": (32,),
+    }
+    widths = [32, 32, 64, 128, 256]
+    for layer in range(1, 5):
+        cin, cout = widths[layer - 1], widths[layer]
+        shapes |= _block(f"{bb}.layer{layer}.0", cin, cout, downsample=layer > 1)
+        shapes |= _block(f"{bb}.layer{layer}.1", cout, cout, downsample=False)
+    shapes |= {
+        # 224 -> avg pool 112 -> /32 -> ceil 4x4 = 16 cells; 2048 / 16 = 128 channels.
+        "net.visual_encoder.compression.0.weight": (128, 256, 3, 3),
+        "net.visual_encoder.compression.1.weight": (128,),
+        "net.visual_encoder.compression.1.bias": (128,),
+        "net.visual_fc.1.weight": (512, 2048),
+        "net.visual_fc.1.bias": (512,),
+        "net.state_encoder.rnn.weight_ih_l0": (2048, 576),
+        "net.state_encoder.rnn.weight_hh_l0": (2048, 512),
+        "net.state_encoder.rnn.bias_ih_l0": (2048,),
+        "net.state_encoder.rnn.bias_hh_l0": (2048,),
+        "net.state_encoder.rnn.weight_ih_l1": (2048, 512),
+        "net.state_encoder.rnn.weight_hh_l1": (2048, 512),
+        "net.state_encoder.rnn.bias_ih_l1": (2048,),
+        "net.state_encoder.rnn.bias_hh_l1": (2048,),
+        "action_distribution.linear.weight": (4, 512),
+        "action_distribution.linear.bias": (4,),
+        "critic.fc.weight": (1, 512),
+        "critic.fc.bias": (1,),
+    }
+    return shapes
+
+
+@pytest.fixture(scope="module")
+def policy() -> PointNavResNetPolicy:
+    torch.manual_seed(0)
+    p = PointNavResNetPolicy().eval()
+    # habitat initialises the actor with gain 0.01, which leaves all logits near-tied; a trained
+    # policy is decisive, so spread the logits to make argmax comparisons meaningful.
+    torch.nn.init.normal_(p.action_distribution.linear.weight, std=0.3)
+    return p
+
+
+def _obs(rng: np.random.Generator, *lead: int) -> tuple[torch.Tensor, torch.Tensor]:
+    depth = torch.from_numpy(rng.random((*lead, 224, 224, 1), dtype=np.float32))
+    goal = torch.from_numpy(np.stack([rng.uniform(0.5, 5, lead), rng.uniform(-3, 3, lead)], -1).astype(np.float32))
+    return depth, goal
+
+
+def test_state_dict_matches_habitat_layout(policy: PointNavResNetPolicy) -> None:
+    ours = {k: tuple(v.shape) for k, v in policy.state_dict().items()}
+    assert ours == habitat_depth_pointnav_shapes()
+
+
+def test_parameter_count_is_about_8_5m(policy: PointNavResNetPolicy) -> None:
+    n = sum(p.numel() for p in policy.parameters())
+    assert 8_400_000 < n < 8_600_000
+
+
+def test_synthetic_habitat_checkpoint_loads_every_tensor(tmp_path) -> None:
+    gen = torch.Generator().manual_seed(1)
+    sd = {k: torch.randn(shape, generator=gen) for k, shape in habitat_depth_pointnav_shapes().items()}
+    path = tmp_path / "habitat_style.pth"
+    torch.save({"state_dict": {f"actor_critic.{k}": v for k, v in sd.items()}, "config": {}}, path)
+    loaded = load_checkpoint(path).state_dict()
+    assert loaded.keys() == sd.keys()
+    for k, v in sd.items():
+        assert torch.equal(loaded[k], v), k
+
+
+def test_normalizer_adds_habitat_buffers() -> None:
+    with torch.device("meta"):  # shapes only; skips the slow random init
+        keys = PointNavResNetPolicy(PolicyNetConfig(normalize_visual_inputs=True)).state_dict()
+    assert tuple(keys["net.visual_encoder.running_mean_and_var._mean"].shape) == (1, 1, 1, 1)
+    assert tuple(keys["net.visual_encoder.running_mean_and_var._var"].shape) == (1, 1, 1, 1)
+    assert tuple(keys["net.visual_encoder.running_mean_and_var._count"].shape) == ()
+
+
+def test_running_mean_and_var_merges_batches_and_normalises() -> None:
+    gen = torch.Generator().manual_seed(0)
+    batches = [torch.randn(4, 2, 5, 5, generator=gen) * 3 + 1, torch.randn(4, 2, 5, 5, generator=gen) * 2 - 1]
+    norm = RunningMeanAndVar(2).train()
+    for b in batches:
+        norm(b)
+    everything = torch.cat(batches).transpose(0, 1).reshape(2, -1)
+    torch.testing.assert_close(norm._mean.flatten(), everything.mean(1))
+    torch.testing.assert_close(norm._var.flatten(), everything.var(1, unbiased=False))
+    assert norm._count.item() == 8
+    x = torch.randn(1, 2, 5, 5, generator=gen)
+    expected = (x - everything.mean(1).view(1, 2, 1, 1)) / everything.var(1, unbiased=False).sqrt().view(1, 2, 1, 1)
+    torch.testing.assert_close(norm.eval()(x), expected)
+
+
+def test_sequence_mode_equals_step_by_step(policy: PointNavResNetPolicy) -> None:
+    rng = np.random.default_rng(2)
+    steps, n = 6, 3
+    depth, goal = _obs(rng, steps, n)
+    prev = torch.from_numpy(rng.integers(0, 4, (steps, n)))
+    masks = torch.ones(steps, n, dtype=torch.bool)
+    masks[0, 1] = False  # env 1 starts an episode in the first step
+    masks[3, 0] = False  # env 0 resets mid-sequence
+    masks[4, 2] = False
+    hidden0 = torch.randn(n, 4, 512) * 0.5
+    with torch.no_grad():
+        logits_seq, value_seq, hidden_seq = policy(depth, goal, prev, masks, hidden0)
+        hidden = hidden0
+        for t in range(steps):
+            logits, value, hidden = policy(depth[t], goal[t], prev[t], masks[t], hidden)
+            torch.testing.assert_close(logits_seq[t], logits, atol=1e-4, rtol=1e-4)
+            torch.testing.assert_close(value_seq[t], value, atol=1e-4, rtol=1e-4)
+    torch.testing.assert_close(hidden_seq, hidden, atol=1e-4, rtol=1e-4)
+    assert logits_seq.shape == (steps, n, 4) and value_seq.shape == (steps, n) and hidden_seq.shape == (n, 4, 512)
+
+
+def test_mask_zero_resets_state_and_previous_action(policy: PointNavResNetPolicy) -> None:
+    rng = np.random.default_rng(3)
+    depth, goal = _obs(rng, 2)
+    stale = torch.randn(2, 4, 512)
+    off = torch.zeros(2, dtype=torch.bool)
+    with torch.no_grad():
+        reset_out = policy(depth, goal, torch.tensor([3, 1]), off, stale)
+        fresh_out = policy(depth, goal, torch.tensor([0, 0]), off, torch.zeros(2, 4, 512))
+        kept_out = policy(depth, goal, torch.tensor([3, 1]), ~off, stale)
+    torch.testing.assert_close(reset_out[0], fresh_out[0])
+    torch.testing.assert_close(reset_out[2], fresh_out[2])
+    assert not torch.allclose(kept_out[2], fresh_out[2], atol=1e-3)
+
+
+def test_hidden_state_packs_h_before_c(policy: PointNavResNetPolicy) -> None:
+    rng = np.random.default_rng(4)
+    depth, goal = _obs(rng, 1)
+    with torch.no_grad():
+        _, _, hidden = policy(depth, goal, torch.zeros(1), torch.zeros(1), policy.initial_hidden(1))
+    # The LSTM's output h of the last layer is bounded by tanh; c is not, and after one step from
+    # zero state c = i * g, so |h| = |o * tanh(c)| <= |tanh(c)| <= |c| holds row by row.
+    h, c = hidden[0, :2], hidden[0, 2:]
+    assert torch.all(h.abs() <= c.abs().tanh() + 1e-6)
+    assert not torch.allclose(h, c)
+
+
+def _agent(policy: PointNavResNetPolicy, n: int = 1) -> PointNavAgentPolicy:
+    return PointNavAgentPolicy(policy, n, InferenceConfig(channels_last=False))
+
+
+def test_agent_returns_int_actions_and_resizes_depth(policy: PointNavResNetPolicy) -> None:
+    rng = np.random.default_rng(5)
+    agent = _agent(policy, 2)
+    actions = agent.act(rng.random((2, 256, 320, 1), dtype=np.float32), np.array([[2.0, 0.3], [1.0, -1.0]]))
+    assert actions.dtype == np.int64 and actions.shape == (2,)
+    assert set(actions.tolist()) <= {0, 1, 2, 3}
+    assert agent.masks.all() and torch.equal(agent.prev_actions, torch.from_numpy(actions))
+
+
+def _run(agent: PointNavAgentPolicy, obs: list, goals: list) -> None:
+    for (depth, goal), g in zip(obs, goals):
+        agent.act(depth, goal, goal_world=g)
+
+
+@pytest.mark.parametrize("shift, expect_reset", [(0.15, True), (0.05, False)])
+def test_goal_move_resets_hidden_only_beyond_threshold(
+    policy: PointNavResNetPolicy, shift: float, expect_reset: bool
+) -> None:
+    rng = np.random.default_rng(6)
+    obs = [tuple(x.numpy() for x in _obs(rng, 1)) for _ in range(4)]
+    goal = np.array([[1.0, 0.0, -2.0]])
+    agent = _agent(policy)
+    _run(agent, obs[:3], [goal] * 3)
+    agent.act(*obs[3], goal_world=goal + np.array([[shift, 0.0, 0.0]]))
+    fresh = _agent(policy)
+    fresh.act(*obs[3])  # first step of an episode: zero state, start token
+    assert torch.allclose(agent.hidden, fresh.hidden, atol=1e-5) == expect_reset
+
+
+def test_reset_of_one_env_leaves_the_other(policy: PointNavResNetPolicy) -> None:
+    rng = np.random.default_rng(7)
+    agent = _agent(policy, 2)
+    depth, goal = (x.numpy() for x in _obs(rng, 2))
+    agent.act(depth, goal, goal_world=np.zeros((2, 3)))
+    before = agent.hidden.clone()
+    agent.reset(1)
+    assert torch.equal(agent.hidden[0], before[0])
+    assert not agent.hidden[1].any() and not agent.masks[1] and agent.masks[0]
+    assert np.isnan(agent.goal_world[1]).all() and not np.isnan(agent.goal_world[0]).any()
+    agent.reset_hidden(0)
+    assert not agent.hidden.any() and agent.goal_world[0].tolist() == [0.0, 0.0, 0.0]
+
+
+def test_channels_last_gives_the_same_actions(policy: PointNavResNetPolicy) -> None:
+    base, other = policy, copy.deepcopy(policy)  # the wrapper converts its policy in place
+    rng = np.random.default_rng(8)
+    depth, goal = (x.numpy() for x in _obs(rng, 8))
+    a = PointNavAgentPolicy(base, 8, InferenceConfig(channels_last=False)).act(depth, goal)
+    b = PointNavAgentPolicy(other, 8, InferenceConfig(channels_last=True)).act(depth, goal)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_prepare_depth_area_averages() -> None:
+    block = np.arange(4, dtype=np.float32).reshape(2, 2) / 4.0
+    big = np.kron(block, np.ones((224, 224), dtype=np.float32))  # 448 x 448, four constant quadrants
+    big[0, 0] = 1.0  # one bright pixel: area averaging spreads it over its 2x2 cell
+    out = prepare_depth(big)
+    assert out.shape == (1, 224, 224, 1)
+    assert out[0, 0, 0, 0].item() == pytest.approx(0.25)
+    assert out[0, 200, 200, 0].item() == pytest.approx(0.75)
+    with pytest.raises(ValueError, match="depth must be"):
+        prepare_depth(np.zeros((1, 4, 4, 3)))
