@@ -1,0 +1,521 @@
+"""Fast headless rendering of a :class:`~navbench.scene.asset.SceneAsset`: RGB, depth and instance ids.
+
+A thin layer over pyrender on OSMesa (default) or EGL, shaped by what was measured on a 2-core CPU
+box (see ``shared/platform-notes.md``):
+
+* Unlit ``RenderFlags.FLAT`` shading of the scene's vertex colours (lighting is 3-5x slower and our
+  scenes carry their shading in the colours); ``RenderFlags.DEPTH_ONLY`` when only depth is asked.
+* One ``OffscreenRenderer`` for the life of a :class:`Renderer`; only the camera node moves.
+* Per-node overhead dominates at 224x224 (~0.25 ms of Python and GL calls per drawn node), so
+  static geometry is merged into spatial chunks of at most ``max_chunk_faces`` triangles, made by
+  recursive median splits of the xz plane; chunks whose bounding box lies entirely outside the
+  view frustum are hidden for that frame (conservative test against the six frustum planes).
+  Measured on house-like scenes: 4 m tiles (15-30 nodes) ran at half the rate of one merged node
+  on a 21k-triangle house; on a 217k-triangle house 4-8 chunks with culling were on par with one
+  node (most chunks of a compact house are in view), so the default keeps houses of up to 60k
+  triangles in one node and culling pays only on large scans. Geometry is indexed (shared
+  vertices, triangles in file order): ~1.3x faster than one vertex per corner.
+* Instance ids come from a second set of chunk nodes whose vertex colours encode ``id + 1`` as a
+  24-bit RGB integer (structure and background decode to -1). It is drawn, FLAT and single-sampled,
+  only when ids are asked for; depth+ids without RGB is one pass.
+
+Conventions (Habitat): metres, y up, a camera with identity rotation looks along -z with +y up (also
+OpenGL's camera frame); quaternions are ``[x, y, z, w]``. Images have row 0 at the top. Depth is
+linear z-depth along the optical axis (not ray length), float32 metres, 0 where nothing was hit
+within ``[znear, zfar]``.
+
+Pixel convention of :func:`intrinsics`: pixel ``(u, v)`` (column, row) has its centre at integer
+coordinates, so the image spans ``[-0.5, W - 0.5]`` and the principal point of the symmetric GL
+frustum is ``((W - 1) / 2, (H - 1) / 2)``. :func:`backproject` uses the same convention.
+
+Importing this module sets ``PYOPENGL_PLATFORM`` to ``osmesa`` unless it is already set (set it to
+``egl`` before the first import to use EGL), and patches pyrender's shader cache (see
+:func:`_patch_shader_cache`). It never creates a GL context; :class:`Renderer` does.
+"""
+
+from __future__ import annotations
+
+import os
+
+# PyOpenGL binds its platform on first import, so this must run before pyrender is imported.
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+
+import contextlib  # noqa: E402
+import ctypes  # noqa: E402
+import functools  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+
+import numpy as np  # noqa: E402
+import OpenGL  # noqa: E402
+import OpenGL.contextdata  # noqa: E402
+import OpenGL.platform  # noqa: E402
+import pyrender  # noqa: E402
+import pyrender.renderer  # noqa: E402
+import pyrender.shader_program  # noqa: E402
+import trimesh  # noqa: E402
+from pyrender.constants import GLTF, RenderFlags  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+
+from navbench.scene.asset import STRUCTURE_ID, SceneAsset  # noqa: E402
+
+PLATFORMS = ("osmesa", "egl")
+MAX_INSTANCE_ID = (1 << 24) - 2  # id + 1 must fit in 24 bits of RGB
+
+
+class RenderError(ValueError):
+    """Bad renderer input (camera config, pose, platform, scene ids); the message names the value."""
+
+
+def bound_platform() -> str:
+    """The platform PyOpenGL bound itself to on first import: "osmesa", "egl", or another module name."""
+    return type(OpenGL.platform.PLATFORM).__module__.rsplit(".", 1)[-1]
+
+
+# --------------------------------------------------------------------------------------------------
+# pyrender shader-cache fix
+# --------------------------------------------------------------------------------------------------
+
+
+def _context_address(ctx: object) -> object:
+    """The integer address behind a GL context handle (OSMesa gives a fresh ctypes pointer per call)."""
+    if isinstance(ctx, int):
+        return ctx
+    if isinstance(ctx, ctypes.c_void_p):
+        return ctx.value
+    try:
+        return ctypes.cast(ctx, ctypes.c_void_p).value
+    except (TypeError, ctypes.ArgumentError):
+        return ctx
+
+
+def _patch_shader_cache() -> None:
+    """Make ``ShaderProgramCache.get_program`` hit its cache under OSMesa. Idempotent.
+
+    pyrender keys compiled programs by ``(OpenGL.contextdata.getContext(), shaders, defines)``.
+    Under OSMesa ``getContext()`` returns a new ctypes pointer object on every call, and ctypes
+    pointers hash by identity, so the lookup never hits: every draw compiles a new program and the
+    cache grows without bound (measured 8x slower, 138 programs after six frames). The wrapper looks
+    programs up under a key built from the context's integer address instead and re-files what the
+    original method compiled under that key, so ``clear()`` still deletes every program exactly once.
+    """
+    cache_cls = pyrender.shader_program.ShaderProgramCache
+    if getattr(cache_cls.get_program, "_navbench_patched", False):
+        return
+    original = cache_cls.get_program
+
+    @functools.wraps(original)
+    def get_program(self, vertex_shader, fragment_shader, geometry_shader=None, defines=None):
+        defines = {} if defines is None else defines
+        key = (
+            "navbench",
+            _context_address(OpenGL.contextdata.getContext()),
+            vertex_shader,
+            fragment_shader,
+            geometry_shader,
+            tuple(sorted(defines.items())),
+        )
+        program = self._program_cache.get(key)
+        if program is None:
+            program = original(self, vertex_shader, fragment_shader, geometry_shader, defines)
+            for stale in [k for k, v in self._program_cache.items() if v is program]:
+                del self._program_cache[stale]
+            self._program_cache[key] = program
+        return program
+
+    get_program._navbench_patched = True  # type: ignore[attr-defined]
+    cache_cls.get_program = get_program
+
+
+_patch_shader_cache()
+
+
+# --------------------------------------------------------------------------------------------------
+# Camera model
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """Pinhole camera: image size in pixels, horizontal field of view, clip planes in metres."""
+
+    width: int = 224
+    height: int = 224
+    hfov_deg: float = 79.0
+    znear: float = 0.05
+    zfar: float = 50.0
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise RenderError(f"camera size must be positive, got {self.width}x{self.height}")
+        if not 0.0 < self.hfov_deg < 180.0:
+            raise RenderError(f"camera hfov_deg must be in (0, 180), got {self.hfov_deg}")
+        if not 0.0 < self.znear < self.zfar:
+            raise RenderError(f"camera needs 0 < znear < zfar, got znear={self.znear} zfar={self.zfar}")
+
+    @property
+    def yfov(self) -> float:
+        """Vertical field of view in radians (square pixels)."""
+        return 2.0 * float(np.arctan(np.tan(np.radians(self.hfov_deg) / 2.0) * self.height / self.width))
+
+
+def intrinsics(cfg: CameraConfig) -> np.ndarray:
+    """3x3 pinhole matrix K for ``cfg`` (OpenCV axes: x right, y down, z forward).
+
+    ``fx = (W / 2) / tan(hfov / 2)``, ``fy = fx`` (square pixels), principal point
+    ``((W - 1) / 2, (H - 1) / 2)``: pixel centres sit at integer coordinates (module docstring).
+    """
+    fx = (cfg.width / 2.0) / np.tan(np.radians(cfg.hfov_deg) / 2.0)
+    cx, cy = (cfg.width - 1) / 2.0, (cfg.height - 1) / 2.0
+    return np.array([[fx, 0.0, cx], [0.0, fx, cy], [0.0, 0.0, 1.0]], dtype=np.float64)
+
+
+def camera_pose(position: np.ndarray, rotation_xyzw: np.ndarray) -> np.ndarray:
+    """4x4 camera-to-world transform from a position ``[x, y, z]`` and a quaternion ``[x, y, z, w]``."""
+    p = np.asarray(position, dtype=np.float64)
+    q = np.asarray(rotation_xyzw, dtype=np.float64)
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise RenderError(f"camera position must be 3 finite numbers, got {np.asarray(position).tolist()}")
+    if q.shape != (4,) or not np.isfinite(q).all() or np.linalg.norm(q) < 1e-8:
+        raise RenderError(f"camera rotation must be a non-zero [x, y, z, w] quaternion, got {q.tolist()}")
+    pose = np.eye(4)
+    pose[:3, :3] = Rotation.from_quat(q).as_matrix()  # normalises q; scalar-last like Habitat
+    pose[:3, 3] = p
+    return pose
+
+
+def backproject(
+    depth: np.ndarray, cfg: CameraConfig, position: np.ndarray, rotation_xyzw: np.ndarray
+) -> np.ndarray:
+    """World points (H, W, 3) float32 of a depth image rendered from this camera; NaN where depth is 0."""
+    depth = np.asarray(depth, dtype=np.float32)
+    if depth.shape != (cfg.height, cfg.width):
+        raise RenderError(f"depth shape {depth.shape} does not match camera {cfg.height}x{cfg.width}")
+    k = intrinsics(cfg)
+    v, u = np.mgrid[0 : cfg.height, 0 : cfg.width].astype(np.float32)
+    # OpenCV ray (x right, y down, z forward) -> GL/Habitat camera frame (x right, y up, -z forward).
+    cam = np.stack(
+        [(u - k[0, 2]) / k[0, 0] * depth, -(v - k[1, 2]) / k[1, 1] * depth, -depth], axis=-1
+    )
+    pose = camera_pose(position, rotation_xyzw)
+    world = cam @ pose[:3, :3].T.astype(np.float32) + pose[:3, 3].astype(np.float32)
+    world[depth <= 0] = np.nan
+    return world
+
+
+def frustum_planes(view_proj: np.ndarray) -> np.ndarray:
+    """(6, 4) unit-normal planes ``(a, b, c, d)`` of the clip frustum of a GL view-projection matrix.
+
+    A world point is inside iff ``a x + b y + c z + d >= 0`` for all six (Gribb-Hartmann).
+    """
+    m = np.asarray(view_proj, dtype=np.float64)
+    rows = [m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]]
+    planes = np.stack(rows)
+    return planes / np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+
+
+def boxes_in_frustum(
+    planes: np.ndarray, box_min: np.ndarray, box_max: np.ndarray, margin: float = 1e-3
+) -> np.ndarray:
+    """(N,) bool: False only for axis-aligned boxes certainly outside the frustum (conservative).
+
+    A box is outside when its corner furthest along some plane's normal is still behind that plane;
+    boxes straddling a frustum edge outside a corner may be kept, never the reverse.
+    """
+    n = planes[:, :3]  # (6, 3)
+    far_corner = np.where(n[None] >= 0.0, box_max[:, None, :], box_min[:, None, :])  # (N, 6, 3)
+    dist = np.einsum("npk,pk->np", far_corner, n) + planes[None, :, 3]
+    return (dist >= -margin).all(axis=1)
+
+
+# --------------------------------------------------------------------------------------------------
+# Renderer
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class RenderOutput:
+    """One frame; a field is None when it was not requested."""
+
+    rgb: np.ndarray | None  # (H, W, 3) uint8
+    depth: np.ndarray | None  # (H, W) float32 metres, 0 = nothing hit
+    ids: np.ndarray | None  # (H, W) int32 object id, -1 = structure or background
+
+
+def encode_ids(ids: np.ndarray) -> np.ndarray:
+    """(N,) int ids -> (N, 4) uint8 RGBA colours holding ``id + 1`` in 24-bit little-endian RGB."""
+    v = np.asarray(ids, dtype=np.int64) + 1
+    rgba = np.stack([v & 255, (v >> 8) & 255, (v >> 16) & 255, np.full_like(v, 255)], axis=-1)
+    return rgba.astype(np.uint8)
+
+
+def decode_ids(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 id image -> (H, W) int32 ids (black, i.e. structure or background, -> -1)."""
+    # Pad to 4 bytes and reinterpret as little-endian int32 (R is the low byte): one copy, no shifts.
+    padded = np.zeros(rgb.shape[:-1] + (4,), dtype=np.uint8)
+    padded[..., :3] = rgb
+    return padded.view(np.dtype("<i4"))[..., 0] - 1
+
+
+class Renderer:
+    """Renders one scene from arbitrary camera poses. Reuse it: construction uploads the scene.
+
+    ``platform`` must be the one PyOpenGL is bound to (:func:`bound_platform`, fixed by
+    ``PYOPENGL_PLATFORM`` when OpenGL is first imported).
+    ``max_chunk_faces`` bounds the triangles merged into one node (see the module docstring);
+    ``frustum_culling=False`` draws every chunk (for checking the culling).
+    One instance holds one GL context; use it from one thread, and call :meth:`close` (or use it
+    as a context manager) to free the context.
+    """
+
+    def __init__(
+        self,
+        asset: SceneAsset,
+        camera: CameraConfig = CameraConfig(),
+        platform: str = "osmesa",
+        max_chunk_faces: int = 60_000,
+        frustum_culling: bool = True,
+    ) -> None:
+        if platform not in PLATFORMS:
+            raise RenderError(f"platform must be one of {PLATFORMS}, got {platform!r}")
+        bound = bound_platform()
+        if platform != bound:
+            raise RenderError(
+                f"platform {platform!r} requested but PyOpenGL is bound to {bound!r}; set "
+                f"PYOPENGL_PLATFORM={platform} before anything imports OpenGL (e.g. navbench.render)"
+            )
+        if max_chunk_faces < 1:
+            raise RenderError(f"max_chunk_faces must be >= 1, got {max_chunk_faces}")
+        face_ids = np.asarray(asset.face_ids)
+        if face_ids.shape != (len(asset.mesh.faces),):
+            raise RenderError(f"{asset.path}: face_ids shape {face_ids.shape} != ({len(asset.mesh.faces)},)")
+        if len(face_ids) and (face_ids.min() < STRUCTURE_ID or face_ids.max() > MAX_INSTANCE_ID):
+            raise RenderError(f"{asset.path}: instance ids must lie in [-1, {MAX_INSTANCE_ID}]")
+
+        self.asset = asset
+        self.camera = camera
+        self.platform = platform
+        self.frustum_culling = frustum_culling
+
+        self._scene = pyrender.Scene(bg_color=np.zeros(4), ambient_light=np.zeros(3))
+        self._cam = pyrender.PerspectiveCamera(
+            yfov=camera.yfov, znear=camera.znear, zfar=camera.zfar, aspectRatio=camera.width / camera.height
+        )
+        self._cam_node = self._scene.add(self._cam, pose=np.eye(4))
+        self._proj = self._cam.get_projection_matrix(camera.width, camera.height)
+
+        self._colour_nodes: list[pyrender.Node] = []
+        self._id_nodes: list[pyrender.Node] = []
+        two_sided = open_surface_faces(asset.mesh)
+        self.num_two_sided_faces = int(two_sided.sum())
+        box_min, box_max = [], []
+        for faces in spatial_chunks(asset.mesh.triangles_center[:, [0, 2]], max_chunk_faces):
+            colour_mesh, id_mesh, lo, hi = _chunk_meshes(asset, faces, two_sided)
+            self._colour_nodes.append(self._scene.add(colour_mesh))
+            self._id_nodes.append(self._scene.add(id_mesh))
+            box_min.append(lo)
+            box_max.append(hi)
+        self._box_min = np.asarray(box_min)
+        self._box_max = np.asarray(box_max)
+
+        # Last: the GL context (pyrender picks OSMesa/EGL from PYOPENGL_PLATFORM).
+        self._gl: pyrender.OffscreenRenderer | None = pyrender.OffscreenRenderer(camera.width, camera.height)
+
+    # -- public --------------------------------------------------------------------------------
+
+    @property
+    def num_chunks(self) -> int:
+        return len(self._colour_nodes)
+
+    @property
+    def num_shader_programs(self) -> int:
+        """Compiled programs in pyrender's cache (diagnostic: a handful while the cache works)."""
+        gl = self._require_open()
+        return len(gl._renderer._program_cache._program_cache)
+
+    def visible_chunks(self, position: np.ndarray, rotation_xyzw: np.ndarray) -> np.ndarray:
+        """(num_chunks,) bool: chunks the frustum test keeps for this camera pose."""
+        return self._visible(camera_pose(position, rotation_xyzw))
+
+    def render(
+        self,
+        position: np.ndarray,
+        rotation_xyzw: np.ndarray,
+        rgb: bool = True,
+        depth: bool = True,
+        ids: bool = False,
+    ) -> RenderOutput:
+        """Render from the camera at ``position`` (world, metres) with orientation ``rotation_xyzw``."""
+        if not (rgb or depth or ids):
+            raise RenderError("render() needs at least one of rgb, depth, ids")
+        gl = self._require_open()
+        pose = camera_pose(position, rotation_xyzw)
+        self._scene.set_pose(self._cam_node, pose)
+        keep = self._visible(pose)
+
+        out = RenderOutput(rgb=None, depth=None, ids=None)
+        if rgb or (depth and not ids):
+            self._show(colour=keep, ids=None)
+            if rgb:
+                colour, z = self._draw(gl, RenderFlags.FLAT)
+                out.rgb = np.ascontiguousarray(colour)
+                out.depth = z if depth else None
+            else:
+                out.depth = self._draw(gl, RenderFlags.DEPTH_ONLY)
+        if ids:
+            self._show(colour=None, ids=keep)
+            id_colour, z = self._draw(gl, RenderFlags.FLAT)
+            out.ids = decode_ids(id_colour)
+            if depth and out.depth is None:
+                out.depth = z  # same geometry, so the id pass's depth is the depth image
+        return out
+
+    def close(self) -> None:
+        """Free the GL context and buffers. Idempotent."""
+        if self._gl is not None:
+            self._gl.delete()
+            self._gl = None
+
+    def __enter__(self) -> "Renderer":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: GL may already be gone
+            pass
+
+    # -- internals -----------------------------------------------------------------------------
+
+    def _require_open(self) -> pyrender.OffscreenRenderer:
+        if self._gl is None:
+            raise RenderError(f"renderer for {self.asset.path} is closed")
+        return self._gl
+
+    def _visible(self, pose: np.ndarray) -> np.ndarray:
+        if not self.frustum_culling:
+            return np.ones(self.num_chunks, dtype=bool)
+        planes = frustum_planes(self._proj @ np.linalg.inv(pose))
+        return boxes_in_frustum(planes, self._box_min, self._box_max)
+
+    def _show(self, colour: np.ndarray | None, ids: np.ndarray | None) -> None:
+        """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set."""
+        for nodes, keep in ((self._colour_nodes, colour), (self._id_nodes, ids)):
+            for i, node in enumerate(nodes):
+                node.mesh.is_visible = bool(keep is not None and keep[i])
+
+    def _draw(self, gl: pyrender.OffscreenRenderer, flags: int):
+        if self.platform == "egl":
+            # pyrender draws into a 4x multisampled buffer on EGL and resolves it with averaging,
+            # which would blend id colours at edges into ids that do not exist. With
+            # GL_MULTISAMPLE off every sample takes the pixel-centre value, so the resolve is
+            # exact and EGL frames equal OSMesa's (single-sampled) ones.
+            with _multisample_disabled():
+                return gl.render(self._scene, flags)
+        return gl.render(self._scene, flags)
+
+
+@contextlib.contextmanager
+def _multisample_disabled() -> Iterator[None]:
+    """Within the block, pyrender's ``glEnable(GL_MULTISAMPLE)`` (forward pass) becomes a disable."""
+    enable = pyrender.renderer.glEnable
+
+    def gl_enable(cap: int) -> None:
+        if cap == pyrender.renderer.GL_MULTISAMPLE:
+            pyrender.renderer.glDisable(cap)
+        else:
+            enable(cap)
+
+    pyrender.renderer.glEnable = gl_enable
+    try:
+        yield
+    finally:
+        pyrender.renderer.glEnable = enable
+
+
+def spatial_chunks(points_xz: np.ndarray, max_faces: int) -> list[np.ndarray]:
+    """Group face indices (by their xz centroids) into compact chunks of at most ``max_faces``.
+
+    Recursive median split along the longer xz extent (a k-d tree's leaves): chunks stay spatially
+    tight, so frustum culling can drop them, and balanced, so none is needlessly small.
+    """
+    chunks: list[np.ndarray] = []
+    stack = [np.arange(len(points_xz))]
+    while stack:
+        idx = stack.pop()
+        if len(idx) <= max_faces:
+            # Back in file order: neighbouring triangles share vertices, which llvmpipe's vertex
+            # cache exploits; spatially sorted order measured ~2.5x slower on a 200k scene.
+            chunks.append(np.sort(idx))
+            continue
+        pts = points_xz[idx]
+        axis = int(np.argmax(np.ptp(pts, axis=0)))
+        order = np.argsort(pts[:, axis], kind="stable")
+        half = len(idx) // 2
+        stack += [idx[order[half:]], idx[order[:half]]]
+    return chunks
+
+
+def open_surface_faces(mesh: trimesh.Trimesh) -> np.ndarray:
+    """(F,) bool: faces of connected components that are not closed, consistently wound solids.
+
+    Closed, consistently wound solids are seen only from the side their faces point to (outside,
+    for a solid), so back-face culling draws them correctly and saves their hidden half. Open
+    surfaces (single quads as walls, ground planes, broken meshes) may be seen from either side and
+    are drawn with both windings. Vertices are merged by position first, because exporters often
+    split them along colour seams.
+    """
+    welded = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    welded.merge_vertices()
+    # Closed and consistently wound <=> every undirected edge is used as often in one direction as
+    # in the other (2 for a manifold edge; 4 where two closed solids touch along an edge).
+    _, edge_group = np.unique(welded.edges_sorted, axis=0, return_inverse=True)
+    edge_group = edge_group.reshape(-1)
+    forward = welded.edges[:, 0] < welded.edges[:, 1]
+    balance = np.bincount(edge_group, weights=np.where(forward, 1.0, -1.0))
+    good_edge = balance[edge_group] == 0
+    bad_face = np.zeros(len(welded.faces), dtype=bool)
+    np.logical_or.at(bad_face, welded.edges_face, ~good_edge)
+    labels = trimesh.graph.connected_component_labels(welded.face_adjacency, node_count=len(welded.faces))
+    return np.isin(labels, np.unique(labels[bad_face]))
+
+
+def _chunk_meshes(
+    asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray
+) -> tuple[pyrender.Mesh, pyrender.Mesh, np.ndarray, np.ndarray]:
+    """Colour and id meshes of one chunk, plus its AABB.
+
+    Everything is drawn with back-face culling (pyrender's DEPTH_ONLY pass always culls, so the
+    FLAT passes must too to see the same geometry); faces flagged in ``two_sided`` are stored once
+    per winding so they show from both sides.
+    """
+    mesh = asset.mesh
+    tri = mesh.faces[faces]
+    corner_ids = np.repeat(asset.face_ids[faces].astype(np.int64), 3)
+    # Shared vertices, except that a vertex used by faces of two objects is split so each copy
+    # carries one id colour: key = (vertex index, id + 1), packed into one int64.
+    keys = tri.reshape(-1).astype(np.int64) * (MAX_INSTANCE_ID + 2) + (corner_ids + 1)
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    vertex = uniq // (MAX_INSTANCE_ID + 2)
+    positions = mesh.vertices[vertex].astype(np.float32)
+    colours = np.asarray(mesh.visual.vertex_colors, dtype=np.uint8)[vertex].copy()
+    colours[:, 3] = 255  # opaque: pyrender would otherwise blend and depth-sort
+    id_colours = encode_ids(uniq % (MAX_INSTANCE_ID + 2) - 1)
+    front = inverse.reshape(-1, 3).astype(np.uint32)
+    indices = np.concatenate([front, front[two_sided[faces], ::-1]])
+    material = pyrender.MetallicRoughnessMaterial(baseColorFactor=np.ones(4), doubleSided=False)
+
+    def build(vertex_colours: np.ndarray) -> pyrender.Mesh:
+        prim = pyrender.Primitive(
+            positions=positions,
+            indices=indices,
+            color_0=vertex_colours,
+            material=material,
+            mode=GLTF.TRIANGLES,
+        )
+        return pyrender.Mesh(primitives=[prim])
+
+    return build(colours), build(id_colours), positions.min(axis=0), positions.max(axis=0)
