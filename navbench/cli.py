@@ -154,6 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--frames-per-iteration", type=int)
     tr.add_argument("--num-envs", type=int)
     tr.add_argument("--val-episodes", type=int)
+    tr.add_argument("--epochs-per-iteration", type=float)
     tr.add_argument("--seed", type=int)
     tr.set_defaults(func=cmd_train)
 

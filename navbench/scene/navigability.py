@@ -583,6 +583,13 @@ class NavGrid:
         phi.ravel()[ii[sel] * w + jj[sel]] = np.minimum(dist[sel] - r, 1.0)
         d = skfmm.distance(np.ma.MaskedArray(phi, mask=~self.navigable), dx=cs, order=2)
         d = np.ma.filled(d, np.inf) + r
+        # Inside the zero level set skfmm returns minus the distance to the set's boundary, which for a
+        # dense goal set (ObjectNav view points) is far more than r: use the exact distance to the
+        # nearest goal there instead (every inside cell is within r of a goal, so it is known).
+        inside = phi < 0
+        exact = np.full((h, w), np.inf)
+        exact.ravel()[ii[sel] * w + jj[sel]] = dist[sel]
+        d = np.where(inside, exact, d)
         reachable = np.isin(self.islands, np.unique(goal_island))
         values = np.where(reachable & self.navigable & np.isfinite(d), d, np.inf)
         return GeodesicField(self, goal_pts, values, near_goal)

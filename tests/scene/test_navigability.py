@@ -294,3 +294,21 @@ def test_save_load_round_trip(wall_grid, tmp_path):
     corrupt.write_bytes(b"not an npz file")
     with pytest.raises(SceneError, match="corrupt.npz"):
         NavGrid.load(corrupt)
+
+
+def test_distance_inside_a_dense_goal_region_is_never_negative():
+    """ObjectNav goals are dense view-point regions; inside one the distance is to the nearest goal point."""
+    from navbench.scene.navigability import NavGrid
+
+    mesh = trimesh.creation.box(extents=(6.0, 0.1, 6.0))
+    mesh.apply_translation((0, -0.05, 0))
+    grid = NavGrid.from_mesh(mesh)
+    xs, zs = np.meshgrid(np.arange(-1.0, 1.0, 0.05), np.arange(-1.0, 1.0, 0.05))
+    goals = np.stack([xs.ravel(), np.zeros(xs.size), zs.ravel()], axis=1)
+    field = grid.distance_field(goals)
+    assert np.all(field.values[np.isfinite(field.values)] >= 0)
+    for p in ([0.0, 0, 0.0], [0.012, 0, -0.013], [0.5, 0, 0.5]):
+        nearest = np.min(np.hypot(goals[:, 0] - p[0], goals[:, 2] - p[2]))
+        assert field.distance(np.array(p)) == pytest.approx(nearest, abs=0.04)  # within a cell
+    # outside the region: the distance to the region's edge
+    assert field.distance(np.array([2.0, 0, 0.0])) == pytest.approx(2.0 - 0.95, abs=0.03)
