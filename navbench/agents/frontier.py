@@ -1,0 +1,425 @@
+"""``frontier``: a zero-shot frontier-exploration ObjectNav baseline in the VLFM family.
+
+The agent builds an online occupancy map (:mod:`navbench.agents.occupancy`) from its own depth and
+pose (start pose + GPS/compass), and never sees the scene mesh or the navigability grid. Per episode:
+
+1. **Look around**: ``initial_turns`` TURN_LEFTs (360 deg) to seed the map.
+2. **Explore**: drive to the nearest frontier cluster by path distance over the known-free map
+   (VLFM's frontier midpoint: the reachable cluster cell nearest its centroid). The target is
+   re-chosen when it is reached (``frontier_reached``; one that survives being reached is
+   blacklisted), stops being a frontier, or every ``replan_every`` steps (a nearer cluster must win
+   by ``switch_margin`` m, so the agent does not dither between two equally near frontiers).
+3. **Detect** the target in every frame with the injected ``detect(observations, (position, yaw))``,
+   accumulating the world points (voxel-downsampled) across frames.
+4. **Approach** once anything was detected: the goal is the point nearest the agent (xz) of the
+   cluster of target points nearest the agent, reached over the map (or, while the map has no path
+   there yet, via the frontier minimising path distance + straight-line distance on to it); STOP
+   within ``stop_radius`` (xz) when the target passes the memory agent's visibility test (project
+   the points into the current depth; a point is visible when ``|z - depth| < visible_depth_tol``;
+   pass when >= ``visible_fraction`` of in-view points are).
+5. **STOP** when no reachable frontier remains and nothing was detected.
+
+Locomotion is the injected PointNav policy (the same ``StepPolicy`` as the memory agent). As in
+VLFM the policy does the local control; unlike VLFM, which hands it the frontier itself, the policy
+gets a waypoint ``waypoint_lookahead`` m along the map's geodesic to the target (held until the agent
+is within ``waypoint_reached`` of it), so a distant frontier around a corner is reached through the
+mapped free space (set ``waypoint_lookahead=0`` for VLFM's direct goal). The recurrent state is reset
+whenever the waypoint moves (a new goal for the policy).
+
+A forward step that does not move (odometry) maps an obstacle just ahead: bumps into things too near
+or too low for the depth camera then reroute the plan. Stuck handling: < ``stuck_progress`` m in
+``stuck_window`` steps blacklists the current frontier (or, when approaching, abandons the current
+target cluster) and picks another. Every decision is logged in
+``episode_log()``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from navbench.agents.base import PoseTracker
+from navbench.agents.memory_agent import StepPolicy
+from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
+from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
+from navbench.env.sensors import pointgoal_polar
+from navbench.episodes.types import Episode
+from navbench.localize.geometry import project, voxel_downsample, world_to_camera
+from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
+from navbench.scene.pose import heading_vector, quat_from_yaw
+
+# detect(observations, (world position, yaw)) -> (N, 3) world points of the goal object in this frame.
+Detector = Callable[[dict[str, np.ndarray], tuple[np.ndarray, float]], np.ndarray]
+
+
+@dataclass(frozen=True)
+class FrontierAgentConfig:
+    occupancy: OccupancyConfig = OccupancyConfig()
+    initial_turns: int = 12  # 12 x 30 deg: a full look-around before moving
+    replan_every: int = 10  # steps between re-choosing the nearest frontier
+    switch_margin: float = 1.0  # m; another frontier must be this much nearer to replace the current one
+    frontier_reached: float = 0.5  # m (xz); the frontier goal counts as reached within this
+    frontier_match: float = 0.5  # m; the current goal still is a frontier if one of its cells is this near
+    blacklist_radius: float = 0.75  # m; frontier goals this near a blacklisted one are skipped
+    waypoint_lookahead: float = 1.5  # m along the map path; 0 = hand the policy the goal itself (VLFM)
+    waypoint_reached: float = 0.5  # m; a waypoint is refreshed once the agent is this near
+    stop_radius: float = 0.9  # m (xz) from the nearest target point
+    visible_depth_tol: float = 0.3
+    visible_fraction: float = 0.05
+    max_projected_points: int = 2000
+    max_stop_overrides: int = 5  # steps within stop_radius without a visible target before stopping anyway
+    target_voxel: float = 0.05  # m; accumulated target points are voxel-downsampled to this
+    target_cluster_eps: float = 0.5  # m; target points closer than this belong to one object
+    min_target_points: int = 1  # clusters with fewer points are ignored (detector noise)
+    stuck_window: int = 30
+    stuck_progress: float = 0.5
+    sensors: tuple[str, ...] = ("rgb", "depth", "semantic")  # semantic only for the oracle detector
+
+
+class FrontierAgent:
+    sensors: tuple[str, ...] = ("rgb", "depth", "semantic")
+
+    def __init__(self, detect: Detector, policy: StepPolicy, config: FrontierAgentConfig = FrontierAgentConfig(),
+                 env_config: EnvConfig = EnvConfig()):
+        self.detect, self.policy, self.config, self.env_config = detect, policy, config, env_config
+        self.sensors = config.sensors
+        cam = CameraConfig(width=env_config.width, height=env_config.height, hfov_deg=env_config.hfov_deg)
+        self.K = intrinsics(cam)
+        self.map = OccupancyMap(config.occupancy)
+        self._pose = PoseTracker()
+
+    # ----------------------------------------------------------------------------------- episode
+    def reset(self, episode: Episode) -> None:
+        self._pose.reset(episode)
+        self.map.reset(np.asarray(episode.start_position, np.float64))
+        self.policy.reset()
+        self.step = 0
+        self.mode = "look_around"
+        self.frontier: Frontier | None = None
+        self.frontier_since = 0
+        self.blacklist: list[np.ndarray] = []
+        self.target_points = np.zeros((0, 3))
+        self.target_blacklist: list[np.ndarray] = []
+        self.goal: np.ndarray | None = None  # current target point when approaching
+        self.waypoint: np.ndarray | None = None
+        self.positions: list[np.ndarray] = []
+        self.overrides = 0
+        self.last_action: int | None = None
+        self.log: dict[str, Any] = {"events": [], "frontiers_chosen": 0, "first_detection_step": None,
+                                    "stop_reason": None, "bumps": 0}
+
+    def episode_log(self) -> dict[str, Any]:
+        return self.log
+
+    def _event(self, kind: str, **data: Any) -> None:
+        self.log["events"].append({"step": self.step, "event": kind, **{k: _round(v) for k, v in data.items()}})
+
+    # --------------------------------------------------------------------------------- perception
+    def depth_metres(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        c = self.env_config
+        d = obs["depth"][..., 0].astype(np.float64)
+        return d * (c.max_depth - c.min_depth) + c.min_depth if c.normalize_depth else d
+
+    def _depth_normalised(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        c = self.env_config
+        d = obs["depth"][..., 0].astype(np.float64)
+        return d if c.normalize_depth else np.clip((d - c.min_depth) / (c.max_depth - c.min_depth), 0.0, 1.0)
+
+    def visibility(self, cloud: np.ndarray, depth: np.ndarray, position: np.ndarray, yaw: float
+                   ) -> tuple[int, int]:
+        """(visible points, points in view) of ``cloud`` in the current depth (metres), as the memory agent."""
+        if len(cloud) == 0:
+            return 0, 0
+        if len(cloud) > self.config.max_projected_points:
+            idx = np.random.default_rng(0).permutation(len(cloud))[:self.config.max_projected_points]
+            cloud = cloud[idx]
+        cam_pos = position + np.array([0.0, self.env_config.agent_height, 0.0])
+        w2c = world_to_camera(camera_pose(cam_pos, quat_from_yaw(yaw)))
+        uv, z, in_view = project(cloud, self.K, w2c, depth.shape[1], depth.shape[0])
+        in_view &= (z > self.env_config.min_depth) & (z < self.env_config.max_depth)
+        if not in_view.any():
+            return 0, 0
+        u = np.clip(np.round(uv[in_view, 0]).astype(int), 0, depth.shape[1] - 1)
+        v = np.clip(np.round(uv[in_view, 1]).astype(int), 0, depth.shape[0] - 1)
+        ok = np.abs(z[in_view] - depth[v, u]) < self.config.visible_depth_tol
+        return int(ok.sum()), int(in_view.sum())
+
+    def _add_detections(self, points: np.ndarray) -> None:
+        points = np.asarray(points, np.float64).reshape(-1, 3)
+        if not len(points):
+            return
+        for b in self.target_blacklist:  # points of abandoned (unreachable) targets stay abandoned
+            points = points[_xz_dists(points, b) > self.config.target_cluster_eps]
+        if not len(points):
+            return
+        if self.log["first_detection_step"] is None:
+            self.log["first_detection_step"] = self.step
+            self._event("detected", points=len(points), centre=points.mean(axis=0))
+        self.target_points = voxel_downsample(np.vstack([self.target_points, points]), self.config.target_voxel)
+
+    def target_clusters(self) -> list[np.ndarray]:
+        """Accumulated target points grouped into objects (single linkage at ``target_cluster_eps``)."""
+        pts = self.target_points
+        if not len(pts):
+            return []
+        pairs = cKDTree(pts).query_pairs(self.config.target_cluster_eps, output_type="ndarray")
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
+        n, labels = connected_components(graph, directed=False)
+        clusters = [pts[labels == i] for i in range(n)]
+        return [c for c in clusters if len(c) >= self.config.min_target_points]
+
+    # -------------------------------------------------------------------------------------- act
+    def act(self, observations: dict[str, np.ndarray]) -> int:
+        self.last_action = self._act(observations)
+        return self.last_action
+
+    def _act(self, observations: dict[str, np.ndarray]) -> int:
+        cfg, env = self.config, self.env_config
+        self.step += 1
+        position, yaw = self._pose(observations)
+        self.positions.append(position)
+        if self.last_action == MOVE_FORWARD and len(self.positions) > 1 and \
+                _xz_dist(position, self.positions[-2]) < 0.25 * env.forward_step:
+            # A forward step that did not move hit something (perhaps too near or too low for the depth camera):
+            # the agent knows that from its own odometry, so it maps an obstacle just ahead.
+            self.map.mark_occupied(position + (env.agent_radius + 0.05) * heading_vector(yaw))
+            self.log["bumps"] += 1
+        self.map.update(self._depth_normalised(observations), self.K, position, yaw, env.agent_height,
+                        env.min_depth, env.max_depth)
+        self._add_detections(self.detect(observations, (position, yaw)))
+
+        if self.mode == "look_around":
+            if self.step <= cfg.initial_turns:
+                return TURN_LEFT
+            self.mode = "explore"
+            self.positions = [position]  # turning in place is not being stuck
+            self._event("look_around_done")
+
+        clusters = self.target_clusters()
+        if clusters:
+            if self.mode != "approach":
+                self.mode = "approach"
+                self.waypoint = self.frontier = None
+                self.positions = [position]
+                self._event("approach", clusters=len(clusters))
+            return self._approach(observations, clusters, position, yaw)
+        if self.mode == "approach":  # every target cluster was abandoned: back to exploring
+            self.mode = "explore"
+            self.frontier = None
+        return self._explore(observations, position, yaw)
+
+    # ------------------------------------------------------------------------------------ explore
+    def _explore(self, obs: dict[str, np.ndarray], position: np.ndarray, yaw: float) -> int:
+        if self._stuck(position) and self.frontier is not None:
+            self._event("stuck_blacklist", frontier=self.frontier.goal)
+            self.blacklist.append(self.frontier.goal)
+            self.frontier = None
+        dist, frontiers = self._reachable_frontiers(position)
+        if frontiers:
+            self._choose_frontier(frontiers, position)
+        if self.frontier is None:
+            self._event("stop", reason="no_frontier")
+            self.log["stop_reason"] = "no_frontier"
+            return STOP
+        return self._drive(obs, self.frontier.goal, dist, self.frontier.goal_cell, position, yaw)
+
+    def _reachable_frontiers(self, position: np.ndarray) -> tuple[np.ndarray, list[Frontier]]:
+        """Path-distance field and the reachable, non-blacklisted frontiers, nearest first. Planned with the
+        clearance margin first; without it (bare agent radius) only when nothing is reachable with it."""
+        for inflation in (None, self.map.config.agent_radius):
+            dist = self.map.path_distance(position, inflation)
+            frontiers = [f for f in self.map.frontiers(dist, self._blacklist_mask()) if np.isfinite(f.distance)]
+            if frontiers:
+                return dist, frontiers
+        return dist, frontiers
+
+    def _blacklist_mask(self) -> np.ndarray | None:
+        """Cells within ``blacklist_radius`` of a blacklisted frontier goal: no frontier is taken from them
+        (only that part of a long frontier is given up, not the whole cluster)."""
+        if not self.blacklist:
+            return None
+        mask = np.zeros(self.map.grid.shape, np.uint8)
+        r = max(1, int(round(self.config.blacklist_radius / self.map.config.cell_size)))
+        for b in self.blacklist:
+            row, col = self.map.to_cell(b[[0, 2]])
+            cv2.circle(mask, (int(col), int(row)), r, 1, -1)
+        return mask > 0
+
+    def _choose_frontier(self, frontiers: list[Frontier], position: np.ndarray) -> None:
+        cfg = self.config
+        nearest = frontiers[0]
+        reason = None
+        if self.frontier is None:
+            reason = "none"
+        elif _xz_dist(position, self.frontier.goal) < cfg.frontier_reached:
+            reason = "reached"
+        else:
+            same = self._matching(frontiers, self.frontier)
+            if same is None:
+                reason = "vanished"
+            elif self.step - self.frontier_since >= cfg.replan_every:
+                self.frontier_since = self.step
+                if nearest.distance + cfg.switch_margin < same.distance:
+                    reason = "nearer"
+                else:
+                    self.frontier = same  # keep it, with its fresh distance
+            else:
+                self.frontier = same
+        if reason is None:
+            return
+        if reason == "reached" and self.frontier is not None:
+            # Standing at a frontier normally reveals what lies beyond it; one that survives that cannot be
+            # cleared from here (unknown pockets behind furniture, gaps the camera never sees): give it up.
+            self.blacklist.append(self.frontier.goal)
+            frontiers = [f for f in frontiers if _xz_dist(f.goal, self.frontier.goal) >= cfg.blacklist_radius]
+            if not frontiers:
+                self.frontier = None
+                return
+            nearest = frontiers[0]
+        self.frontier = nearest
+        self.frontier_since = self.step
+        self.waypoint = None
+        self.log["frontiers_chosen"] += 1
+        self._event("frontier", reason=reason, goal=nearest.goal, distance=nearest.distance,
+                    size=nearest.size, candidates=len(frontiers))
+
+    def _matching(self, frontiers: list[Frontier], current: Frontier) -> Frontier | None:
+        """The cluster that still contains a cell near the current goal (frontiers drift as the map grows)."""
+        best, best_d = None, self.config.frontier_match
+        for f in frontiers:
+            d = float(np.min(_xz_dists(self.map.to_world(f.cells), current.goal)))
+            if d <= best_d:
+                best, best_d = f, d
+        return best
+
+    # ----------------------------------------------------------------------------------- approach
+    def _approach(self, obs: dict[str, np.ndarray], clusters: list[np.ndarray], position: np.ndarray,
+                  yaw: float) -> int:
+        cfg = self.config
+        cluster = min(clusters, key=lambda c: float(np.min(_xz_dists(c, position))))
+        goal = cluster[int(np.argmin(_xz_dists(cluster, position)))]
+        if self.goal is None or _xz_dist(goal, self.goal) > 0.5:
+            self._event("target", goal=goal, points=len(cluster), clusters=len(clusters))
+        self.goal = goal
+        dist = _xz_dist(position, goal)
+        depth = self.depth_metres(obs)
+        if dist >= cfg.stop_radius:
+            self.overrides = 0
+        else:
+            visible, in_view = self.visibility(cluster, depth, position, yaw)
+            if in_view and visible / in_view >= cfg.visible_fraction:
+                self._event("stop", reason="target_visible", distance=dist, visible=visible, in_view=in_view)
+                self.log["stop_reason"] = "target_visible"
+                return STOP
+            self.overrides += 1
+            if self.overrides > cfg.max_stop_overrides:
+                self._event("stop", reason="near_target_not_visible", distance=dist)
+                self.log["stop_reason"] = "near_target_not_visible"
+                return STOP
+            # Close but not seen: face the target (it may be beside or behind the camera).
+            theta = float(pointgoal_polar(goal, position, yaw)[1])
+            if abs(theta) > math.radians(self.env_config.hfov_deg) / 4:
+                return TURN_LEFT if theta > 0 else TURN_RIGHT
+        if self._stuck(position):
+            self._event("stuck_abandon_target", goal=goal)
+            self.target_blacklist.append(goal)
+            self.target_points = self.target_points[_xz_dists(self.target_points, goal) > cfg.target_cluster_eps]
+            self.positions = [position]
+            self.goal = self.waypoint = None
+            self.mode = "explore"
+            self.frontier = None
+            return self._explore(obs, position, yaw)
+        # Plan to the reachable cell nearest the goal within the stop radius (the object itself is an obstacle).
+        field = self.map.path_distance(position)
+        cells = np.argwhere(np.isfinite(field))
+        target_cell = None
+        if len(cells):
+            near = _xz_dists(self.map.to_world(cells), goal) < cfg.stop_radius * 0.8
+            if near.any():
+                cand = cells[near]
+                target_cell = tuple(int(v) for v in cand[int(np.argmin(field[cand[:, 0], cand[:, 1]]))])
+        if target_cell is None:
+            # No known path to the target yet (seen through a doorway, or across unexplored space): head for
+            # the frontier that minimises path distance + straight-line distance on to the target.
+            field, frontiers = self._reachable_frontiers(position)
+            if frontiers:
+                via = min(frontiers, key=lambda f: f.distance + _xz_dist(f.goal, goal))
+                if self.frontier is None or _xz_dist(via.goal, self.frontier.goal) > cfg.frontier_match:
+                    self._event("approach_via_frontier", frontier=via.goal, goal=goal)
+                    self.waypoint = None
+                self.frontier = via
+                return self._drive(obs, via.goal, field, via.goal_cell, position, yaw)
+        return self._drive(obs, goal, field, target_cell, position, yaw)
+
+    # -------------------------------------------------------------------------------------- drive
+    def _drive(self, obs: dict[str, np.ndarray], goal: np.ndarray, field: np.ndarray,
+               goal_cell: tuple[int, int] | None, position: np.ndarray, yaw: float) -> int:
+        """One policy step toward ``goal`` via a held waypoint on the map path (``goal_cell`` in ``field``)."""
+        cfg = self.config
+        if self.waypoint is None or _xz_dist(position, self.waypoint) < cfg.waypoint_reached or \
+                (self.step - self.frontier_since) % cfg.replan_every == 0:
+            wp = self._waypoint(goal, field, goal_cell, position)
+            if self.waypoint is None or _xz_dist(wp, self.waypoint) > 0.1:
+                self.policy.reset_hidden()  # a new goal for the policy
+            self.waypoint = wp
+        pointgoal = pointgoal_polar(self.waypoint, position, yaw)
+        action = int(self.policy.act(obs["depth"][None], pointgoal[None])[0])
+        if action == STOP:
+            # The policy thinks it arrived; only this agent decides when the episode ends.
+            self.waypoint = None
+            action = MOVE_FORWARD if abs(float(pointgoal[1])) < math.radians(15) else \
+                (TURN_LEFT if pointgoal[1] > 0 else TURN_RIGHT)
+        return action
+
+    def _waypoint(self, goal: np.ndarray, field: np.ndarray, goal_cell: tuple[int, int] | None,
+                  position: np.ndarray) -> np.ndarray:
+        cfg = self.config
+        if cfg.waypoint_lookahead <= 0 or goal_cell is None:
+            return np.asarray(goal, np.float64)
+        path = trace_path(field, goal_cell)
+        if len(path) < 2:
+            return np.asarray(goal, np.float64)
+        along = field[path[:, 0], path[:, 1]]
+        last = min(int(np.searchsorted(along, cfg.waypoint_lookahead, side="right")), len(path)) - 1
+        # The farthest path point within the lookahead that the agent sees in a straight line (over the map
+        # inflated by its bare radius): a straight shot at a point round a corner would clip the corner.
+        clear = self.map.traversable(self.map.config.agent_radius)
+        pts = self.map.to_world(path)
+        i = next((j for j in range(last, 0, -1) if self.map.line_of_sight(position, pts[j], clear)), min(last, 1))
+        if i == len(path) - 1 and _xz_dist(pts[i], goal) < cfg.stop_radius:
+            return np.asarray(goal, np.float64)  # the goal is in reach: aim at it (frontier or object point)
+        return pts[i]
+
+    def _stuck(self, position: np.ndarray) -> bool:
+        cfg = self.config
+        if len(self.positions) <= cfg.stuck_window:
+            return False
+        progress = _xz_dist(position, self.positions[-1 - cfg.stuck_window])
+        if progress < cfg.stuck_progress:
+            self.positions = [position]
+            return True
+        return False
+
+
+def _xz_dist(a: np.ndarray, b: np.ndarray) -> float:
+    return math.hypot(float(a[0] - b[0]), float(a[2] - b[2]))
+
+
+def _xz_dists(points: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return np.hypot(points[:, 0] - p[0], points[:, 2] - p[2])
+
+
+def _round(v: Any) -> Any:
+    if isinstance(v, (float, np.floating)):
+        return round(float(v), 3)
+    if isinstance(v, np.ndarray):
+        return [round(float(x), 3) for x in v.ravel()]
+    return v
