@@ -37,7 +37,12 @@ def make_random(cfg):
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
 
 
-AGENTS = {"oracle": make_oracle, "random": make_random}
+def make_pointnav(cfg):
+    from navbench.agents.pointnav import PointNavAgent
+    return PointNavAgent(cfg.agent_options.get("checkpoint"))
+
+
+AGENTS = {"oracle": make_oracle, "random": make_random, "pointnav": make_pointnav}
 
 
 # ------------------------------------------------------------------------------------------ commands
@@ -71,6 +76,7 @@ def cmd_run(args) -> int:
         scene_dir=str(args.scene_dir or SCENES_DIR),
         success_distance=args.success_distance if args.success_distance is not None else default_sd,
         seed=args.seed, limit=args.limit, workers=args.workers,
+        agent_options={k: v for k, v in (("checkpoint", args.checkpoint),) if v is not None},
     )
     out = Path(args.out or Path("runs") / f"{args.agent}_{task}_{split or episodes.stem}")
 
@@ -129,6 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="run directory (default runs/AGENT_TASK_SPLIT)")
     r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")
     r.add_argument("--success-distance", type=float)
+    r.add_argument("--checkpoint", help="PointNav policy checkpoint in habitat's layout (default: the shipped one)")
     r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=cmd_run)

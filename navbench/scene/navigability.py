@@ -82,7 +82,7 @@ class GeodesicField:
         self.values = values
         self._near_goal = near_goal  # (H, W) int32: index of a goal within a few cells, else -1
         self._ox, self._oz = float(grid.origin[0]), float(grid.origin[1])
-        self._inv = 1.0 / grid.cell_size
+        self._cs = grid.cell_size
         self._h, self._w = values.shape
 
     def distance(self, p) -> float:
@@ -93,7 +93,10 @@ class GeodesicField:
         return self._distance_xz(x, z)
 
     def _distance_xz(self, x: float, z: float) -> float:
-        gx, gz = (x - self._ox) * self._inv, (z - self._oz) * self._inv
+        # Same arithmetic as NavGrid._cell (divide, not multiply by the inverse): at exact half-cell
+        # coordinates the two would otherwise round to different cells, and a position try_step
+        # accepted could read as off-grid (inf).
+        gx, gz = (x - self._ox) / self._cs, (z - self._oz) / self._cs
         ic, jc = int(math.floor(gz + 0.5)), int(math.floor(gx + 0.5))
         h, w = self._h, self._w
         if not (0 <= ic < h and 0 <= jc < w):

@@ -1,0 +1,228 @@
+"""Each real perception backend run end to end on a tiny randomly initialised model saved to disk.
+
+Configs are shaped like transformers' own model tests (hidden size 32, one layer). Tokenizers cannot
+be downloaded, so each test builds a word-level tokenizer from a small vocabulary; image processors are
+built offline (SAM 3's needs torchvision, so its preprocessor_config.json is written directly, which is
+all the backend reads).
+"""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+transformers = pytest.importorskip("transformers", reason="the models extra (transformers) is not installed")
+torch = pytest.importorskip("torch")
+from tokenizers import AddedToken, Tokenizer, models, pre_tokenizers  # noqa: E402 - after importorskip
+
+from navbench.localize.backends import (  # noqa: E402
+    MODELS_EXTRA_HINT,
+    BackendError,
+    Encoder,
+    MissingExtraError,
+    QwenVLReranker,
+    Reranker,
+    Sam3Segmenter,
+    Segmenter,
+    Siglip2Encoder,
+)
+
+WORDS = ["yes", "[PAD]", "[UNK]", "no", "is", "a", "red", "chair", "bed", "visible", "in", "this", "image", "?",
+         "reply", "only", ":", "/", "<", ">", "-", "visibility", "user", "assistant", "system", "you", "are",
+         "helpful", "."] + [str(i) for i in range(11)]
+
+
+def tiny_tokenizer(special=()):
+    tok = Tokenizer(models.WordLevel({w: i for i, w in enumerate(WORDS)}, unk_token="[UNK]"))
+    tok.pre_tokenizer = pre_tokenizers.Whitespace()
+    tok.add_special_tokens([AddedToken(s, special=True) for s in special])
+    fast = transformers.PreTrainedTokenizerFast(tokenizer_object=tok, pad_token="[PAD]", unk_token="[UNK]")
+    return fast, tok.get_vocab_size()
+
+
+def has(name):
+    return hasattr(transformers, name)
+
+
+def images(rng):
+    return [rng.integers(0, 256, size=shape, dtype=np.uint8) for shape in ((40, 60, 3), (50, 50, 3))]
+
+
+# ------------------------------------------------------------------ SigLIP2
+@pytest.fixture(scope="module")
+def siglip_dir(tmp_path_factory):
+    if not (has("SiglipModel") and has("SiglipImageProcessorPil")):
+        pytest.skip("this transformers has no SiglipModel/SiglipImageProcessorPil")
+    d = tmp_path_factory.mktemp("siglip")
+    tokenizer, vocab = tiny_tokenizer()
+    torch.manual_seed(0)
+    config = transformers.SiglipConfig(
+        text_config=dict(vocab_size=vocab, hidden_size=32, intermediate_size=37, num_hidden_layers=1,
+                         num_attention_heads=4, max_position_embeddings=64, pad_token_id=1, bos_token_id=None,
+                         eos_token_id=None),
+        vision_config=dict(image_size=32, patch_size=8, hidden_size=32, intermediate_size=37, num_hidden_layers=1,
+                           num_attention_heads=4))
+    transformers.SiglipModel(config).save_pretrained(d)
+    processor = transformers.SiglipProcessor(
+        image_processor=transformers.SiglipImageProcessorPil(size={"height": 32, "width": 32}), tokenizer=tokenizer)
+    processor.save_pretrained(d)
+    return d
+
+
+def test_siglip2_encoder_matches_the_model_and_pads_text_to_64(siglip_dir):
+    enc = Siglip2Encoder(siglip_dir, batch_size=1)
+    assert isinstance(enc, Encoder)
+    ims = images(np.random.default_rng(0))
+    emb = enc.encode_images(ims)
+    assert emb.shape == (2, 32) and emb.dtype == np.float32
+    assert np.allclose(np.linalg.norm(emb, axis=1), 1.0, atol=1e-5)
+    model = transformers.AutoModel.from_pretrained(siglip_dir).eval()
+    proc = transformers.AutoProcessor.from_pretrained(siglip_dir)
+    with torch.no_grad():
+        out = model.get_image_features(**proc(images=ims, return_tensors="pt"))
+        ref = getattr(out, "pooler_output", out).numpy()
+    assert np.allclose(emb, ref / np.linalg.norm(ref, axis=1, keepdims=True), atol=1e-5)
+    assert np.allclose(Siglip2Encoder(siglip_dir, batch_size=16).encode_images(ims), emb, atol=1e-5)
+
+    text = enc.encode_text(["red chair", "bed"])
+    assert text.shape == (2, 32) and np.allclose(np.linalg.norm(text, axis=1), 1.0, atol=1e-5)
+
+    def ref_text(**pad):
+        with torch.no_grad():
+            o = model.get_text_features(**proc(text=["red chair"], return_tensors="pt", **pad))
+        v = getattr(o, "pooler_output", o).numpy()[0]
+        return v / np.linalg.norm(v)
+    assert np.allclose(text[0], ref_text(padding="max_length", max_length=64), atol=1e-5)
+    assert not np.allclose(text[0], ref_text(), atol=1e-3)  # unpadded text embeds differently
+    with pytest.raises(BackendError, match="HxWx3 uint8"):
+        enc.encode_images([np.zeros((4, 4), np.uint8)])
+
+
+def test_missing_model_dir_and_missing_extra(tmp_path, monkeypatch):
+    with pytest.raises(BackendError, match=f"model directory not found: {tmp_path / 'nope'}"):
+        Siglip2Encoder(tmp_path / "nope")
+    with pytest.raises(BackendError, match="lacks config.json"):
+        Sam3Segmenter(tmp_path)
+    monkeypatch.setitem(sys.modules, "transformers", None)  # makes `import transformers` fail
+    for backend in (Siglip2Encoder, QwenVLReranker, Sam3Segmenter):
+        with pytest.raises(MissingExtraError, match="install the models extra") as info:
+            backend(tmp_path)
+        assert isinstance(info.value, ImportError) and MODELS_EXTRA_HINT in str(info.value)
+
+
+# ------------------------------------------------------------------ Qwen2.5-VL
+QWEN_SPECIAL = ["<|im_start|>", "<|im_end|>", "<|vision_start|>", "<|vision_end|>", "<|image_pad|>", "<|video_pad|>"]
+
+
+@pytest.fixture(scope="module")
+def qwen_dir(tmp_path_factory):
+    if not (has("Qwen2_5_VLForConditionalGeneration") and has("Qwen2VLImageProcessorPil")):
+        pytest.skip("this transformers has no Qwen2_5_VLForConditionalGeneration/Qwen2VLImageProcessorPil")
+    d = tmp_path_factory.mktemp("qwen")
+    tokenizer, vocab = tiny_tokenizer(QWEN_SPECIAL)
+    ids = {s: tokenizer.convert_tokens_to_ids(s) for s in QWEN_SPECIAL}
+    torch.manual_seed(0)
+    config = transformers.Qwen2_5_VLConfig(
+        text_config=dict(vocab_size=vocab, hidden_size=32, intermediate_size=37, num_hidden_layers=1,
+                         num_attention_heads=4, num_key_value_heads=2, max_position_embeddings=512,
+                         rope_parameters={"rope_type": "default", "rope_theta": 10000.0, "mrope_section": [1, 1, 2]},
+                         bos_token_id=None, eos_token_id=ids["<|im_end|>"], pad_token_id=1),
+        vision_config=dict(depth=1, hidden_size=32, intermediate_size=24, num_heads=4, out_hidden_size=32,
+                           patch_size=14, spatial_merge_size=2, temporal_patch_size=2, window_size=28,
+                           fullatt_block_indexes=[0]),
+        image_token_id=ids["<|image_pad|>"], video_token_id=ids["<|video_pad|>"],
+        vision_start_token_id=ids["<|vision_start|>"], vision_end_token_id=ids["<|vision_end|>"])
+    transformers.Qwen2_5_VLForConditionalGeneration(config).save_pretrained(d)
+    tokenizer.save_pretrained(d)
+    transformers.Qwen2VLImageProcessorPil(min_pixels=56 * 56, max_pixels=84 * 84, patch_size=14, merge_size=2,
+                                          temporal_patch_size=2).save_pretrained(d)
+    return d
+
+
+def test_qwen_vl_reranker_generates_and_parses(qwen_dir):
+    rr = QwenVLReranker(qwen_dir, max_new_tokens=4)
+    assert isinstance(rr, Reranker)
+    ims = images(np.random.default_rng(1))
+    # Two images of different sizes need different numbers of image tokens; a wrong count would make
+    # the model refuse the input.
+    replies = [rr.reply(im, "red chair") for im in ims]
+    assert all(isinstance(r, str) for r in replies)
+    assert rr.reply(ims[0], "red chair") == replies[0]  # greedy: deterministic
+    yes, vis = rr.score(ims[1], "red chair")
+    assert isinstance(yes, bool) and 0.0 <= vis <= 1.0
+    # Rig the output layer so every logit ties: greedy decoding then emits token 0 ("yes") each step.
+    with torch.no_grad():
+        rr.model.lm_head.weight.zero_()
+    assert rr.reply(ims[0], "red chair").split() == ["yes"] * 4
+    assert rr.score(ims[0], "red chair") == (True, 0.5)
+    # The same model captions image queries, with its own token budget.
+    rr.caption_tokens = 3
+    assert rr.describe(ims[0]).split() == ["yes"] * 3
+
+
+# ------------------------------------------------------------------ SAM 3
+@pytest.fixture(scope="module")
+def sam3_dir(tmp_path_factory):
+    if not has("Sam3Model"):
+        pytest.skip("this transformers has no Sam3Model")
+    d = tmp_path_factory.mktemp("sam3")
+    tokenizer, vocab = tiny_tokenizer()
+    torch.manual_seed(0)
+    config = transformers.Sam3Config(
+        vision_config=dict(backbone_config=dict(model_type="sam3_vit_model", hidden_size=32, intermediate_size=64,
+                                                num_hidden_layers=1, num_attention_heads=4, image_size=56,
+                                                patch_size=14, window_size=2, global_attn_indexes=[0],
+                                                pretrain_image_size=56),
+                           fpn_hidden_size=32, backbone_feature_sizes=[[16, 16], [8, 8], [4, 4]]),
+        text_config=dict(vocab_size=vocab, hidden_size=32, intermediate_size=64, num_hidden_layers=1,
+                         num_attention_heads=4, max_position_embeddings=32, projection_dim=32, pad_token_id=1,
+                         bos_token_id=3, eos_token_id=4),
+        geometry_encoder_config=dict(hidden_size=32, num_layers=1, num_attention_heads=4, intermediate_size=64),
+        detr_encoder_config=dict(hidden_size=32, num_layers=1, num_attention_heads=4, intermediate_size=64),
+        detr_decoder_config=dict(hidden_size=32, num_layers=1, num_queries=8, num_attention_heads=4,
+                                 intermediate_size=64),
+        mask_decoder_config=dict(hidden_size=32, num_upsampling_stages=2, num_attention_heads=4))
+    transformers.Sam3Model(config).save_pretrained(d)
+    tokenizer.save_pretrained(d)
+    (d / "preprocessor_config.json").write_text(json.dumps({
+        "image_processor_type": "Sam3ImageProcessor", "size": {"height": 56, "width": 56}, "resample": 2,
+        "do_rescale": True, "rescale_factor": 1 / 255, "do_normalize": True,
+        "image_mean": [0.5, 0.5, 0.5], "image_std": [0.5, 0.5, 0.5]}))
+    return d
+
+
+def test_sam3_segmenter_real_model_path(sam3_dir):
+    seg = Sam3Segmenter(sam3_dir, score_threshold=0.0)
+    assert isinstance(seg, Segmenter)
+    im = images(np.random.default_rng(2))[0]
+    x = seg.pixel_values(np.full((40, 60, 3), 255, np.uint8))
+    assert tuple(x.shape) == (1, 3, 56, 56) and torch.allclose(x, torch.ones_like(x))
+    mask, score = seg.segment(im, "red chair")
+    assert 0.0 <= score <= 1.0
+    assert mask is None or (mask.shape == (40, 60) and mask.dtype == bool)
+    assert Sam3Segmenter(sam3_dir, score_threshold=1.01).segment(im, "red chair") == (None, pytest.approx(score))
+
+
+def test_sam3_postprocessing_picks_best_query_and_upsamples(sam3_dir):
+    seg = Sam3Segmenter(sam3_dir, score_threshold=0.3)
+    low = torch.full((1, 3, 16, 16), -10.0)
+    low[0, 1, 4:8, 8:12] = 10.0  # query 1: a square in rows 1/4..1/2, columns 1/2..3/4
+    low[0, 0] = 10.0  # query 0 covers everything but scores low
+
+    class Stub:
+        def __call__(self, **inputs):
+            assert inputs["input_ids"].shape == (1, 32)
+            return transformers.modeling_outputs.ModelOutput(
+                pred_logits=torch.tensor([[-4.0, 3.0, 0.0]]), presence_logits=torch.tensor([[2.0]]), pred_masks=low)
+
+    seg.model = Stub()
+    mask, score = seg.segment(np.zeros((80, 120, 3), np.uint8), "red chair")
+    sig = lambda v: 1 / (1 + np.exp(-v))  # noqa: E731
+    assert score == pytest.approx(sig(3.0) * sig(2.0), rel=1e-5)
+    rows, cols = np.nonzero(mask)
+    assert mask.shape == (80, 120)
+    assert abs(rows.min() - 20) <= 1 and abs(rows.max() - 39) <= 1
+    assert abs(cols.min() - 60) <= 1 and abs(cols.max() - 89) <= 1
+    seg.score_threshold = 0.9  # best score 0.84 < 0.9: nothing found
+    assert seg.segment(np.zeros((80, 120, 3), np.uint8), "red chair")[0] is None
