@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup osmesa run test test-slow bench clean results-oracle
+.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -47,3 +47,13 @@ results-oracle: setup
 	$(BIN)/navbench run --task pointnav --split val --agent oracle --out results/runs/oracle_pointnav_val -q
 	$(BIN)/navbench table $(addprefix results/runs/oracle_,$(ORACLE_SPLITS)) > results/oracle_objectnav.md
 	$(BIN)/navbench table results/runs/oracle_pointnav_val --long > results/oracle_pointnav.md
+
+# Localisation SR@5 (GOAT-style goat_val): oracle perception, with/without noise and fusion.
+results-localize: setup
+	$(BIN)/navbench localize --split goat_val --perception oracle --noise none --out results/localize/oracle_none_fusion
+	$(BIN)/navbench localize --split goat_val --perception oracle --noise none --no-fusion --out results/localize/oracle_none_single
+	$(BIN)/navbench localize --split goat_val --perception oracle --noise default --out results/localize/oracle_default_fusion
+	$(BIN)/navbench localize --split goat_val --perception oracle --noise default --no-fusion --out results/localize/oracle_default_single
+	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --out results/localize/oracle_heavy_fusion
+	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --no-fusion --out results/localize/oracle_heavy_single
+	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md

@@ -4,6 +4,8 @@
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes [--seed 0]
     navbench train pointnav [--out policies/pointnav_navbench.pth] [--resume]
+    navbench memory build --scene houses/val/house_008.glb
+    navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
     navbench bench [--json]
 
 Bad input (missing scene, corrupt JSON, unknown category, bad checkpoint...) prints one line naming
@@ -13,6 +15,7 @@ the file and the problem and exits with code 2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -42,7 +45,66 @@ def make_pointnav(cfg):
     return PointNavAgent(cfg.agent_options.get("checkpoint"))
 
 
-AGENTS = {"oracle": make_oracle, "random": make_random, "pointnav": make_pointnav}
+def _perception_config(cfg):
+    from navbench.agents.perceive import PerceptionConfig
+    from navbench.localize.benchmark import ModelDirs
+    from navbench.memory.prescan import PrescanConfig
+
+    o = cfg.agent_options
+    res = o.get("keyframe_res", "full")
+    scan = {"full": PrescanConfig(), "160x120": PrescanConfig(store_resolution=(160, 120)),
+            "640x480": PrescanConfig(width=640, height=480)}[res]
+    scan = dataclasses.replace(scan, keyframes=not o.get("all_frames", False))
+    models = ModelDirs(**{k: Path(v) for k, v in o.get("models", {}).items()})
+    return PerceptionConfig(perception=o.get("perception", "oracle"), noise=o.get("noise", "none"),
+                            fusion=o.get("fusion", True), rerank=o.get("rerank", True), prescan=scan,
+                            memory_root=o.get("memory_root"), models=models)
+
+
+def _step_policy(cfg):
+    from navbench.agents.pointnav import DEFAULT_CHECKPOINT
+    from navbench.policy.checkpoint import load_checkpoint
+    from navbench.policy.net import PointNavAgentPolicy
+    return PointNavAgentPolicy(load_checkpoint(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT))
+
+
+def make_memory(cfg):
+    from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
+    from navbench.agents.perceive import SceneLocalizer
+    o = cfg.agent_options
+    agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
+                                  visibility_stop=o.get("visibility_stop", True))
+    return MemoryAgent(SceneLocalizer(cfg.scene_dir, _perception_config(cfg)), _step_policy(cfg), agent_cfg,
+                       cfg.env_config(MemoryAgent.sensors))
+
+
+def make_frontier(cfg):
+    from navbench.agents.frontier import FrontierAgent, FrontierAgentConfig
+    from navbench.agents.perceive import LiveDetector
+    env_cfg = cfg.env_config(FrontierAgentConfig().sensors)
+    return FrontierAgent(LiveDetector(cfg.scene_dir, _perception_config(cfg), env_cfg), _step_policy(cfg),
+                         FrontierAgentConfig(), env_cfg)
+
+
+AGENTS = {"oracle": make_oracle, "random": make_random, "pointnav": make_pointnav, "memory": make_memory,
+          "frontier": make_frontier}
+
+
+def prebuild_memories(cfg) -> None:
+    """Build the memory agent's per-scene memories once, in this process, before workers start: two
+    workers must never build the same cache directory at the same time."""
+    from navbench.agents.perceive import scene_memory
+    from navbench.env.base import resolve_scene_path
+    from navbench.episodes.io import load_dataset
+    from navbench.eval.runner import select_episodes
+
+    pcfg = _perception_config(cfg)
+    scenes = dict.fromkeys(e.scene_id for e in select_episodes(load_dataset(cfg.episodes), cfg.limit))
+    for scene_id in scenes:
+        m = scene_memory(resolve_scene_path(scene_id, Path(cfg.scene_dir)), pcfg)
+        st = m.stats
+        print(f"memory {scene_id}: {st.keyframes}/{st.frames} keyframes, {st.bytes / 1e6:.2f} MB, "
+              f"built in {st.build_seconds:.2f} s" + ("" if m.built_now else " (cached)"), file=sys.stderr)
 
 
 # ------------------------------------------------------------------------------------------ commands
@@ -76,7 +138,7 @@ def cmd_run(args) -> int:
         scene_dir=str(args.scene_dir or SCENES_DIR),
         success_distance=args.success_distance if args.success_distance is not None else default_sd,
         seed=args.seed, limit=args.limit, workers=args.workers,
-        agent_options={k: v for k, v in (("checkpoint", args.checkpoint),) if v is not None},
+        agent_options=_agent_options(args),
     )
     out = Path(args.out or Path("runs") / f"{args.agent}_{task}_{split or episodes.stem}")
 
@@ -86,10 +148,24 @@ def cmd_run(args) -> int:
         status = "skipped" if rec.get("skipped") else f"success={rec['success']:.0f} spl={rec['spl']:.3f}"
         print(f"[{n}/{total}] {rec['scene_id']} ep {rec['episode_id']}: {status}", file=sys.stderr, flush=True)
 
+    if args.agent == "memory":
+        prebuild_memories(cfg)
     summary = run(cfg, AGENTS[args.agent], out, resume=args.resume, progress=progress)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
     return 0
+
+
+def _agent_options(args) -> dict:
+    """Everything that changes an agent's behaviour, recorded in the run's config.json."""
+    opts = {"checkpoint": args.checkpoint}
+    if args.agent in ("memory", "frontier"):
+        opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
+                    rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
+                    goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
+                    models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
+                                              ("sam3", args.sam3)) if v})
+    return {k: v for k, v in opts.items() if v is not None}
 
 
 def cmd_table(args) -> int:
@@ -111,6 +187,41 @@ def cmd_generate(args) -> int:
 def cmd_train(args) -> int:
     from navbench.policy.train import main_args
     return main_args(args)
+
+
+def cmd_memory(args) -> int:
+    from navbench.localize.backends.oracle import NoiseProfile
+    from navbench.localize.benchmark import PERCEPTION, ModelDirs
+    from navbench.memory.prescan import PrescanConfig, build_memory
+    from navbench.scene.asset import load_scene
+
+    scene = Path(args.scene)
+    if not scene.is_file():
+        scene = SCENES_DIR / args.scene
+    scan = {"full": PrescanConfig(), "160x120": PrescanConfig(store_resolution=(160, 120)),
+            "640x480": PrescanConfig(width=640, height=480)}[args.keyframe_res]
+    scan = dataclasses.replace(scan, keyframes=not args.all_frames)
+    encoder = PERCEPTION[args.perception](load_scene(scene), NoiseProfile(), ModelDirs(
+        siglip2=Path(args.siglip2) if args.siglip2 else None)).encoder
+    out = Path(args.out or Path("runs") / "memory" / scene.name.split(".")[0])
+    st = build_memory(scene, out, scan, encoder)
+    print(f"{scene}: {st.frames} frames, {st.keyframes} keyframes, {st.bytes / 1e6:.2f} MB on disk, "
+          f"built in {st.build_seconds:.2f} s -> {out}")
+    return 0
+
+
+def cmd_localize(args) -> int:
+    from navbench.localize.benchmark import ModelDirs, run_localize
+    models = ModelDirs(**{k: Path(v) for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
+                                                  ("sam3", args.sam3)) if v})
+    s = run_localize(split=args.split, perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
+                     rerank=args.rerank != "none", k=args.k, out=args.out, limit=args.limit, models=models)
+    rows = " | ".join(f"{t} {100 * v:.1f}" for t, v in s["sr_by_type"].items())
+    print(f"SR@{s['k']} ({s['perception']}, noise={s['noise']}, fusion={s['fusion']}, rerank={s['rerank']}): "
+          f"{100 * s['sr']:.1f} avg | {rows}")
+    print(f"memory: build {s['build_s']:.1f} s total, {s['storage_bytes'] / 1e6:.2f} MB; "
+          f"query {s['query_ms']:.1f} ms mean")
+    return 0
 
 
 def cmd_bench(args) -> int:
@@ -136,6 +247,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")
     r.add_argument("--success-distance", type=float)
     r.add_argument("--checkpoint", help="PointNav policy checkpoint in habitat's layout (default: the shipped one)")
+    m = r.add_argument_group("memory / frontier agents (perception and ablations)")
+    m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
+    m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")
+    m.add_argument("--rerank", default="vlm", choices=("vlm", "none"), help="'none': skip VLM re-ranking")
+    m.add_argument("--no-fusion", action="store_true", help="single-view backprojection (no multi-view fusion)")
+    m.add_argument("--no-tracking", action="store_true", help="no dynamic goal tracking")
+    m.add_argument("--no-visibility-stop", action="store_true", help="STOP on distance alone")
+    m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
+    m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
+    m.add_argument("--siglip2", help="local SigLIP2 model directory")
+    m.add_argument("--qwen-vl", help="local Qwen2.5-VL model directory")
+    m.add_argument("--sam3", help="local SAM 3 model directory")
     r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=cmd_run)
@@ -162,8 +285,36 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--num-envs", type=int)
     tr.add_argument("--val-episodes", type=int)
     tr.add_argument("--epochs-per-iteration", type=float)
+    tr.add_argument("--chunk-len", type=int)
+    tr.add_argument("--batch-chunks", type=int)
+    tr.add_argument("--lr", type=float)
+    tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
     tr.add_argument("--seed", type=int)
     tr.set_defaults(func=cmd_train)
+
+    mem = sub.add_parser("memory", help="build a scene's keyframe memory (pre-scan, keyframes, index)")
+    mem.add_argument("what", choices=("build",))
+    mem.add_argument("--scene", required=True, help="scene file, or a path under envs/ (e.g. houses/val/house_008.glb)")
+    mem.add_argument("--out")
+    mem.add_argument("--perception", default="oracle", help="encoder of the index: oracle | siglip2+qwen2.5-vl+sam3")
+    mem.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
+    mem.add_argument("--all-frames", action="store_true")
+    mem.add_argument("--siglip2", help="local SigLIP2 model directory")
+    mem.set_defaults(func=cmd_memory)
+
+    lo = sub.add_parser("localize", help="GOAT-style localisation benchmark (SR@K)")
+    lo.add_argument("--split", default="goat_val")
+    lo.add_argument("--perception", default="oracle")
+    lo.add_argument("--noise", default="none")
+    lo.add_argument("--no-fusion", action="store_true")
+    lo.add_argument("--rerank", default="vlm", choices=("vlm", "none"))
+    lo.add_argument("-k", type=int, default=5)
+    lo.add_argument("--limit", type=int)
+    lo.add_argument("--out")
+    lo.add_argument("--siglip2")
+    lo.add_argument("--qwen-vl")
+    lo.add_argument("--sam3")
+    lo.set_defaults(func=cmd_localize)
 
     b = sub.add_parser("bench", help="simulator, geodesic and policy speed")
     b.add_argument("--json", action="store_true")

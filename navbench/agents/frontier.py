@@ -98,6 +98,9 @@ class FrontierAgent:
 
     # ----------------------------------------------------------------------------------- episode
     def reset(self, episode: Episode) -> None:
+        detector_reset = getattr(self.detect, "reset", None)
+        if callable(detector_reset):  # a detector that needs the episode's goal text gets the episode
+            detector_reset(episode)
         self._pose.reset(episode)
         self.map.reset(np.asarray(episode.start_position, np.float64))
         self.policy.reset()

@@ -92,7 +92,7 @@ class MemoryAgent:
         self.positions: list[np.ndarray] = []
         self.turns: list[int] = []
         self.log: dict[str, Any] = {"candidates": [[round(float(v), 3) for v in c.centre] for c in self.candidates],
-                                    "events": []}
+                                    "events": [], **getattr(self.localize, "last", {})}
         self.goal = self._initial_goal(start) if self.candidates else None
         self.policy.reset()
 

@@ -263,7 +263,7 @@ def train_step(policy, opt, batch, cfg: TrainConfig) -> tuple[float, float]:
 
 
 def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = Path("runs/train_pointnav"),
-          log_every=print) -> dict[str, float]:
+          init: Path | None = None, log_every=print) -> dict[str, float]:
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
@@ -285,8 +285,12 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         start_it, frames_total, wall0 = st["iteration"], st["frames"], st["wall_s"]
         rng = np.random.default_rng([cfg.seed, start_it])
         log_every(f"resumed at iteration {start_it} ({frames_total} frames, {wall0:.0f} s)")
-    elif log_path.exists():
-        log_path.unlink()
+    else:
+        if init is not None:  # warm start: weights only, fresh optimizer
+            policy.load_state_dict(load_checkpoint(init).state_dict())
+            log_every(f"initialised from {init}")
+        if log_path.exists():
+            log_path.unlink()
 
     envs = make_envs(cfg.num_envs, "train", cfg.seed + start_it)
     collector = Collector(envs, cfg, rng)
@@ -341,6 +345,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
 def main_args(args) -> int:
     fields = TrainConfig.__dataclass_fields__
     cfg = TrainConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
-    result = train(cfg, Path(args.out), resume=args.resume, state_dir=Path(args.state_dir))
+    result = train(cfg, Path(args.out), resume=args.resume, state_dir=Path(args.state_dir),
+                   init=Path(args.init) if args.init else None)
     print(json.dumps(result))
     return 0

@@ -1,0 +1,110 @@
+"""Perception for the ObjectNav agents: the memory agent's localiser and the frontier agent's detector.
+
+Both use the same backend stack (:data:`navbench.localize.benchmark.PERCEPTION`: ``oracle`` over the
+renderer's instance ids, or the real SigLIP2 + Qwen2.5-VL + SAM 3 models from local directories), so
+the two agents are compared with identical perception. The query is the episode's goal text exactly
+as the split names it (a synonym or an unseen category name), never a hidden category id.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navbench.env.base import resolve_scene_path
+from navbench.env.config import EnvConfig
+from navbench.episodes.types import Episode
+from navbench.localize.backends.oracle import noise_profile
+from navbench.localize.benchmark import PERCEPTION, ModelDirs
+from navbench.localize.fusion import GoalCandidate
+from navbench.localize.geometry import GeometryConfig, backproject, keep_view
+from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality
+from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
+from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
+from navbench.scene.asset import load_scene
+from navbench.scene.pose import quat_from_yaw
+
+
+@dataclass(frozen=True)
+class PerceptionConfig:
+    perception: str = "oracle"
+    noise: str = "none"
+    fusion: bool = True
+    rerank: bool = True
+    prescan: PrescanConfig = PrescanConfig()
+    memory_root: str | None = None  # default: the user cache (~/.cache/navbench/memory)
+    models: ModelDirs = field(default_factory=ModelDirs)
+
+
+def _stack(scene_path: Path, cfg: PerceptionConfig) -> Perception:
+    if cfg.perception not in PERCEPTION:
+        raise ValueError(f"unknown perception {cfg.perception!r} (choose from {', '.join(PERCEPTION)})")
+    return PERCEPTION[cfg.perception](load_scene(scene_path), noise_profile(cfg.noise), cfg.models)
+
+
+def scene_memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
+    """Build (or reuse from the cache) the keyframe memory of a scene for this perception config."""
+    return load_or_build_memory(scene_path, cfg.memory_root, cfg.prescan, _stack(scene_path, cfg).encoder)
+
+
+class SceneLocalizer:
+    """``episode -> goal candidates`` over the episode scene's cached keyframe memory."""
+
+    def __init__(self, scene_dir: str | Path, cfg: PerceptionConfig = PerceptionConfig()):
+        self.scene_dir, self.cfg = Path(scene_dir), cfg
+        self._path: Path | None = None
+        self.last: dict[str, Any] = {}
+
+    def __call__(self, episode: Episode) -> list[GoalCandidate]:
+        path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        if path != self._path:
+            stack = _stack(path, self.cfg)
+            self.memory = load_or_build_memory(path, self.cfg.memory_root, self.cfg.prescan, stack.encoder)
+            self._localizer = Localizer.from_perception(
+                self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
+            self._path = path
+        t0 = time.perf_counter()
+        candidates = self._localizer.localize(Query("object", text=episode.object_category))
+        st = self.memory.stats
+        self.last = {"query_ms": round(1000 * (time.perf_counter() - t0), 2), "memory_keyframes": st.keyframes,
+                     "memory_frames": st.frames, "memory_bytes": st.bytes}
+        return candidates
+
+
+class LiveDetector:
+    """``detect(observations, (position, yaw)) -> (N, 3)`` world points of the goal in the current frame,
+    segmented with the perception stack's segmenter and backprojected with the depth sensor."""
+
+    def __init__(self, scene_dir: str | Path, cfg: PerceptionConfig = PerceptionConfig(),
+                 env_config: EnvConfig = EnvConfig()):
+        self.scene_dir, self.cfg, self.env_config = Path(scene_dir), cfg, env_config
+        self.K = intrinsics(CameraConfig(width=env_config.width, height=env_config.height,
+                                         hfov_deg=env_config.hfov_deg))
+        self._path: Path | None = None
+        self.query = ""
+
+    def reset(self, episode: Episode) -> None:
+        path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        if path != self._path:
+            self.segmenter = _stack(path, self.cfg).segmenter
+            self._path = path
+        self.query = episode.object_category or ""
+
+    def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray:
+        c = self.env_config
+        image = observations["semantic"][..., 0] if modality(self.segmenter) == "instance_ids" else observations["rgb"]
+        mask, _ = self.segmenter.segment(image, self.query)
+        if mask is None or not mask.any():
+            return np.zeros((0, 3))
+        d = observations["depth"][..., 0].astype(np.float64)
+        depth = d * (c.max_depth - c.min_depth) + c.min_depth if c.normalize_depth else d
+        depth = np.where(d > 0, depth, 0.0)  # 0 = nothing measured (too near or nothing hit)
+        if not keep_view(depth, mask, GeometryConfig()):
+            return np.zeros((0, 3))
+        position, yaw = pose
+        cam = camera_pose(position + np.array([0.0, c.agent_height, 0.0]), quat_from_yaw(yaw))
+        return backproject(depth, mask, self.K, cam, min_depth=c.min_depth, max_depth=c.max_depth)
