@@ -1,6 +1,7 @@
 # navbench: `make run` (set up + main job on bundled data) and `make test` (set up + tests).
 # Works as root on a fresh Debian 12 machine: creates .venv, installs the OSMesa libraries only when
-# missing, then installs navbench with its dev extra.
+# missing, then installs navbench with its dev and models extras (tiny random models test the real
+# perception backends; no weights are downloaded).
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -20,7 +21,7 @@ osmesa:
 	fi
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install -q -e ".[dev]"
+	$(BIN)/pip install -q -e ".[dev,models]"
 	touch $(STAMP)
 
 setup: osmesa $(STAMP)
