@@ -33,8 +33,9 @@ from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
-from navbench.episodes.types import Episode, EpisodeDataset
+from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import aggregate
+from navbench.scene.asset import SceneError
 
 
 class RunError(ValueError):
@@ -83,7 +84,10 @@ def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) 
 
 def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> dict[str, Any]:
     t0 = time.perf_counter()
-    obs, info = env.reset(options={"episode": episode})
+    try:
+        obs, info = env.reset(options={"episode": episode})
+    except (EpisodeError, SceneError) as exc:  # name the dataset file too: the user's way to the culprit
+        raise type(exc)(f"{cfg.episodes}: {exc}") from None
     record: dict[str, Any] = {
         "episode_id": episode.episode_id, "scene_id": episode.scene_id, "split": cfg.split, "task": cfg.task,
         "agent": cfg.agent, "object_category": episode.object_category,

@@ -128,8 +128,18 @@ class PointNavNet(nn.Module):
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """depth (T, N, H, W, 1), pointgoal (T, N, 2), prev_actions (T, N), masks (T, N) bool."""
         steps, n = masks.shape
-        visual = self.visual_encoder(depth.reshape(steps * n, *depth.shape[2:]).permute(0, 3, 1, 2))
-        visual = self.visual_fc(visual)
+        visual = self.encode_depth(depth.reshape(steps * n, *depth.shape[2:]))
+        return self.core(visual.view(steps, n, -1), pointgoal, prev_actions, masks, hidden)
+
+    def encode_depth(self, depth: torch.Tensor) -> torch.Tensor:
+        """(B, H, W, 1) depth -> (B, C*h*w) flattened visual encoder output (before ``visual_fc``)."""
+        return self.visual_encoder(depth.permute(0, 3, 1, 2)).flatten(1)
+
+    def core(self, visual: torch.Tensor, pointgoal: torch.Tensor, prev_actions: torch.Tensor,
+             masks: torch.Tensor, hidden: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Everything after the visual encoder: visual (T, N, C*h*w) -> (features (T, N, H), hidden)."""
+        steps, n = masks.shape
+        visual = self.visual_fc(visual.reshape(steps * n, -1))
         goal = pointgoal.reshape(steps * n, 2).float()
         rho, theta = goal[:, 0], goal[:, 1]
         goal_emb = self.tgt_embeding(torch.stack([rho, torch.cos(-theta), torch.sin(-theta)], dim=-1))
@@ -190,6 +200,16 @@ class PointNavResNetPolicy(nn.Module):
         self.action_distribution = CategoricalHead(cfg.hidden_size, cfg.num_actions)
         self.critic = CriticHead(cfg.hidden_size)
 
+    def forward_features(self, visual: torch.Tensor, pointgoal: torch.Tensor, prev_actions: torch.Tensor,
+                         masks: torch.Tensor, hidden: torch.Tensor
+                         ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Sequence mode from precomputed ``net.encode_depth`` outputs (T, N, C*h*w): training with a
+        frozen visual encoder caches those once instead of running the ResNet every epoch."""
+        features, hidden = self.net.core(visual, pointgoal.reshape(*masks.shape, 2), prev_actions.reshape(masks.shape),
+                                         masks.reshape(masks.shape) != 0, hidden)
+        logits, value = _heads(self, features)
+        return logits, value, hidden
+
     @property
     def num_recurrent_layers(self) -> int:
         return 2 * self.cfg.num_layers
@@ -221,11 +241,14 @@ class PointNavResNetPolicy(nn.Module):
         if not sequence:
             depth = depth.unsqueeze(0)
         features, hidden = self.net(depth, pointgoal, prev_actions, masks, hidden)
-        logits = self.action_distribution(features)
-        value = self.critic(features).squeeze(-1)
+        logits, value = _heads(self, features)
         if not sequence:
             logits, value = logits[0], value[0]
         return logits, value, hidden
+
+
+def _heads(policy: PointNavResNetPolicy, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    return policy.action_distribution(features), policy.critic(features).squeeze(-1)
 
 
 def prepare_depth(depth: np.ndarray | torch.Tensor, size: tuple[int, int] = (224, 224)) -> torch.Tensor:

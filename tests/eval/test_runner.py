@@ -151,3 +151,16 @@ def test_cli_missing_scene(tmp_path, pointnav_file, capsys):
     assert main(["run", "--episodes", str(path), "--out", str(tmp_path / "o"), "--workers", "1"]) == 2
     err = capsys.readouterr().err
     assert "no_such_house.glb: scene file not found" in err
+
+
+def test_cli_start_off_the_navigable_area(tmp_path, pointnav_file, capsys):
+    ds = load_dataset(pointnav_file)
+    ds.episodes[2].start_position = [400.0, 0.0, 400.0]
+    path = save_dataset(ds, tmp_path / "eps.json.gz")
+    out = tmp_path / "o"
+    assert main(["run", "--episodes", str(path), "--out", str(out), "--workers", "1", "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    bad = ds.episodes[2].episode_id
+    assert len(err) == 1 and str(path) in err[0] and f"episode {bad} " in err[0] and "not navigable" in err[0]
+    # the episodes finished before the bad one are kept
+    assert len(read_records(out / "episodes.jsonl")) >= 1
