@@ -7,7 +7,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize
+.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-objectnav
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -58,3 +58,22 @@ results-localize: setup
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --out results/localize/oracle_heavy_fusion
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --no-fusion --out results/localize/oracle_heavy_single
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
+
+# The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
+results-pointnav: setup
+	$(BIN)/navbench run --task pointnav --split val --agent pointnav --out results/runs/pointnav_val -q
+	$(BIN)/navbench table results/runs/oracle_pointnav_val results/runs/pointnav_val --long > results/pointnav.md
+
+# ObjectNav table (the paper's Table 2 on our data): frontier, memory w/o re-rank, memory, oracle on
+# the three OVON-style val splits, oracle perception; LIMIT=N evaluates the first N episodes per split.
+OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen
+LIMIT ?=
+LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
+results-objectnav: setup
+	for s in $(OBJNAV_SPLITS); do \
+	  $(BIN)/navbench run --split $$s --agent frontier $(LIMIT_ARG) --out results/runs/frontier_$$s -q || exit 1; \
+	  $(BIN)/navbench run --split $$s --agent memory --rerank none $(LIMIT_ARG) --out results/runs/memory-norerank_$$s -q || exit 1; \
+	  $(BIN)/navbench run --split $$s --agent memory $(LIMIT_ARG) --out results/runs/memory_$$s -q || exit 1; \
+	done
+	$(BIN)/navbench table $(foreach a,frontier memory-norerank memory oracle,$(addprefix results/runs/$(a)_,$(OBJNAV_SPLITS))) > results/objectnav.md
+	$(BIN)/python -m navbench.eval.failures $(foreach a,frontier memory,$(addprefix results/runs/$(a)_,$(OBJNAV_SPLITS))) > results/objectnav_failures.md

@@ -7,6 +7,7 @@ Keys: ``rgbd_steps_per_s``, ``depth_steps_per_s``, ``rgbd_ids_steps_per_s`` (one
 with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one llvmpipe thread each),
 ``geodesic_cached_us`` (a geodesic query whose goal set's field is cached), ``geodesic_field_ms``
 (building the field for a new goal set), ``scene_load_s`` (mesh load + navigability build, no cache),
+``geodesic_field_ms_20x20m`` (the same on a 20 x 20 m floor with walls, 400 x 400 cells),
 ``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``.
 """
 
@@ -127,6 +128,25 @@ def geodesic_figures(grid: NavGrid, seconds: float) -> dict[str, float]:
     return {"geodesic_cached_us": cached_us, "geodesic_field_ms": float(np.median(times) * 1e3)}
 
 
+def field_ms_20x20m(repeats: int = 5) -> float:
+    """Field build time on a 20 x 20 m floor (400 x 400 cells) with interior walls: the target's size."""
+    import trimesh
+    parts = [trimesh.creation.box(extents=(20.0, 0.1, 20.0), transform=trimesh.transformations.translation_matrix(
+        (0, -0.05, 0)))]
+    for x in (-5.0, 0.0, 5.0):  # three walls with gaps, so the field has to bend around them
+        parts.append(trimesh.creation.box(extents=(0.1, 2.5, 14.0), transform=trimesh.transformations.translation_matrix(
+            (x, 1.25, 3.0 if x == 0.0 else -3.0))))
+    grid = NavGrid.from_mesh(trimesh.util.concatenate(parts), NavGridConfig())
+    rng = np.random.default_rng(2)
+    times = []
+    for _ in range(repeats):
+        g = grid.sample_navigable_point(rng)
+        t0 = time.perf_counter()
+        grid.distance_field(g)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times) * 1e3)
+
+
 def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str]:
     scene = Path(cfg.scene) if cfg.scene else default_scene()
     t0 = time.perf_counter()
@@ -136,6 +156,7 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str]:
                                       "scene_load_s": time.perf_counter() - t0}
     result["grid_shape"] = "x".join(map(str, grid.navigable.shape))
     result.update(geodesic_figures(grid, cfg.seconds))
+    result["geodesic_field_ms_20x20m"] = field_ms_20x20m()
     rgbd = EnvConfig(rgb=True, depth=True)
     result["rgbd_steps_per_s"] = env_steps_per_s(scene, rgbd, cfg.seconds)
     result["depth_steps_per_s"] = env_steps_per_s(scene, dataclasses.replace(rgbd, rgb=False), cfg.seconds)
@@ -159,6 +180,7 @@ def format_report(r: dict) -> str:
         "scaling_2proc": "2-process scaling (x)",
         "geodesic_cached_us": "geodesic query, cached field (us)",
         "geodesic_field_ms": "geodesic field for a new goal set (ms)",
+        "geodesic_field_ms_20x20m": "geodesic field, 20x20 m floor at 5 cm (ms)",
         "scene_load_s": "scene load + navigability build (s)",
         "policy_steps_per_s_b1": "policy steps/s, batch 1",
         "policy_frames_per_s_b8": "policy frames/s, batch 8",

@@ -140,7 +140,8 @@ def cmd_run(args) -> int:
         seed=args.seed, limit=args.limit, workers=args.workers,
         agent_options=_agent_options(args),
     )
-    out = Path(args.out or Path("runs") / f"{args.agent}_{task}_{split or episodes.stem}")
+    cfg.label = _label(args, cfg)
+    out = Path(args.out or Path("runs") / f"{cfg.label}_{task}_{split or episodes.stem}")
 
     def progress(rec, n, total):
         if args.quiet:
@@ -166,6 +167,23 @@ def _agent_options(args) -> dict:
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
+
+
+def _label(args, cfg) -> str:
+    """Table row name: the agent plus any ablation that changes it (e.g. memory-norerank-noise_default)."""
+    o = cfg.agent_options
+    parts = [args.agent]
+    if args.agent in ("memory", "frontier"):
+        parts += [tag for tag, on in (("norerank", not o["rerank"]), ("nofusion", not o["fusion"]),
+                                      ("notrack", not o["goal_tracking"]), ("novisstop", not o["visibility_stop"]),
+                                      ("allframes", o["all_frames"])) if on]
+        if o["noise"] != "none":
+            parts.append(f"noise_{o['noise']}")
+        if o["keyframe_res"] != "full":
+            parts.append(o["keyframe_res"])
+        if o["perception"] != "oracle":
+            parts.append(o["perception"])
+    return "-".join(parts)
 
 
 def cmd_table(args) -> int:

@@ -55,6 +55,7 @@ class RunConfig:
     workers: int = 1
     env: dict[str, Any] = field(default_factory=dict)  # EnvConfig overrides
     agent_options: dict[str, Any] = field(default_factory=dict)  # e.g. {"checkpoint": ...}
+    label: str = ""  # the row name in tables (default: the agent's name)
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)
@@ -166,7 +167,7 @@ def _append(fh, record: dict[str, Any]) -> None:
 def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> dict[str, Any]:
     summary = aggregate(records, by="object_category" if cfg.task == "objectnav" else None)
-    summary.update(task=cfg.task, split=cfg.split, agent=cfg.agent, success_distance=cfg.success_distance,
+    summary.update(task=cfg.task, split=cfg.split, agent=cfg.label or cfg.agent, success_distance=cfg.success_distance,
                    seed=cfg.seed, complete=complete)
     if extra:
         summary.update(extra)

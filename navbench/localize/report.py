@@ -20,7 +20,8 @@ def table(root: Path) -> str:
                      "fusion": "yes" if s["fusion"] else "no (single view)",
                      **{t: 100 * s["sr_by_type"].get(t, float("nan")) for t in ("object", "image", "language")},
                      "avg": 100 * s["sr"], "query ms": s["query_ms"],
-                     "storage MB": s["storage_bytes"] / 1e6})
+                     "memory MB (all scenes)": s["storage_bytes"] / 1e6,
+                     "build s (all scenes)": s["build_s"]})
     if not rows:
         raise SystemExit(f"{root}: no */summary.json")
     k = json.loads(next(Path(root).glob("*/summary.json")).read_text())["k"]

@@ -60,6 +60,10 @@ class TrainConfig:
     success_distance: float = 0.2
     seed: int = 0
     threads: int = 2
+    # Train everything after the visual encoder on cached encoder outputs (the encoder stays as it is,
+    # e.g. as initialised or as loaded with --init). On 2 cores the ResNet's backward pass is ~90% of a
+    # full update; without it an update is ~50x cheaper, which is what makes CPU training converge.
+    freeze_visual: bool = True
 
 
 # ------------------------------------------------------------------------------------------- buffer
@@ -81,8 +85,9 @@ class EpisodeBuffer:
         """``n`` chunks of up to T steps; the chunk's first step starts fresh (mask 0), padding weighs 0."""
         lens = np.array([len(e["label"]) for e in self.episodes])
         eps = rng.choice(len(self.episodes), size=n, p=lens / lens.sum())
-        h, w = self.episodes[0]["depth"].shape[1:]
-        depth = np.zeros((T, n, h, w), np.uint8)
+        key = "feat" if "feat" in self.episodes[0] else "depth"
+        obs_shape, obs_dtype = self.episodes[0][key].shape[1:], self.episodes[0][key].dtype
+        depth = np.zeros((T, n, *obs_shape), obs_dtype)
         goal = np.zeros((T, n, 2), np.float32)
         prev = np.zeros((T, n), np.int64)
         mask = np.zeros((T, n), bool)
@@ -93,14 +98,14 @@ class EpisodeBuffer:
             L = len(ep["label"])
             s = int(rng.integers(L))
             k = min(T, L - s)
-            depth[:k, j] = ep["depth"][s:s + k]
+            depth[:k, j] = ep[key][s:s + k]
             goal[:k, j] = ep["goal"][s:s + k]
             prev[:k, j] = ep["prev"][s:s + k]
             mask[:k, j] = ep["mask"][s:s + k]
             mask[0, j] = False  # no history before the chunk: start it like an episode
             label[:k, j] = ep["label"][s:s + k]
             weight[:k, j] = ep["weight"][s:s + k]
-        return {"depth": torch.from_numpy(depth), "goal": torch.from_numpy(goal), "prev": torch.from_numpy(prev),
+        return {key: torch.from_numpy(depth), "goal": torch.from_numpy(goal), "prev": torch.from_numpy(prev),
                 "mask": torch.from_numpy(mask), "label": torch.from_numpy(label), "weight": torch.from_numpy(weight)}
 
 
@@ -247,19 +252,32 @@ def evaluate(policy: PointNavResNetPolicy, episodes: int, success_distance: floa
 # -------------------------------------------------------------------------------------------- train
 def train_step(policy, opt, batch, cfg: TrainConfig) -> tuple[float, float]:
     T, n = batch["label"].shape
-    depth = unpool(batch["depth"])
     hidden = policy.initial_hidden(n)
-    logits, _, _ = policy(depth, batch["goal"], batch["prev"], batch["mask"], hidden)
+    if "feat" in batch:
+        logits, _, _ = policy.forward_features(batch["feat"].float(), batch["goal"], batch["prev"], batch["mask"],
+                                               hidden)
+    else:
+        logits, _, _ = policy(unpool(batch["depth"]), batch["goal"], batch["prev"], batch["mask"], hidden)
     w = batch["weight"]
     loss = (F.cross_entropy(logits.reshape(T * n, -1), batch["label"].reshape(-1), reduction="none")
             * w.reshape(-1)).sum() / w.sum()
     opt.zero_grad(set_to_none=True)
     loss.backward()
-    torch.nn.utils.clip_grad_norm_(policy.parameters(), cfg.grad_clip)
+    torch.nn.utils.clip_grad_norm_([p for p in policy.parameters() if p.requires_grad], cfg.grad_clip)
     opt.step()
     valid = w > 0
     acc = (logits.argmax(-1)[valid] == batch["label"][valid]).float().mean()
     return loss.item(), acc.item()
+
+
+@torch.inference_mode()
+def encode_segments(policy: PointNavResNetPolicy, segments: list[dict[str, np.ndarray]], batch: int = 64) -> None:
+    """Replace each segment's pooled depth by the (frozen) visual encoder's output, stored as fp16."""
+    policy.eval()
+    for seg in segments:
+        d = torch.from_numpy(seg.pop("depth"))
+        feats = [policy.net.encode_depth(unpool(d[i:i + batch])) for i in range(0, len(d), batch)]
+        seg["feat"] = torch.cat(feats).to(torch.float16).numpy()
 
 
 def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = Path("runs/train_pointnav"),
@@ -276,7 +294,10 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
 
     # channels_last: oneDNN's NHWC convolution kernels train ~1.7x faster on this CPU class
     policy = PointNavResNetPolicy(PolicyNetConfig()).to(memory_format=torch.channels_last)
-    opt = torch.optim.Adam(policy.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    if cfg.freeze_visual:
+        policy.net.visual_encoder.requires_grad_(False)
+    opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr,
+                           weight_decay=cfg.weight_decay)
     start_it, frames_total, wall0 = 0, 0, 0.0
     if resume and state_path.is_file():
         st = torch.load(state_path, weights_only=False)
@@ -303,6 +324,8 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
         t0 = time.time()
         eps, stats = collector.collect(learner, cfg.frames_per_iteration, beta)
+        if cfg.freeze_visual:
+            encode_segments(policy, eps)
         for e in eps:
             buffer.add(e)
         new_frames = sum(len(e["label"]) for e in eps)

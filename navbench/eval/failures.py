@@ -1,0 +1,57 @@
+"""Per-category SR/SPL and a failure breakdown of ObjectNav runs, from their ``episodes.jsonl``.
+
+    python -m navbench.eval.failures results/runs/memory_val_unseen [...] > results/objectnav_failures.md
+
+A failed episode is classified from its record (and the agent's decision log when it has one):
+- ``wrong instance``: STOP called more than 2 m (geodesic) from every goal view point, i.e. the agent
+  stopped at something else;
+- ``stopped early``: STOP called within 2 m of a goal but outside the success distance;
+- ``stuck``: no STOP before the step limit and the agent's log reports being stuck or oscillating;
+- ``timeout``: no STOP before the step limit otherwise.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from navbench.eval.runner import read_records
+
+WRONG_INSTANCE_DISTANCE = 2.0
+
+
+def failure_kind(r: dict) -> str | None:
+    if r.get("skipped") or r.get("success"):
+        return None
+    if r.get("stop_called"):
+        return "wrong instance" if r["distance_to_goal"] > WRONG_INSTANCE_DISTANCE else "stopped early"
+    events = {e.get("event") for e in (r.get("log") or {}).get("events", [])}
+    return "stuck" if events & {"stuck", "oscillating"} else "timeout"
+
+
+def breakdown(run_dirs: list[Path]) -> str:
+    rows, fails = [], []
+    for d in run_dirs:
+        recs = [r for r in read_records(Path(d) / "episodes.jsonl") if not r.get("skipped")]
+        if not recs:
+            continue
+        df = pd.DataFrame(recs)
+        name = f"{recs[0]['agent']} / {recs[0]['split']}"
+        per_cat = df.groupby("object_category").agg(episodes=("success", "size"), SR=("success", "mean"),
+                                                    SPL=("spl", "mean"))
+        per_cat[["SR", "SPL"]] *= 100
+        per_cat.insert(0, "run", name)
+        rows.append(per_cat.reset_index())
+        kinds = pd.Series([failure_kind(r) for r in recs]).value_counts()
+        fails.append({"run": name, "episodes": len(recs), **{k: int(kinds.get(k, 0)) for k in
+                      ("wrong instance", "stopped early", "stuck", "timeout")}})
+    out = ["## Failure breakdown (episodes)\n", pd.DataFrame(fails).set_index("run").to_markdown(), "",
+           "## Per-category SR / SPL (%)\n", pd.concat(rows).set_index(["run", "object_category"])
+           .to_markdown(floatfmt=".1f"), ""]
+    return "\n".join(out)
+
+
+if __name__ == "__main__":
+    print(breakdown([Path(p) for p in sys.argv[1:]]))
