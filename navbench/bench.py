@@ -58,16 +58,22 @@ def _bench_dataset(scene: Path, grid: NavGrid, n: int = 20) -> EpisodeDataset:
     return EpisodeDataset(episodes=eps)
 
 
-def env_steps_per_s(scene: Path, config: EnvConfig, seconds: float) -> float:
+def _env(scene: Path, config: EnvConfig) -> PointNavEnv:
     _, grid = load_scene_and_navgrid(scene)
     env = PointNavEnv(_bench_dataset(scene, grid), scene_dir="/", config=config)
-    rng = np.random.default_rng(0)
     env.reset(seed=0)
-    for _ in range(20):  # warm-up: shader compile, first-frame allocation
+    return env
+
+
+def _timed_steps(env: PointNavEnv, rng: np.random.Generator, seconds: float, barrier=None) -> float:
+    """Steps/s of random moves (never STOP, so it measures steps rather than resets), after a warm-up
+    (shader compile, first-frame allocation); with a barrier, timing starts when all processes are ready."""
+    for _ in range(20):
         env.step(int(rng.integers(1, 4)))
+    if barrier is not None:
+        barrier.wait()
     steps, t0 = 0, time.perf_counter()
     while time.perf_counter() - t0 < seconds:
-        # random moves, never STOP, so this measures steps rather than resets
         _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
         steps += 1
         if term or trunc:
@@ -77,23 +83,13 @@ def env_steps_per_s(scene: Path, config: EnvConfig, seconds: float) -> float:
     return rate
 
 
+def env_steps_per_s(scene: Path, config: EnvConfig, seconds: float) -> float:
+    return _timed_steps(_env(scene, config), np.random.default_rng(0), seconds)
+
+
 def _proc_worker(scene: str, config: EnvConfig, seconds: float, barrier, queue) -> None:
-    os.environ["LP_NUM_THREADS"] = "1"
-    _, grid = load_scene_and_navgrid(Path(scene))
-    env = PointNavEnv(_bench_dataset(Path(scene), grid), scene_dir="/", config=config)
-    env.reset(seed=0)
-    rng = np.random.default_rng(os.getpid())
-    for _ in range(20):
-        env.step(int(rng.integers(1, 4)))
-    barrier.wait()
-    steps, t0 = 0, time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
-        _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
-        steps += 1
-        if term or trunc:
-            env.reset()
-    queue.put(steps / (time.perf_counter() - t0))
-    env.close()
+    os.environ["LP_NUM_THREADS"] = "1"  # one llvmpipe thread per process: the processes share the cores
+    queue.put(_timed_steps(_env(Path(scene), config), np.random.default_rng(os.getpid()), seconds, barrier))
 
 
 def multiprocess_steps_per_s(scene: Path, config: EnvConfig, seconds: float, procs: int = 2) -> float:

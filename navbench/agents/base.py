@@ -6,6 +6,7 @@ rendering the rest) and ``episode_log()`` (decisions to record in ``episodes.jso
 
 from __future__ import annotations
 
+import math
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -38,3 +39,21 @@ class PoseTracker:
 
     def __call__(self, observations: dict[str, np.ndarray]) -> tuple[np.ndarray, float]:
         return world_pose(observations["gps"], observations["compass"], self.start_position, self.start_yaw)
+
+
+def xz_dist(a: np.ndarray, b: np.ndarray) -> float:
+    """Distance in the floor plane (navigation thresholds are all measured in xz)."""
+    return math.hypot(float(a[0] - b[0]), float(a[2] - b[2]))
+
+
+def xz_dists(points: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return np.hypot(points[:, 0] - p[0], points[:, 2] - p[2])
+
+
+def log_value(v: Any) -> Any:
+    """A decision-log value as compact JSON: floats and arrays rounded to millimetres."""
+    if isinstance(v, (float, np.floating)):
+        return round(float(v), 3)
+    if isinstance(v, np.ndarray):
+        return [round(float(x), 3) for x in v.ravel()]
+    return v

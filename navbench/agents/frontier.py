@@ -46,7 +46,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import PoseTracker
+from navbench.agents.base import PoseTracker, log_value, xz_dist, xz_dists
 from navbench.agents.memory_agent import StepPolicy
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
@@ -123,7 +123,7 @@ class FrontierAgent:
         return self.log
 
     def _event(self, kind: str, **data: Any) -> None:
-        self.log["events"].append({"step": self.step, "event": kind, **{k: _round(v) for k, v in data.items()}})
+        self.log["events"].append({"step": self.step, "event": kind, **{k: log_value(v) for k, v in data.items()}})
 
     # --------------------------------------------------------------------------------- perception
     def depth_metres(self, obs: dict[str, np.ndarray]) -> np.ndarray:
@@ -160,7 +160,7 @@ class FrontierAgent:
         if not len(points):
             return
         for b in self.target_blacklist:  # points of abandoned (unreachable) targets stay abandoned
-            points = points[_xz_dists(points, b) > self.config.target_cluster_eps]
+            points = points[xz_dists(points, b) > self.config.target_cluster_eps]
         if not len(points):
             return
         if self.log["first_detection_step"] is None:
@@ -190,7 +190,7 @@ class FrontierAgent:
         position, yaw = self._pose(observations)
         self.positions.append(position)
         if self.last_action == MOVE_FORWARD and len(self.positions) > 1 and \
-                _xz_dist(position, self.positions[-2]) < 0.25 * env.forward_step:
+                xz_dist(position, self.positions[-2]) < 0.25 * env.forward_step:
             # A forward step that did not move hit something (perhaps too near or too low for the depth camera):
             # the agent knows that from its own odometry, so it maps an obstacle just ahead.
             self.map.mark_occupied(position + (env.agent_radius + 0.05) * heading_vector(yaw))
@@ -262,7 +262,7 @@ class FrontierAgent:
         reason = None
         if self.frontier is None:
             reason = "none"
-        elif _xz_dist(position, self.frontier.goal) < cfg.frontier_reached:
+        elif xz_dist(position, self.frontier.goal) < cfg.frontier_reached:
             reason = "reached"
         else:
             same = self._matching(frontiers, self.frontier)
@@ -282,7 +282,7 @@ class FrontierAgent:
             # Standing at a frontier normally reveals what lies beyond it; one that survives that cannot be
             # cleared from here (unknown pockets behind furniture, gaps the camera never sees): give it up.
             self.blacklist.append(self.frontier.goal)
-            frontiers = [f for f in frontiers if _xz_dist(f.goal, self.frontier.goal) >= cfg.blacklist_radius]
+            frontiers = [f for f in frontiers if xz_dist(f.goal, self.frontier.goal) >= cfg.blacklist_radius]
             if not frontiers:
                 self.frontier = None
                 return
@@ -298,7 +298,7 @@ class FrontierAgent:
         """The cluster that still contains a cell near the current goal (frontiers drift as the map grows)."""
         best, best_d = None, self.config.frontier_match
         for f in frontiers:
-            d = float(np.min(_xz_dists(self.map.to_world(f.cells), current.goal)))
+            d = float(np.min(xz_dists(self.map.to_world(f.cells), current.goal)))
             if d <= best_d:
                 best, best_d = f, d
         return best
@@ -307,12 +307,12 @@ class FrontierAgent:
     def _approach(self, obs: dict[str, np.ndarray], clusters: list[np.ndarray], position: np.ndarray,
                   yaw: float) -> int:
         cfg = self.config
-        cluster = min(clusters, key=lambda c: float(np.min(_xz_dists(c, position))))
-        goal = cluster[int(np.argmin(_xz_dists(cluster, position)))]
-        if self.goal is None or _xz_dist(goal, self.goal) > 0.5:
+        cluster = min(clusters, key=lambda c: float(np.min(xz_dists(c, position))))
+        goal = cluster[int(np.argmin(xz_dists(cluster, position)))]
+        if self.goal is None or xz_dist(goal, self.goal) > 0.5:
             self._event("target", goal=goal, points=len(cluster), clusters=len(clusters))
         self.goal = goal
-        dist = _xz_dist(position, goal)
+        dist = xz_dist(position, goal)
         depth = self.depth_metres(obs)
         if dist >= cfg.stop_radius:
             self.overrides = 0
@@ -334,7 +334,7 @@ class FrontierAgent:
         if self._stuck(position):
             self._event("stuck_abandon_target", goal=goal)
             self.target_blacklist.append(goal)
-            self.target_points = self.target_points[_xz_dists(self.target_points, goal) > cfg.target_cluster_eps]
+            self.target_points = self.target_points[xz_dists(self.target_points, goal) > cfg.target_cluster_eps]
             self.positions = [position]
             self.goal = self.waypoint = None
             self.mode = "explore"
@@ -345,7 +345,7 @@ class FrontierAgent:
         cells = np.argwhere(np.isfinite(field))
         target_cell = None
         if len(cells):
-            near = _xz_dists(self.map.to_world(cells), goal) < cfg.stop_radius * 0.8
+            near = xz_dists(self.map.to_world(cells), goal) < cfg.stop_radius * 0.8
             if near.any():
                 cand = cells[near]
                 target_cell = tuple(int(v) for v in cand[int(np.argmin(field[cand[:, 0], cand[:, 1]]))])
@@ -354,8 +354,8 @@ class FrontierAgent:
             # the frontier that minimises path distance + straight-line distance on to the target.
             field, frontiers = self._reachable_frontiers(position)
             if frontiers:
-                via = min(frontiers, key=lambda f: f.distance + _xz_dist(f.goal, goal))
-                if self.frontier is None or _xz_dist(via.goal, self.frontier.goal) > cfg.frontier_match:
+                via = min(frontiers, key=lambda f: f.distance + xz_dist(f.goal, goal))
+                if self.frontier is None or xz_dist(via.goal, self.frontier.goal) > cfg.frontier_match:
                     self._event("approach_via_frontier", frontier=via.goal, goal=goal)
                     self.waypoint = None
                 self.frontier = via
@@ -367,10 +367,10 @@ class FrontierAgent:
                goal_cell: tuple[int, int] | None, position: np.ndarray, yaw: float) -> int:
         """One policy step toward ``goal`` via a held waypoint on the map path (``goal_cell`` in ``field``)."""
         cfg = self.config
-        if self.waypoint is None or _xz_dist(position, self.waypoint) < cfg.waypoint_reached or \
+        if self.waypoint is None or xz_dist(position, self.waypoint) < cfg.waypoint_reached or \
                 (self.step - self.frontier_since) % cfg.replan_every == 0:
             wp = self._waypoint(goal, field, goal_cell, position)
-            if self.waypoint is None or _xz_dist(wp, self.waypoint) > 0.1:
+            if self.waypoint is None or xz_dist(wp, self.waypoint) > 0.1:
                 self.policy.reset_hidden()  # a new goal for the policy
             self.waypoint = wp
         pointgoal = pointgoal_polar(self.waypoint, position, yaw)
@@ -397,7 +397,7 @@ class FrontierAgent:
         clear = self.map.traversable(self.map.config.agent_radius)
         pts = self.map.to_world(path)
         i = next((j for j in range(last, 0, -1) if self.map.line_of_sight(position, pts[j], clear)), min(last, 1))
-        if i == len(path) - 1 and _xz_dist(pts[i], goal) < cfg.stop_radius:
+        if i == len(path) - 1 and xz_dist(pts[i], goal) < cfg.stop_radius:
             return np.asarray(goal, np.float64)  # the goal is in reach: aim at it (frontier or object point)
         return pts[i]
 
@@ -405,24 +405,9 @@ class FrontierAgent:
         cfg = self.config
         if len(self.positions) <= cfg.stuck_window:
             return False
-        progress = _xz_dist(position, self.positions[-1 - cfg.stuck_window])
+        progress = xz_dist(position, self.positions[-1 - cfg.stuck_window])
         if progress < cfg.stuck_progress:
             self.positions = [position]
             return True
         return False
 
-
-def _xz_dist(a: np.ndarray, b: np.ndarray) -> float:
-    return math.hypot(float(a[0] - b[0]), float(a[2] - b[2]))
-
-
-def _xz_dists(points: np.ndarray, p: np.ndarray) -> np.ndarray:
-    return np.hypot(points[:, 0] - p[0], points[:, 2] - p[2])
-
-
-def _round(v: Any) -> Any:
-    if isinstance(v, (float, np.floating)):
-        return round(float(v), 3)
-    if isinstance(v, np.ndarray):
-        return [round(float(x), 3) for x in v.ravel()]
-    return v

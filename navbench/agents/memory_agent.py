@@ -21,14 +21,13 @@ Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
-from navbench.agents.base import PoseTracker
+from navbench.agents.base import PoseTracker, log_value, xz_dist, xz_dists
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import Episode
@@ -81,7 +80,7 @@ class MemoryAgent:
         self._pose.reset(episode)
         start = np.asarray(episode.start_position, np.float64)
         cands = self.localize(episode)
-        self.candidates = sorted(cands, key=lambda c: _xz_dist(c.centre, start))
+        self.candidates = sorted(cands, key=lambda c: xz_dist(c.centre, start))
         rng = np.random.default_rng(0)  # deterministic subsample of each cloud
         self._clouds = [c.points[rng.permutation(len(c.points))[:self.config.max_projected_points]]
                         if len(c.points) > self.config.max_projected_points else c.points for c in self.candidates]
@@ -100,14 +99,14 @@ class MemoryAgent:
         cloud = self._clouds[self.current]
         if len(cloud) == 0:
             return np.asarray(self.candidates[self.current].centre, np.float64)
-        return cloud[int(np.argmin(_xz_dists(cloud, position)))]
+        return cloud[int(np.argmin(xz_dists(cloud, position)))]
 
     def episode_log(self) -> dict[str, Any]:
         return self.log
 
     def _event(self, kind: str, **data: Any) -> None:
         self.log["events"].append({"step": self.step, "event": kind,
-                                   **{k: _round(v) for k, v in data.items()}})
+                                   **{k: log_value(v) for k, v in data.items()}})
 
     # --------------------------------------------------------------------------------- perception
     def depth_metres(self, obs: dict[str, np.ndarray]) -> np.ndarray:
@@ -148,15 +147,15 @@ class MemoryAgent:
         visible, in_view = self.visibility(self._clouds[self.current], depth, position, yaw)
 
         if cfg.goal_tracking and len(visible):
-            nearest = visible[int(np.argmin(_xz_dists(visible, position)))]
-            moved = _xz_dist(nearest, self.goal)
-            near = _xz_dist(position, self.goal) < cfg.near_radius
+            nearest = visible[int(np.argmin(xz_dists(visible, position)))]
+            moved = xz_dist(nearest, self.goal)
+            near = xz_dist(position, self.goal) < cfg.near_radius
             if moved >= (cfg.goal_update_near if near else cfg.goal_update_far):
                 self.goal = nearest
                 self.policy.reset_hidden()
                 self._event("goal_update", goal=nearest, moved=moved)
 
-        dist = _xz_dist(position, self.goal)
+        dist = xz_dist(position, self.goal)
         visible_ok = self._passes(visible, in_view)
         if dist < cfg.stop_radius and (visible_ok or not cfg.visibility_stop):
             self._event("stop", candidate=self.current, distance=dist)
@@ -164,7 +163,7 @@ class MemoryAgent:
         for j, cloud in enumerate(self._clouds):  # opportunistic: another candidate right here
             if j == self.current or not len(cloud):
                 continue
-            if np.min(_xz_dists(cloud, position)) < cfg.stop_radius:
+            if np.min(xz_dists(cloud, position)) < cfg.stop_radius:
                 vis_j, n_j = self.visibility(cloud, depth, position, yaw)
                 if self._passes(vis_j, n_j):
                     self._event("opportunistic_stop", candidate=j)
@@ -192,7 +191,7 @@ class MemoryAgent:
     def _stuck_or_oscillating(self) -> bool:
         cfg = self.config
         if len(self.positions) > cfg.stuck_window:
-            progress = _xz_dist(self.positions[-1], self.positions[-1 - cfg.stuck_window])
+            progress = xz_dist(self.positions[-1], self.positions[-1 - cfg.stuck_window])
             if progress < cfg.stuck_progress:
                 self._event("stuck", progress=progress)
                 return True
@@ -206,7 +205,7 @@ class MemoryAgent:
         """Next nearest remaining candidate (from here), fresh policy memory and history."""
         remaining = list(range(self.current + 1, len(self.candidates)))
         # Re-sort the untried candidates by distance from where the agent now is.
-        remaining.sort(key=lambda j: _xz_dist(self.candidates[j].centre, position))
+        remaining.sort(key=lambda j: xz_dist(self.candidates[j].centre, position))
         nxt = remaining[0]
         order = list(range(self.current + 1)) + remaining
         self.candidates = [self.candidates[j] for j in order]
@@ -219,18 +218,3 @@ class MemoryAgent:
         self.policy.reset_hidden()
         self._event("switch", to=self.current, from_index=nxt, goal=self.goal)
 
-
-def _xz_dist(a: np.ndarray, b: np.ndarray) -> float:
-    return math.hypot(float(a[0] - b[0]), float(a[2] - b[2]))
-
-
-def _xz_dists(points: np.ndarray, p: np.ndarray) -> np.ndarray:
-    return np.hypot(points[:, 0] - p[0], points[:, 2] - p[2])
-
-
-def _round(v: Any) -> Any:
-    if isinstance(v, (float, np.floating)):
-        return round(float(v), 3)
-    if isinstance(v, np.ndarray):
-        return [round(float(x), 3) for x in v.ravel()]
-    return v
