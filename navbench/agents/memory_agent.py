@@ -194,10 +194,13 @@ class MemoryAgent:
             progress = xz_dist(self.positions[-1], self.positions[-1 - cfg.stuck_window])
             if progress < cfg.stuck_progress:
                 self._event("stuck", progress=progress)
+                # start a fresh window: one event per stuck period, not one per step
+                self.positions = self.positions[-1:]
                 return True
         t = self.turns[-cfg.oscillation_window:]
         if len(t) == cfg.oscillation_window and all(a != b for a, b in zip(t, t[1:])):
             self._event("oscillating")
+            self.turns.clear()
             return True
         return False
 

@@ -178,3 +178,11 @@ def test_pointgoal_to_goal_is_polar_in_agent_frame():
     rho, theta = policy.last_goal
     assert rho == pytest.approx(np.hypot(*agent.goal[[0, 2]]), abs=1e-5)
     assert abs(theta) < 0.2  # the patch is straight ahead
+
+
+def test_stuck_is_reported_once_per_window_when_no_candidate_is_left():
+    agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT)
+    for _ in range(95):
+        agent.act(obs_at(wall_depth(0.5)))
+    stuck = [e for e in agent.episode_log()["events"] if e["event"] == "stuck"]
+    assert len(stuck) == 3  # steps 31, 61, 91: one per 30-step window
