@@ -12,6 +12,7 @@ A failed episode is classified from its record (and the agent's decision log whe
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -38,7 +39,9 @@ def breakdown(run_dirs: list[Path]) -> str:
         if not recs:
             continue
         df = pd.DataFrame(recs)
-        name = f"{recs[0]['agent']} / {recs[0]['split']}"
+        summary = Path(d) / "summary.json"  # its agent is the run's label (e.g. memory-norerank)
+        agent = json.loads(summary.read_text())["agent"] if summary.is_file() else recs[0]["agent"]
+        name = f"{agent} / {recs[0]['split']}"
         per_cat = df.groupby("object_category").agg(episodes=("success", "size"), SR=("success", "mean"),
                                                     SPL=("spl", "mean"))
         per_cat[["SR", "SPL"]] *= 100
