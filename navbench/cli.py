@@ -45,16 +45,21 @@ def make_pointnav(cfg):
     return PointNavAgent(cfg.agent_options.get("checkpoint"))
 
 
+def scan_config(keyframe_res: str, all_frames: bool):
+    """The pre-scan for a ``--keyframe-res`` choice: the agent's 224x224 camera stored as rendered or
+    downsampled to 160x120, or a 640x480 phone-like scan camera; ``all_frames`` keeps every frame."""
+    from navbench.memory.prescan import PrescanConfig
+    scan = {"full": PrescanConfig(), "160x120": PrescanConfig(store_resolution=(160, 120)),
+            "640x480": PrescanConfig(width=640, height=480)}[keyframe_res]
+    return dataclasses.replace(scan, keyframes=not all_frames)
+
+
 def _perception_config(cfg):
     from navbench.agents.perceive import PerceptionConfig
     from navbench.localize.benchmark import ModelDirs
-    from navbench.memory.prescan import PrescanConfig
 
     o = cfg.agent_options
-    res = o.get("keyframe_res", "full")
-    scan = {"full": PrescanConfig(), "160x120": PrescanConfig(store_resolution=(160, 120)),
-            "640x480": PrescanConfig(width=640, height=480)}[res]
-    scan = dataclasses.replace(scan, keyframes=not o.get("all_frames", False))
+    scan = scan_config(o.get("keyframe_res", "full"), o.get("all_frames", False))
     models = ModelDirs(**{k: Path(v) for k, v in o.get("models", {}).items()})
     return PerceptionConfig(perception=o.get("perception", "oracle"), noise=o.get("noise", "none"),
                             fusion=o.get("fusion", True), rerank=o.get("rerank", True), prescan=scan,
@@ -210,15 +215,13 @@ def cmd_train(args) -> int:
 def cmd_memory(args) -> int:
     from navbench.localize.backends.oracle import NoiseProfile
     from navbench.localize.benchmark import PERCEPTION, ModelDirs
-    from navbench.memory.prescan import PrescanConfig, build_memory
+    from navbench.memory.prescan import build_memory
     from navbench.scene.asset import load_scene
 
     scene = Path(args.scene)
     if not scene.is_file():
         scene = SCENES_DIR / args.scene
-    scan = {"full": PrescanConfig(), "160x120": PrescanConfig(store_resolution=(160, 120)),
-            "640x480": PrescanConfig(width=640, height=480)}[args.keyframe_res]
-    scan = dataclasses.replace(scan, keyframes=not args.all_frames)
+    scan = scan_config(args.keyframe_res, args.all_frames)
     encoder = PERCEPTION[args.perception](load_scene(scene), NoiseProfile(), ModelDirs(
         siglip2=Path(args.siglip2) if args.siglip2 else None)).encoder
     out = Path(args.out or Path("runs") / "memory" / scene.name.split(".")[0])

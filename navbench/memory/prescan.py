@@ -34,7 +34,7 @@ import numpy as np
 
 from navbench.memory.index import EmbeddingIndex
 from navbench.memory.keyframes import select_keyframes
-from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig
+from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig, read_versioned_json
 from navbench.paths import cache_dir
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, scene_digest
@@ -292,15 +292,7 @@ class Memory:
     @classmethod
     def open(cls, directory: str | Path) -> "Memory":
         directory = Path(directory)
-        path = directory / MEMORY_FILE
-        try:
-            info = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise PrescanError(f"no memory at {directory} ({MEMORY_FILE} missing)") from None
-        except (OSError, json.JSONDecodeError) as e:
-            raise PrescanError(f"unreadable memory file {path}: {e}") from None
-        if info.get("version") != MEMORY_VERSION:
-            raise PrescanError(f"{path}: unsupported memory version {info.get('version')!r}")
+        info = read_versioned_json(directory / MEMORY_FILE, MEMORY_VERSION, PrescanError, "memory")
         index = None if info.get("encoder") is None else EmbeddingIndex.load(directory)
         return cls(directory, KeyframeStore.open(directory), index, info)
 

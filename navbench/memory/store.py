@@ -201,6 +201,20 @@ def _check_frame(i: int, frame: Frame) -> tuple[int, int]:
     return w, h
 
 
+def read_versioned_json(path: Path, version: int, error: type[ValueError], what: str) -> dict:
+    """A JSON document with a ``version`` field, or ``error`` naming the file and what is wrong."""
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise error(f"no {what} at {path.parent} ({path.name} missing)") from None
+    except (OSError, json.JSONDecodeError) as e:
+        raise error(f"unreadable {what} file {path}: {e}") from None
+    if not isinstance(doc, dict) or doc.get("version") != version:
+        found = doc.get("version") if isinstance(doc, dict) else None
+        raise error(f"{path}: unsupported {what} version {found!r} (expected {version})")
+    return doc
+
+
 class KeyframeStore:
     """Read access to a keyframe directory; images load lazily, one file per call."""
 
@@ -315,14 +329,7 @@ class KeyframeStore:
     def open(cls, directory: str | Path) -> "KeyframeStore":
         directory = Path(directory)
         path = directory / STORE_FILE
-        try:
-            doc = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise StoreError(f"no keyframe store at {directory} ({STORE_FILE} missing)") from None
-        except (OSError, json.JSONDecodeError) as e:
-            raise StoreError(f"unreadable keyframe store file {path}: {e}") from None
-        if doc.get("version") != STORE_VERSION:
-            raise StoreError(f"{path}: unsupported store version {doc.get('version')!r} (expected {STORE_VERSION})")
+        doc = read_versioned_json(path, STORE_VERSION, StoreError, "keyframe store")
         try:
             records = [KeyframeRecord.from_json(d) for d in doc["keyframes"]]
             config = StoreConfig(**doc["config"])
