@@ -312,3 +312,12 @@ def test_distance_inside_a_dense_goal_region_is_never_negative():
         assert field.distance(np.array(p)) == pytest.approx(nearest, abs=0.04)  # within a cell
     # outside the region: the distance to the region's edge
     assert field.distance(np.array([2.0, 0, 0.0])) == pytest.approx(2.0 - 0.95, abs=0.03)
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.013, 0.025, 0.037])
+def test_wall_end_accuracy_holds_at_sub_cell_alignments(offset):
+    """The 2% bound must not depend on where the wall falls between grid cells."""
+    g = NavGrid.from_mesh(scene(floor(6, 6), wall_x(3.0 + offset, 0.0, 4.0 + offset)))
+    for a, b in ((P(1.5, 1.5), P(4.5, 1.5)), (P(0.8, 3.0), P(5.2, 0.7))):
+        exact = around_wall_end(a, b, 2.95 + offset, 3.05 + offset, 4.0 + offset, R)
+        assert g.geodesic_distance(a, b) == pytest.approx(exact, rel=0.02)
