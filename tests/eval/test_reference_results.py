@@ -1,0 +1,23 @@
+"""Slow: the committed reference records are reproduced by their commands (run with `make test-slow`)."""
+
+import json
+
+import pytest
+
+from navbench.cli import make_oracle, make_pointnav
+from navbench.eval.runner import RunConfig, read_records, run
+from navbench.paths import RESULTS_DIR
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("run_name,factory", [("pointnav_val", make_pointnav), ("oracle_val_unseen", make_oracle)])
+def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path):
+    ref_dir = RESULTS_DIR / "runs" / run_name
+    cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
+                       if k in RunConfig.__dataclass_fields__})
+    cfg.limit, cfg.workers = 8, 1
+    run(cfg, factory, tmp_path / "run")
+    ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
+    for r in read_records(tmp_path / "run" / "episodes.jsonl"):
+        for k in ("success", "spl", "soft_spl", "distance_to_goal", "num_steps", "path_length"):
+            assert r[k] == ref[r["episode_id"]][k], (r["episode_id"], k)
