@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -57,7 +58,9 @@ def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConf
             pass  # a stale or partial cache file is rebuilt below
     grid = NavGrid.from_mesh(asset.mesh, config)
     if use_cache:
-        tmp = cached.with_name(cached.stem + ".tmp.npz")
+        # A per-process temporary name: parallel workers may build the same grid at once, and each
+        # must rename its own complete file into place (the last rename wins; both are identical).
+        tmp = cached.with_name(f"{cached.stem}.{os.getpid()}.tmp.npz")
         grid.save(tmp)
         tmp.replace(cached)
     return asset, grid
