@@ -50,7 +50,7 @@ from navbench.agents.base import PoseTracker, log_value, xz_dist, xz_dists
 from navbench.agents.memory_agent import StepPolicy
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
-from navbench.env.sensors import pointgoal_polar
+from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.geometry import project, voxel_downsample, world_to_camera
 from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
@@ -128,8 +128,7 @@ class FrontierAgent:
     # --------------------------------------------------------------------------------- perception
     def depth_metres(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         c = self.env_config
-        d = obs["depth"][..., 0].astype(np.float64)
-        return d * (c.max_depth - c.min_depth) + c.min_depth if c.normalize_depth else d
+        return depth_metres(obs["depth"], c.min_depth, c.max_depth, c.normalize_depth)
 
     def _depth_normalised(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         c = self.env_config

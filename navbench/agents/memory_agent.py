@@ -29,7 +29,7 @@ import numpy as np
 
 from navbench.agents.base import PoseTracker, log_value, xz_dist, xz_dists
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
-from navbench.env.sensors import pointgoal_polar
+from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import project, world_to_camera
@@ -111,8 +111,7 @@ class MemoryAgent:
     # --------------------------------------------------------------------------------- perception
     def depth_metres(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         c = self.env_config
-        d = obs["depth"][..., 0].astype(np.float64)
-        return d * (c.max_depth - c.min_depth) + c.min_depth if c.normalize_depth else d
+        return depth_metres(obs["depth"], c.min_depth, c.max_depth, c.normalize_depth)
 
     def visibility(self, cloud: np.ndarray, depth: np.ndarray, position: np.ndarray, yaw: float
                    ) -> tuple[np.ndarray, int]:

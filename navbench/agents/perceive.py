@@ -17,6 +17,7 @@ import numpy as np
 
 from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
+from navbench.env.sensors import depth_metres
 from navbench.episodes.types import Episode
 from navbench.localize.backends.oracle import noise_profile
 from navbench.localize.benchmark import PERCEPTION, ModelDirs
@@ -100,9 +101,9 @@ class LiveDetector:
         mask, _ = self.segmenter.segment(image, self.query)
         if mask is None or not mask.any():
             return np.zeros((0, 3))
-        d = observations["depth"][..., 0].astype(np.float64)
-        depth = d * (c.max_depth - c.min_depth) + c.min_depth if c.normalize_depth else d
-        depth = np.where(d > 0, depth, 0.0)  # 0 = nothing measured (too near or nothing hit)
+        raw = observations["depth"][..., 0]
+        depth = depth_metres(observations["depth"], c.min_depth, c.max_depth, c.normalize_depth)
+        depth = np.where(raw > 0, depth, 0.0)  # 0 = nothing measured (too near or nothing hit)
         if not keep_view(depth, mask, GeometryConfig()):
             return np.zeros((0, 3))
         position, yaw = pose

@@ -49,3 +49,10 @@ def world_pose(gps_obs: np.ndarray, compass_obs: np.ndarray, start_position: np.
     The returned position is on the start's floor level (y of the start)."""
     offset = from_agent_frame(float(gps_obs[0]), float(gps_obs[1]), start_yaw)
     return np.asarray(start_position, np.float64) + offset, wrap_angle(start_yaw + float(compass_obs[0]))
+
+
+def depth_metres(depth_obs: np.ndarray, min_depth: float, max_depth: float, normalized: bool) -> np.ndarray:
+    """The depth sensor's (H, W, 1) observation back in metres (H, W), float64. Pixels the sensor
+    clipped to the minimum (nothing measured, or nearer than ``min_depth``) come back as ``min_depth``."""
+    d = depth_obs[..., 0].astype(np.float64)
+    return d * (max_depth - min_depth) + min_depth if normalized else d
