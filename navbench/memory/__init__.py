@@ -20,7 +20,6 @@ from navbench.memory.store import (
     StoreConfig,
     StoreError,
     StoreStats,
-    pose_matrix,
 )
 
 __all__ = [
@@ -44,7 +43,6 @@ __all__ = [
     "l2_normalize",
     "load_or_build_memory",
     "plan_trajectory",
-    "pose_matrix",
     "rotation_angle_deg",
     "select_keyframes",
 ]

@@ -32,9 +32,9 @@ from typing import Any
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from navbench.memory.keyframes import KeyframeSelector
+from navbench.render.renderer import camera_pose
 
 STORE_VERSION = 1
 STORE_FILE = "keyframes.json"
@@ -79,14 +79,6 @@ class Intrinsics:
     @classmethod
     def from_json(cls, d: dict) -> "Intrinsics":
         return cls(float(d["fx"]), float(d["fy"]), float(d["cx"]), float(d["cy"]), int(d["width"]), int(d["height"]))
-
-
-def pose_matrix(position, rotation) -> np.ndarray:
-    """Camera-to-world 4x4 from a position [x, y, z] and a rotation quaternion [x, y, z, w]."""
-    T = np.eye(4)
-    T[:3, :3] = Rotation.from_quat(np.asarray(rotation, dtype=np.float64)).as_matrix()
-    T[:3, 3] = np.asarray(position, dtype=np.float64)
-    return T
 
 
 @dataclass
@@ -295,7 +287,7 @@ class KeyframeStore:
                 n_bytes += _imwrite(directory / instance_file, _ids_to_png(ids, i))
             position = np.asarray(frame.position, dtype=np.float64)
             rotation = np.asarray(frame.rotation, dtype=np.float64)
-            records.append(KeyframeRecord(k, i, position, rotation, pose_matrix(position, rotation), intr,
+            records.append(KeyframeRecord(k, i, position, rotation, camera_pose(position, rotation), intr,
                                           names["rgb"], names["depth"], instance_file))
         if not records:
             raise StoreError(f"no frames were given for the keyframe store at {directory}")

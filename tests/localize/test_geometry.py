@@ -6,13 +6,14 @@ from scipy.spatial.transform import Rotation
 
 from navbench.localize import GeometryConfig, backproject, keep_view, median_masked_depth, project, world_to_camera
 from navbench.localize.geometry import voxel_downsample
-from navbench.memory import Intrinsics, pose_matrix
+from navbench.memory import Intrinsics
+from navbench.render.renderer import camera_pose
 
 INTR = Intrinsics.from_hfov(224, 224, 79.0)
 
 
 def camera(position, yaw_deg):
-    return pose_matrix(position, Rotation.from_euler("y", yaw_deg, degrees=True).as_quat())
+    return camera_pose(position, Rotation.from_euler("y", yaw_deg, degrees=True).as_quat())
 
 
 def test_fronto_parallel_wall_lands_at_the_right_world_coordinates():
@@ -103,7 +104,7 @@ def test_backprojected_render_of_a_tilted_wall_lands_on_the_wall_plane():
     # A wall plane through (0, 1, -2.5), turned 30 deg about y, seen from the origin at height 1.
     normal = np.array([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))])
     wall = trimesh.creation.box(extents=[8.0, 6.0, 0.1])
-    wall.apply_transform(pose_matrix([0.0, 1.0, -2.5 - 0.05 / np.cos(np.radians(30))],
+    wall.apply_transform(camera_pose([0.0, 1.0, -2.5 - 0.05 / np.cos(np.radians(30))],
                                      Rotation.from_euler("y", 30, degrees=True).as_quat()))
     wall.visual.vertex_colors = np.tile([200, 100, 50, 255], (len(wall.vertices), 1))
     asset = SceneAsset("wall", Path("wall.glb"), wall, np.full(len(wall.faces), -1, np.int32))
@@ -114,12 +115,12 @@ def test_backprojected_render_of_a_tilted_wall_lands_on_the_wall_plane():
     with Renderer(asset, cam) as renderer:
         depth = renderer.render(position, rotation, rgb=False, depth=True).depth
     assert (depth > 0).all()
-    pts = backproject(depth, None, intr.K, pose_matrix(position, rotation))
+    pts = backproject(depth, None, intr.K, camera_pose(position, rotation))
     # Signed distance of every point to the wall's front plane (through (0, 1, -2.5), normal towards us).
     dist = (pts - np.array([0.0, 1.0, -2.5])) @ normal
     assert np.abs(dist).max() < 0.01
     # Mixing in the other convention (principal point at W/2, H/2: half a pixel off) misses the plane.
     K_half = intr.K.copy()
     K_half[:2, 2] += 0.5
-    off = (backproject(depth, None, K_half, pose_matrix(position, rotation)) - np.array([0.0, 1.0, -2.5])) @ normal
+    off = (backproject(depth, None, K_half, camera_pose(position, rotation)) - np.array([0.0, 1.0, -2.5])) @ normal
     assert np.abs(off).max() > 0.01

@@ -14,7 +14,8 @@ from navbench.localize import (
     project,
     world_to_camera,
 )
-from navbench.memory import Intrinsics, pose_matrix
+from navbench.memory import Intrinsics
+from navbench.render.renderer import camera_pose
 
 INTR = Intrinsics.from_hfov(224, 224, 79.0)
 
@@ -118,7 +119,7 @@ def look_at_pose(position, target, offset_deg=0.0):
     ``offset_deg`` further left (so the target moves right in the image)."""
     d = np.asarray(target, float) - np.asarray(position, float)
     yaw = np.arctan2(-d[0], -d[2]) + np.radians(offset_deg)
-    return pose_matrix(position, Rotation.from_euler("y", yaw).as_quat())
+    return camera_pose(position, Rotation.from_euler("y", yaw).as_quat())
 
 
 def test_neighbour_keyframes():

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from navbench.memory import Frame, Intrinsics, KeyframeStore, StoreConfig, StoreError, pose_matrix
+
+from navbench.memory import Frame, Intrinsics, KeyframeStore, StoreConfig, StoreError
 
 W, H = 320, 240
 
@@ -35,7 +36,9 @@ def test_round_trip_png_exact_rgb_mm_depth_ids_and_poses(tmp_path):
         assert np.abs(depth - f.depth).max() <= 0.0005 + 1e-6  # millimetre rounding
         assert depth[0, 0] == 0.0
         assert np.array_equal(store.instance_ids(i), f.instance_ids)
-        assert np.allclose(store.pose(i), pose_matrix(f.position, f.rotation))
+        assert np.allclose(store.pose(i)[:3, 3], f.position)
+        assert np.allclose(store.pose(i)[:3, :3], Rotation.from_quat(f.rotation).as_matrix())
+        assert np.allclose(store.pose(i)[3], [0, 0, 0, 1])
         assert np.allclose(store.K(i), f.intrinsics.K)
     # camera-to-world puts the camera's -z axis along the rotated forward direction
     fwd = store.pose(1)[:3, :3] @ np.array([0.0, 0.0, -1.0])
