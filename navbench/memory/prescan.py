@@ -237,20 +237,14 @@ def plan_trajectory(asset: SceneAsset, grid: NavGrid, config: PrescanConfig = Pr
     for vi, (room, goal) in enumerate(viewpoints):
         if vi > 0:
             follower = GreedyFollower(grid, goal, config.success_distance, config.forward_step, config.turn_deg)
-            last = pos.copy()
             for _ in range(config.max_leg_actions):
                 action = follower.next_action(pos, quat_from_yaw(yaw))
                 if action == STOP:
-                    if math.isinf(follower.distance(pos)) and not np.array_equal(pos, last):
-                        # Landed on a cell boundary the geodesic field reads as the blocked side (see
-                        # room_viewpoints); back off a millimetre towards where we came from.
-                        pos = pos + 1e-3 * (last - pos) / np.linalg.norm(last - pos)
-                        continue
                     break
                 if action == MOVE_FORWARD:
                     new, _ = grid.try_step(pos, pos + config.forward_step * heading_vector(yaw))
                     emit(pos, new, yaw, yaw)
-                    last, pos = pos, new
+                    pos = new
                 else:
                     new_yaw = yaw + (turn if action == TURN_LEFT else -turn)
                     emit(pos, pos, yaw, new_yaw)
