@@ -215,11 +215,14 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
     complete = False
     try:
         with open(jsonl, "a") as fh:
+            recorded = [total - len(todo)]  # episodes of this selection already in the file
+
             def finish(rec):
                 records.append(rec)
                 _append(fh, rec)
+                recorded[0] += 1
                 if progress:
-                    progress(rec, len([r for r in records if (r["scene_id"], r["episode_id"]) in wanted]), total)
+                    progress(rec, recorded[0], total)
 
             if cfg.workers <= 1 or len(todo) <= 1:
                 _worker_init(cfg, make_agent, single_thread=False)
