@@ -7,7 +7,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-objectnav
+.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-objectnav train-pointnav
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -58,6 +58,20 @@ results-localize: setup
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --out results/localize/oracle_heavy_fusion
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --no-fusion --out results/localize/oracle_heavy_single
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
+
+# How policies/pointnav_navbench.pth is trained (model card: policies/README.md). Two stages, each
+# resumable (rerun the same line after a kill, with --resume): 1. the whole network on short chunks
+# with the free-space auxiliary loss, to train the depth encoder; 2. the encoder frozen, the rest on
+# whole DAgger episodes from cached encoder features.
+STAGE1_ITERS ?= 5
+STAGE2_ITERS ?= 10
+train-pointnav: setup
+	$(BIN)/navbench train pointnav --train-encoder --truncated --chunk-len 8 --batch-chunks 16 \
+	  --iterations $(STAGE1_ITERS) --frames-per-iteration 6000 --epochs-per-iteration 3 --val-episodes 0 \
+	  --out runs/pointnav_stage1/stage1.pth --state-dir runs/pointnav_stage1/state
+	$(BIN)/navbench train pointnav --init runs/pointnav_stage1/stage1.pth --beta0 0.5 \
+	  --iterations $(STAGE2_ITERS) --frames-per-iteration 6000 --epochs-per-iteration 16 \
+	  --out policies/pointnav_navbench.pth --state-dir runs/pointnav_stage2/state
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
 results-pointnav: setup

@@ -306,6 +306,12 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--num-envs", type=int)
     tr.add_argument("--val-episodes", type=int)
     tr.add_argument("--epochs-per-iteration", type=float)
+    tr.add_argument("--train-encoder", dest="freeze_visual", action="store_false", default=None,
+                    help="train the visual encoder too (truncated chunks + free-space auxiliary loss)")
+    tr.add_argument("--truncated", dest="full_episodes", action="store_false", default=None,
+                    help="train on chunks of --chunk-len steps instead of whole episodes")
+    tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
+    tr.add_argument("--max-episode-steps", type=int)
     tr.add_argument("--chunk-len", type=int)
     tr.add_argument("--batch-chunks", type=int)
     tr.add_argument("--lr", type=float)

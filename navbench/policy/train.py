@@ -1,5 +1,6 @@
 """Train the PointNav policy on CPU by imitating the geodesic oracle, with DAgger.
 
+    make train-pointnav        # the two-stage recipe behind policies/pointnav_navbench.pth
     navbench train pointnav --out policies/pointnav_navbench.pth        # resumable: add --resume
 
 Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the policy reads) on the
@@ -8,14 +9,16 @@ iteration, decaying) and the learner's otherwise, plus occasional random turns/m
 covers recovery from off-path states; every step is labelled with the oracle's action from the
 state actually reached (DAgger). Frames join an aggregated buffer (depth stored 2x2-pooled as
 uint8: the network average-pools 2x2 first, so this loses only quantisation) and the network is
-trained on random chunks of episodes with truncated BPTT, cross-entropy with inflection weighting
-(steps where the oracle changes its action, including STOP, weigh more). After every iteration it
-evaluates on bundled PointNav ``val`` episodes, logs to CSV and writes a resumable checkpoint.
+trained with cross-entropy and inflection weighting (steps where the oracle changes its action,
+including STOP, weigh more) on whole episodes from their first step (default) or on short chunks
+that start from a zero recurrent state (``--truncated``). After every iteration it evaluates on
+bundled PointNav ``val`` episodes, logs to CSV and writes a resumable checkpoint.
 
 By default (``freeze_visual``) the visual encoder is not trained: frames are encoded once and the
 rest of the network trains on the cached encoder outputs, ~50x cheaper per update on 2 cores. Start
-from a checkpoint whose encoder was trained with ``--init PATH`` (the model card in ``policies/``
-says how the shipped checkpoint was made).
+from a checkpoint whose encoder was trained (``--init PATH``). ``--train-encoder`` trains the whole
+network, with an auxiliary free-space regression on the encoder output; the recipe (``make
+train-pointnav``) runs that on short chunks first, then freezes the encoder.
 """
 
 from __future__ import annotations
@@ -51,9 +54,15 @@ class TrainConfig:
     random_action_prob: float = 0.08  # perturbation (never STOP) for recovery data
     max_episode_steps: int = 250  # long stuck learner rollouts add little; cut them
     buffer_frames: int = 250_000
-    chunk_len: int = 32  # truncated BPTT length
-    batch_chunks: int = 16
-    epochs_per_iteration: float = 16.0  # gradient steps = this x new frames / (chunk_len x batch_chunks)
+    # Train on whole episodes from their first step (the LSTM then learns on the recurrent states it
+    # meets when deployed). Chunks of chunk_len steps that start from a zero state (truncated BPTT,
+    # full_episodes=False) are cheaper with a trainable encoder, but the policy never sees a state
+    # after more than chunk_len steps, and its deterministic rollouts drifted into states it was never
+    # trained on (pushing into walls for hundreds of steps).
+    full_episodes: bool = True
+    chunk_len: int = 32  # truncated BPTT length when not full_episodes
+    batch_chunks: int = 16  # sequences (episodes or chunks) per update
+    epochs_per_iteration: float = 16.0  # gradient steps = this x new frames / frames per update
     lr: float = 5e-4
     weight_decay: float = 0.0
     inflection_weight: float = 3.0
@@ -69,6 +78,13 @@ class TrainConfig:
     # e.g. as initialised or as loaded with --init). On 2 cores the ResNet's backward pass is ~90% of a
     # full update; without it an update is ~50x cheaper, which is what makes CPU training converge.
     freeze_visual: bool = True
+    # Auxiliary loss while the encoder trains: regress, from the encoder output alone, how far the
+    # agent could walk straight along a few headings inside the field of view (from the navigable
+    # grid, capped at free_space_range). The action label says little about geometry (one of four
+    # classes, often ambiguous); this dense target teaches the encoder where obstacles are.
+    aux_free_space_weight: float = 1.0
+    free_space_headings_deg: tuple[float, ...] = (-30.0, -15.0, 0.0, 15.0, 30.0)
+    free_space_range: float = 2.5
 
 
 # ------------------------------------------------------------------------------------------- buffer
@@ -86,10 +102,18 @@ class EpisodeBuffer:
         while self.frames > self.max_frames and len(self.episodes) > 1:
             self.frames -= len(self.episodes.pop(0)["label"])
 
-    def sample(self, rng: np.random.Generator, n: int, T: int) -> dict[str, torch.Tensor]:
-        """``n`` chunks of up to T steps; the chunk's first step starts fresh (mask 0), padding weighs 0."""
+    def sample(self, rng: np.random.Generator, n: int, T: int | None) -> dict[str, torch.Tensor]:
+        """``n`` chunks of up to T steps; the chunk's first step starts fresh (mask 0), padding weighs 0.
+
+        ``T=None``: whole episodes from their first step, drawn uniformly, padded to the longest.
+        """
         lens = np.array([len(e["label"]) for e in self.episodes])
-        eps = rng.choice(len(self.episodes), size=n, p=lens / lens.sum())
+        whole = T is None
+        if whole:
+            eps = rng.choice(len(self.episodes), size=n)
+            T = int(lens[eps].max())
+        else:
+            eps = rng.choice(len(self.episodes), size=n, p=lens / lens.sum())
         key = "feat" if "feat" in self.episodes[0] else "depth"
         obs_shape, obs_dtype = self.episodes[0][key].shape[1:], self.episodes[0][key].dtype
         depth = np.zeros((T, n, *obs_shape), obs_dtype)
@@ -98,10 +122,11 @@ class EpisodeBuffer:
         mask = np.zeros((T, n), bool)
         label = np.zeros((T, n), np.int64)
         weight = np.zeros((T, n), np.float32)
+        free = np.zeros((T, n, self.episodes[0]["free"].shape[1]), np.float32)
         for j, e in enumerate(eps):
             ep = self.episodes[e]
             L = len(ep["label"])
-            s = int(rng.integers(L))
+            s = 0 if whole else int(rng.integers(L))
             k = min(T, L - s)
             depth[:k, j] = ep[key][s:s + k]
             goal[:k, j] = ep["goal"][s:s + k]
@@ -110,8 +135,10 @@ class EpisodeBuffer:
             mask[0, j] = False  # no history before the chunk: start it like an episode
             label[:k, j] = ep["label"][s:s + k]
             weight[:k, j] = ep["weight"][s:s + k]
+            free[:k, j] = ep["free"][s:s + k]
         return {key: torch.from_numpy(depth), "goal": torch.from_numpy(goal), "prev": torch.from_numpy(prev),
-                "mask": torch.from_numpy(mask), "label": torch.from_numpy(label), "weight": torch.from_numpy(weight)}
+                "mask": torch.from_numpy(mask), "label": torch.from_numpy(label), "weight": torch.from_numpy(weight),
+                "free": torch.from_numpy(free)}
 
 
 def pooled_uint8(depth: np.ndarray) -> np.ndarray:
@@ -126,6 +153,18 @@ def unpool(depth_u8: torch.Tensor) -> torch.Tensor:
     d = depth_u8.float() / 255.0
     d = d.repeat_interleave(2, dim=-1).repeat_interleave(2, dim=-2)
     return d.unsqueeze(-1)
+
+
+def free_space(env: PointNavEnv, headings_deg: tuple[float, ...], max_range: float) -> np.ndarray:
+    """Fraction of ``max_range`` the agent could walk straight along each heading (relative to its own)."""
+    p, yaw = env.agent_position, env.agent_yaw
+    out = np.empty(len(headings_deg), np.float32)
+    for k, h in enumerate(headings_deg):
+        a = yaw + np.radians(h)
+        target = p + max_range * np.array([-np.sin(a), 0.0, -np.cos(a)])  # the agent faces -z
+        q, _ = env.navgrid.try_step(p, target)
+        out[k] = np.hypot(q[0] - p[0], q[2] - p[2]) / max_range
+    return out
 
 
 def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
@@ -148,8 +187,9 @@ def make_envs(n: int, split: str, seed: int) -> list[PointNavEnv]:
 class Collector:
     """Rolls out ``envs`` with a beta-mixture of oracle and learner, labelling every step with the oracle.
 
-    Episodes continue across ``collect`` calls; an episode still running at the end of a call is
-    handed over as a segment (training chunks start without history anyway), so no frame is wasted.
+    Episodes continue across ``collect`` calls. With ``full_episodes`` an episode is handed over when
+    it ends, so every stored episode starts at its first step; otherwise one still running at the end
+    of a call is handed over as a segment (chunks start without history anyway).
     """
 
     def __init__(self, envs: list[PointNavEnv], cfg: TrainConfig, rng: np.random.Generator):
@@ -163,12 +203,13 @@ class Collector:
 
     @staticmethod
     def _empty() -> dict:
-        return {"depth": [], "goal": [], "prev": [], "mask": [], "label": []}
+        return {"depth": [], "goal": [], "prev": [], "mask": [], "label": [], "free": []}
 
     def _segment(self, s: dict) -> dict[str, np.ndarray]:
         labels = np.array(s["label"], np.int64)
         seg = {"depth": np.stack(s["depth"]), "goal": np.stack(s["goal"]).astype(np.float32),
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
+               "free": np.stack(s["free"]),
                "weight": inflection_weights(labels, self.cfg.inflection_weight)}
         s.update(self._empty())
         return seg
@@ -194,6 +235,7 @@ class Collector:
                 s["prev"].append(s["last"])
                 s["mask"].append(s["steps"] > 0)
                 s["label"].append(label)
+                s["free"].append(free_space(env, cfg.free_space_headings_deg, cfg.free_space_range))
                 action = label if rng.random() < beta else int(learner_actions[i])
                 if action != STOP and rng.random() < cfg.random_action_prob:
                     action = int(rng.integers(1, 4))
@@ -207,9 +249,10 @@ class Collector:
                     successes.append(info["success"] if term else 0.0)
                     self.state[i] = self._start(env)
                     learner.reset(i)
-        for s in self.state:  # hand over running episodes as segments; they continue next call
-            if s["label"]:
-                out.append(self._segment(s))
+        if not cfg.full_episodes:
+            for s in self.state:  # hand over running episodes as segments; they continue next call
+                if s["label"]:
+                    out.append(self._segment(s))
         return out, {"rollout_success": float(np.mean(successes)) if successes else float("nan")}
 
 
@@ -255,20 +298,36 @@ def evaluate(policy: PointNavResNetPolicy, episodes: int, success_distance: floa
 
 
 # -------------------------------------------------------------------------------------------- train
-def train_step(policy, opt, batch, cfg: TrainConfig) -> tuple[float, float]:
+def make_aux_head(policy: PointNavResNetPolicy, cfg: TrainConfig) -> torch.nn.Module:
+    """Training-only head on the encoder output (not part of the shipped state_dict)."""
+    dim = policy.net.visual_fc[1].in_features
+    return torch.nn.Sequential(torch.nn.Linear(dim, 256), torch.nn.ReLU(),
+                               torch.nn.Linear(256, len(cfg.free_space_headings_deg)))
+
+
+def train_step(policy, opt, batch, cfg: TrainConfig, aux_head: torch.nn.Module | None = None
+               ) -> tuple[float, float]:
     T, n = batch["label"].shape
     hidden = policy.initial_hidden(n)
     if "feat" in batch:
-        logits, _, _ = policy.forward_features(batch["feat"].float(), batch["goal"], batch["prev"], batch["mask"],
-                                               hidden)
+        feats = batch["feat"].float()
     else:
-        logits, _, _ = policy(unpool(batch["depth"]), batch["goal"], batch["prev"], batch["mask"], hidden)
+        depth = unpool(batch["depth"].reshape(T * n, *batch["depth"].shape[2:]))
+        feats = policy.net.encode_depth(depth).reshape(T, n, -1)
+    logits, _, _ = policy.forward_features(feats, batch["goal"], batch["prev"], batch["mask"], hidden)
     w = batch["weight"]
     loss = (F.cross_entropy(logits.reshape(T * n, -1), batch["label"].reshape(-1), reduction="none")
             * w.reshape(-1)).sum() / w.sum()
+    if aux_head is not None:
+        valid = (w > 0).reshape(-1)
+        pred = aux_head(feats.reshape(T * n, -1)[valid])
+        loss = loss + cfg.aux_free_space_weight * F.mse_loss(pred, batch["free"].reshape(T * n, -1)[valid])
     opt.zero_grad(set_to_none=True)
     loss.backward()
-    torch.nn.utils.clip_grad_norm_([p for p in policy.parameters() if p.requires_grad], cfg.grad_clip)
+    params = [p for p in policy.parameters() if p.requires_grad]
+    if aux_head is not None:
+        params += list(aux_head.parameters())
+    torch.nn.utils.clip_grad_norm_(params, cfg.grad_clip)
     opt.step()
     valid = w > 0
     acc = (logits.argmax(-1)[valid] == batch["label"][valid]).float().mean()
@@ -299,14 +358,20 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
 
     # channels_last: oneDNN's NHWC convolution kernels train ~1.7x faster on this CPU class
     policy = PointNavResNetPolicy(PolicyNetConfig()).to(memory_format=torch.channels_last)
+    aux_head = None
     if cfg.freeze_visual:
         policy.net.visual_encoder.requires_grad_(False)
-    opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr,
+    elif cfg.aux_free_space_weight > 0:
+        aux_head = make_aux_head(policy, cfg)
+    params = [p for p in policy.parameters() if p.requires_grad]
+    opt = torch.optim.Adam(params + (list(aux_head.parameters()) if aux_head is not None else []), lr=cfg.lr,
                            weight_decay=cfg.weight_decay)
     start_it, frames_total, wall0 = 0, 0, 0.0
     if resume and state_path.is_file():
         st = torch.load(state_path, weights_only=False)
         policy.load_state_dict(st["policy"])
+        if aux_head is not None and st.get("aux_head") is not None:
+            aux_head.load_state_dict(st["aux_head"])
         opt.load_state_dict(st["optimizer"])
         start_it, frames_total, wall0 = st["iteration"], st["frames"], st["wall_s"]
         rng = np.random.default_rng([cfg.seed, start_it])
@@ -337,17 +402,19 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         frames_total += new_frames
         t_collect = time.time() - t0
         policy.train()
-        n_updates = max(1, round(new_frames * cfg.epochs_per_iteration / (cfg.chunk_len * cfg.batch_chunks)))
+        seq_len = buffer.frames / len(buffer.episodes) if cfg.full_episodes else cfg.chunk_len
+        n_updates = max(1, round(new_frames * cfg.epochs_per_iteration / (seq_len * cfg.batch_chunks)))
         losses, accs = [], []
         t0 = time.time()
         for u in range(n_updates):
-            batch = buffer.sample(rng, cfg.batch_chunks, cfg.chunk_len)
-            loss, acc = train_step(policy, opt, batch, cfg)
+            batch = buffer.sample(rng, cfg.batch_chunks, None if cfg.full_episodes else cfg.chunk_len)
+            loss, acc = train_step(policy, opt, batch, cfg, aux_head)
             losses.append(loss)
             accs.append(acc)
         t_train = time.time() - t0
         policy.eval()
-        val = evaluate(policy, cfg.val_episodes, cfg.success_distance, cfg.val_max_steps)
+        val = (evaluate(policy, cfg.val_episodes, cfg.success_distance, cfg.val_max_steps) if cfg.val_episodes > 0
+               else {"val_sr": float("nan"), "val_spl": float("nan")})
         last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "loss": float(np.mean(losses)),
                 "acc": float(np.mean(accs)), **stats, **val, "collect_s": t_collect, "train_s": t_train,
                 "updates": n_updates, "buffer_frames": buffer.frames, "wall_s": time.time() - t_start}
@@ -363,6 +430,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         save_checkpoint(out, policy, meta)
         tmp = state_path.with_suffix(".tmp")
         torch.save({"policy": policy.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
+                    "aux_head": aux_head.state_dict() if aux_head is not None else None,
                     "frames": frames_total, "wall_s": last["wall_s"]}, tmp)
         tmp.replace(state_path)
     for e in envs:

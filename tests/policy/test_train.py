@@ -1,0 +1,69 @@
+"""Imitation training: data collection labels with the oracle, and a few updates reduce the loss."""
+
+import dataclasses
+
+import numpy as np
+import torch
+
+from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
+from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, encode_segments, make_aux_head, make_envs,
+                                   train_step)
+
+
+def _collect(cfg: TrainConfig, frames: int):
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    envs = make_envs(cfg.num_envs, "train", seed=0)
+    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
+    segments, stats = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, frames, beta=1.0)
+    for env in envs:
+        env.close()
+    return policy, segments, stats
+
+
+def test_oracle_rollouts_are_whole_labelled_episodes():
+    cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=200)
+    _, segments, stats = _collect(cfg, frames=400)
+    assert segments, "at least one finished episode"
+    for seg in segments:
+        assert not seg["mask"][0] and seg["mask"][1:].all()  # starts at the episode's first step
+        assert seg["prev"][0] == 0 and (seg["prev"][1:] == seg["label"][:-1]).all()  # beta=1: oracle acts
+        assert seg["depth"].dtype == np.uint8 and seg["depth"].shape[1:] == (112, 112)
+        assert seg["label"][-1] == 0 or len(seg["label"]) == cfg.max_episode_steps  # STOP or cut
+    assert stats["rollout_success"] == 1.0  # the oracle reaches every goal it stops at
+
+
+def test_a_few_updates_reduce_the_imitation_loss():
+    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3)
+    policy, segments, _ = _collect(cfg, frames=90)
+    policy.net.visual_encoder.requires_grad_(False)
+    encode_segments(policy, segments)
+    buffer = EpisodeBuffer(10_000)
+    for seg in segments:
+        buffer.add(seg)
+    batch = buffer.sample(np.random.default_rng(0), cfg.batch_chunks, None)
+    assert batch["feat"].shape[:2] == batch["label"].shape
+    opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr)
+    policy.train()
+    losses = [train_step(policy, opt, batch, cfg)[0] for _ in range(15)]
+    assert losses[-1] < 0.7 * losses[0]
+
+
+def test_truncated_chunks_train_the_whole_network():
+    cfg = dataclasses.replace(TrainConfig(num_envs=2, max_episode_steps=20, batch_chunks=2, lr=1e-3),
+                              full_episodes=False, chunk_len=8, freeze_visual=False)
+    policy, segments, _ = _collect(cfg, frames=40)
+    buffer = EpisodeBuffer(10_000)
+    for seg in segments:
+        buffer.add(seg)
+    batch = buffer.sample(np.random.default_rng(1), cfg.batch_chunks, cfg.chunk_len)
+    assert batch["depth"].shape == (8, 2, 112, 112) and not batch["mask"][0].any()
+    assert batch["free"].shape == (8, 2, len(cfg.free_space_headings_deg))
+    assert ((batch["free"] >= 0) & (batch["free"] <= 1)).all() and batch["free"].max() > 0
+    before = policy.net.visual_encoder.backbone.conv1[0].weight.clone()
+    aux = make_aux_head(policy, cfg)
+    opt = torch.optim.Adam([*policy.parameters(), *aux.parameters()], lr=cfg.lr)
+    policy.train()
+    losses = [train_step(policy, opt, batch, cfg, aux)[0] for _ in range(6)]
+    assert losses[-1] < losses[0]
+    assert not torch.equal(before, policy.net.visual_encoder.backbone.conv1[0].weight)
