@@ -7,7 +7,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-objectnav train-pointnav
+.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-objectnav results-memory train-pointnav
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -91,3 +91,12 @@ results-objectnav: setup
 	done
 	$(BIN)/navbench table $(foreach a,frontier memory-norerank memory oracle,$(addprefix results/runs/$(a)_,$(OBJNAV_SPLITS))) > results/objectnav.md
 	$(BIN)/python -m navbench.eval.failures $(foreach a,frontier memory,$(addprefix results/runs/$(a)_,$(OBJNAV_SPLITS))) > results/objectnav_failures.md
+
+# Memory/efficiency table (the paper's Table 4) on val_unseen: keyframes (the memory agent's default,
+# 224x224 agent camera) vs every frame, a 640x480 phone-like scan camera and 160x120 stored keyframes.
+results-memory: setup
+	test -f results/runs/memory_val_unseen/summary.json || $(BIN)/navbench run --split val_unseen --agent memory $(LIMIT_ARG) --out results/runs/memory_val_unseen -q
+	$(BIN)/navbench run --split val_unseen --agent memory --all-frames $(LIMIT_ARG) --out results/runs/memory-allframes_val_unseen -q
+	$(BIN)/navbench run --split val_unseen --agent memory --keyframe-res 640x480 $(LIMIT_ARG) --out results/runs/memory-640x480_val_unseen -q
+	$(BIN)/navbench run --split val_unseen --agent memory --keyframe-res 160x120 $(LIMIT_ARG) --out results/runs/memory-160x120_val_unseen -q
+	$(BIN)/python -m navbench.eval.memory_table $(foreach v,memory memory-allframes memory-640x480 memory-160x120,results/runs/$(v)_val_unseen) > results/memory_efficiency.md

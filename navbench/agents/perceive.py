@@ -72,7 +72,8 @@ class SceneLocalizer:
         candidates = self._localizer.localize(Query("object", text=episode.object_category))
         st = self.memory.stats
         self.last = {"query_ms": round(1000 * (time.perf_counter() - t0), 2), "memory_keyframes": st.keyframes,
-                     "memory_frames": st.frames, "memory_bytes": st.bytes}
+                     "memory_frames": st.frames, "memory_bytes": st.bytes,
+                     "memory_build_s": round(st.build_seconds, 3)}
         return candidates
 
 

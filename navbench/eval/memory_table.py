@@ -1,0 +1,52 @@
+"""The memory/efficiency table (the paper's Table 4): what each keyframe setting stores and costs, and
+the SR/SPL the memory agent reaches with it, from memory-agent run directories.
+
+    python -m navbench.eval.memory_table results/runs/memory_val_unseen results/runs/memory-allframes_val_unseen ...
+
+Per run: the stored frames and bytes, the build time (pre-scan + keyframes + index, as measured when
+the scene's memory was built) averaged over the run's scenes, the mean localisation query latency,
+and SR/SPL. Storage and build time come from the memory's own stats, so a cached memory reports the
+build it was made by.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from navbench.eval.runner import read_records
+
+
+def memory_row(run_dir: str | Path) -> dict:
+    run_dir = Path(run_dir)
+    cfg = json.loads((run_dir / "config.json").read_text())
+    summary = json.loads((run_dir / "summary.json").read_text())
+    recs = [r for r in read_records(run_dir / "episodes.jsonl") if not r.get("skipped")]
+    logs = pd.DataFrame([{"scene": r["scene_id"], **(r.get("log") or {})} for r in recs])
+    missing = {"memory_keyframes", "memory_frames", "memory_bytes", "query_ms"} - set(logs.columns)
+    if missing:
+        raise ValueError(f"{run_dir}: records lack {sorted(missing)} (not a memory-agent run?)")
+    per_scene = logs.groupby("scene").first()
+    opts = cfg.get("agent_options", {})
+    return {
+        "run": summary.get("agent"), "split": summary.get("split"), "episodes": summary["num_episodes"],
+        "frames": "all frames" if opts.get("all_frames") else "keyframes",
+        "resolution": opts.get("keyframe_res", "full"),
+        "pre-scan frames / scene": per_scene["memory_frames"].mean(),
+        "stored frames / scene": per_scene["memory_keyframes"].mean(),
+        "storage MB / scene": per_scene["memory_bytes"].mean() / 1e6,
+        "build s / scene": per_scene["memory_build_s"].mean() if "memory_build_s" in per_scene else float("nan"),
+        "query ms": logs["query_ms"].mean(),
+        "SR": 100 * summary["success"], "SPL": 100 * summary["spl"],
+    }
+
+
+def memory_table(run_dirs: list[str | Path]) -> str:
+    return pd.DataFrame([memory_row(d) for d in run_dirs]).set_index("run").to_markdown(floatfmt=".1f")
+
+
+if __name__ == "__main__":
+    print(memory_table(sys.argv[1:]))
