@@ -41,10 +41,15 @@ from navbench.paths import split_file
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.scene.follower import GreedyFollower
+from navbench.scene.optimistic import OptimisticFollower
 
 
 @dataclass(frozen=True)
 class TrainConfig:
+    # "optimistic": label with the shortest path on the map seen so far (unseen cells free), which a
+    # policy with memory can infer from its observations; "geodesic": the true shortest path, which
+    # often heads for a door the agent has never seen (navbench.scene.optimistic explains).
+    expert: str = "optimistic"
     iterations: int = 14
     frames_per_iteration: int = 6_000
     num_envs: int = 8
@@ -184,6 +189,16 @@ def make_envs(n: int, split: str, seed: int) -> list[PointNavEnv]:
     return envs
 
 
+def make_expert(env: PointNavEnv, cfg: TrainConfig) -> GreedyFollower:
+    if cfg.expert == "geodesic":
+        return GreedyFollower(env.navgrid, env.goal_points, cfg.success_distance)
+    if cfg.expert == "optimistic":
+        c = env.config
+        return OptimisticFollower(env.navgrid, env.goal_points, cfg.success_distance, c.hfov_deg, c.min_depth,
+                                  c.max_depth)
+    raise ValueError(f"unknown expert {cfg.expert!r}: choose geodesic or optimistic")
+
+
 class Collector:
     """Rolls out ``envs`` with a beta-mixture of oracle and learner, labelling every step with the oracle.
 
@@ -198,8 +213,8 @@ class Collector:
 
     def _start(self, env: PointNavEnv) -> dict:
         obs, _ = env.reset()  # seeded draw from the env's own generator
-        return {"obs": obs, "follower": GreedyFollower(env.navgrid, env.goal_points, self.cfg.success_distance),
-                "steps": 0, "last": 0, "new": True, **self._empty()}
+        return {"obs": obs, "follower": make_expert(env, self.cfg), "steps": 0, "last": 0, "new": True,
+                **self._empty()}
 
     @staticmethod
     def _empty() -> dict:
@@ -229,6 +244,8 @@ class Collector:
                                if beta < 1.0 else np.zeros(n, np.int64))
             for i, env in enumerate(self.envs):
                 s = self.state[i]
+                if isinstance(s["follower"], OptimisticFollower):
+                    s["follower"].observe(s["obs"]["depth"], env.agent_position, env.agent_yaw)
                 label = int(s["follower"].next_action(env.agent_position, env.agent_rotation))
                 s["depth"].append(pooled_uint8(s["obs"]["depth"]))
                 s["goal"].append(s["obs"]["pointgoal_with_gps_compass"].copy())

@@ -67,3 +67,30 @@ def test_truncated_chunks_train_the_whole_network():
     losses = [train_step(policy, opt, batch, cfg, aux)[0] for _ in range(6)]
     assert losses[-1] < losses[0]
     assert not torch.equal(before, policy.net.visual_encoder.backbone.conv1[0].weight)
+
+
+def test_both_experts_reach_the_goal_of_a_val_episode():
+    from navbench.env.config import EnvConfig
+    from navbench.env.pointnav import PointNavEnv
+    from navbench.episodes.io import load_dataset
+    from navbench.paths import split_file
+    from navbench.policy.train import make_expert
+    from navbench.scene.optimistic import OptimisticFollower
+
+    ds = load_dataset(split_file("pointnav", "val"))
+    env = PointNavEnv(ds, config=EnvConfig(rgb=False, depth=True, success_distance=0.2))
+    results = {}
+    for expert in ("geodesic", "optimistic"):
+        obs, _ = env.reset(options={"episode": ds.episodes[1]})  # 12.6 m geodesic, through doors
+        follower = make_expert(env, TrainConfig(expert=expert))
+        while True:
+            if isinstance(follower, OptimisticFollower):
+                follower.observe(obs["depth"], env.agent_position, env.agent_yaw)
+            obs, _, term, trunc, info = env.step(follower.next_action(env.agent_position, env.agent_rotation))
+            if term or trunc:
+                break
+        results[expert] = info
+    env.close()
+    assert results["geodesic"]["success"] and results["optimistic"]["success"]
+    # knowing only what it has seen can only make the path longer
+    assert results["optimistic"]["path_length"] >= results["geodesic"]["path_length"] - 1e-6
