@@ -94,9 +94,11 @@ results-objectnav: setup
 
 # Memory/efficiency table (the paper's Table 4) on val_unseen: keyframes (the memory agent's default,
 # 224x224 agent camera) vs every frame, a 640x480 phone-like scan camera and 160x120 stored keyframes.
+# LIMIT=N runs the first N episodes of each variant and scores every row on those N (--first N).
+FIRST_ARG := $(if $(LIMIT),--first $(LIMIT),)
 results-memory: setup
 	test -f results/runs/memory_val_unseen/summary.json || $(BIN)/navbench run --split val_unseen --agent memory $(LIMIT_ARG) --out results/runs/memory_val_unseen -q
+	$(BIN)/navbench run --split val_unseen --agent memory --keyframe-res 160x120 $(LIMIT_ARG) --out results/runs/memory-160x120_val_unseen -q
 	$(BIN)/navbench run --split val_unseen --agent memory --all-frames $(LIMIT_ARG) --out results/runs/memory-allframes_val_unseen -q
 	$(BIN)/navbench run --split val_unseen --agent memory --keyframe-res 640x480 $(LIMIT_ARG) --out results/runs/memory-640x480_val_unseen -q
-	$(BIN)/navbench run --split val_unseen --agent memory --keyframe-res 160x120 $(LIMIT_ARG) --out results/runs/memory-160x120_val_unseen -q
-	$(BIN)/python -m navbench.eval.memory_table $(foreach v,memory memory-allframes memory-640x480 memory-160x120,results/runs/$(v)_val_unseen) > results/memory_efficiency.md
+	$(BIN)/python -m navbench.eval.memory_table $(FIRST_ARG) $(foreach v,memory memory-allframes memory-640x480 memory-160x120,results/runs/$(v)_val_unseen) > results/memory_efficiency.md

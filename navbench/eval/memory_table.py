@@ -1,11 +1,12 @@
 """The memory/efficiency table (the paper's Table 4): what each keyframe setting stores and costs, and
 the SR/SPL the memory agent reaches with it, from memory-agent run directories.
 
-    python -m navbench.eval.memory_table results/runs/memory_val_unseen results/runs/memory-allframes_val_unseen ...
+    python -m navbench.eval.memory_table [--first N] results/runs/memory_val_unseen results/runs/memory-allframes_val_unseen ...
 
 Per run: the stored frames and bytes, the build time (pre-scan + keyframes + index, as measured when
 the scene's memory was built) averaged over the run's scenes, the mean localisation query latency,
-and SR/SPL. Storage and build time come from the memory's own stats, so a cached memory reports the
+and SR/SPL. ``--first N`` scores every run on the first N episodes of its dataset file (what
+``navbench run --limit N`` runs), so runs made with different limits compare on the same episodes. Storage and build time come from the memory's own stats, so a cached memory reports the
 build it was made by.
 """
 
@@ -17,14 +18,23 @@ from pathlib import Path
 
 import pandas as pd
 
+from navbench.episodes.io import load_dataset
 from navbench.eval.runner import read_records
+from navbench.metrics import aggregate
 
 
-def memory_row(run_dir: str | Path) -> dict:
+def memory_row(run_dir: str | Path, first: int | None = None) -> dict:
     run_dir = Path(run_dir)
     cfg = json.loads((run_dir / "config.json").read_text())
     summary = json.loads((run_dir / "summary.json").read_text())
-    recs = [r for r in read_records(run_dir / "episodes.jsonl") if not r.get("skipped")]
+    recs = read_records(run_dir / "episodes.jsonl")
+    if first is not None:
+        keep = {(e.scene_id, e.episode_id) for e in load_dataset(cfg["episodes"]).episodes[:first]}
+        recs = [r for r in recs if (r["scene_id"], r["episode_id"]) in keep]
+        if len(recs) < len(keep):
+            raise ValueError(f"{run_dir}: has {len(recs)} of the first {first} episodes")
+        summary = {**summary, **aggregate(recs)}
+    recs = [r for r in recs if not r.get("skipped")]
     logs = pd.DataFrame([{"scene": r["scene_id"], **(r.get("log") or {})} for r in recs])
     missing = {"memory_keyframes", "memory_frames", "memory_bytes", "query_ms"} - set(logs.columns)
     if missing:
@@ -44,9 +54,13 @@ def memory_row(run_dir: str | Path) -> dict:
     }
 
 
-def memory_table(run_dirs: list[str | Path]) -> str:
-    return pd.DataFrame([memory_row(d) for d in run_dirs]).set_index("run").to_markdown(floatfmt=".1f")
+def memory_table(run_dirs: list[str | Path], first: int | None = None) -> str:
+    return pd.DataFrame([memory_row(d, first) for d in run_dirs]).set_index("run").to_markdown(floatfmt=".1f")
 
 
 if __name__ == "__main__":
-    print(memory_table(sys.argv[1:]))
+    args = sys.argv[1:]
+    n = None
+    if args[:1] == ["--first"]:
+        n, args = int(args[1]), args[2:]
+    print(memory_table(args, n))

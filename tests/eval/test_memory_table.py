@@ -37,3 +37,26 @@ def test_a_run_without_memory_logs_is_refused(tmp_path):
     d = _run(tmp_path, "oracle", False, [("s1", {})])
     with pytest.raises(ValueError, match="not a memory-agent run"):
         memory_row(d)
+
+
+def test_first_n_scores_runs_with_different_limits_on_the_same_episodes(tmp_path):
+    from navbench.episodes.io import load_dataset
+    from navbench.paths import split_file
+
+    path = split_file("objectnav", "val_unseen")
+    eps = load_dataset(path).episodes[:3]
+    d = tmp_path / "memory"
+    d.mkdir()
+    (d / "config.json").write_text(json.dumps({"episodes": str(path), "agent_options": {}}))
+    (d / "summary.json").write_text(json.dumps({"agent": "memory", "split": "val_unseen", "num_episodes": 3,
+                                                "success": 2 / 3, "spl": 0.5}))
+    log = {"memory_keyframes": 1, "memory_frames": 2, "memory_bytes": 1e6, "memory_build_s": 1.0, "query_ms": 5}
+    with open(d / "episodes.jsonl", "w") as f:
+        for e, ok in zip(eps, (1.0, 0.0, 1.0)):
+            f.write(json.dumps({"episode_id": e.episode_id, "scene_id": e.scene_id, "success": ok, "spl": ok / 2,
+                                "soft_spl": ok, "distance_to_goal": 1 - ok, "log": log}) + "\n")
+    assert memory_row(d)["SR"] == pytest.approx(200 / 3)
+    first2 = memory_row(d, first=2)
+    assert first2["SR"] == 50.0 and first2["SPL"] == 25.0 and first2["episodes"] == 2
+    with pytest.raises(ValueError, match="of the first 5 episodes"):
+        memory_row(d, first=5)
