@@ -1,13 +1,15 @@
 """The memory/efficiency table (the paper's Table 4): what each keyframe setting stores and costs, and
 the SR/SPL the memory agent reaches with it, from memory-agent run directories.
 
-    python -m navbench.eval.memory_table [--first N] results/runs/memory_val_unseen results/runs/memory-allframes_val_unseen ...
+    python -m navbench.eval.memory_table [--first N] results/runs/memory_val_unseen \
+        results/runs/memory-allframes_val_unseen ...
 
 Per run: the stored frames and bytes, the build time (pre-scan + keyframes + index, as measured when
 the scene's memory was built) averaged over the run's scenes, the mean localisation query latency,
 and SR/SPL. ``--first N`` scores every run on the first N episodes of its dataset file (what
-``navbench run --limit N`` runs), so runs made with different limits compare on the same episodes. Storage and build time come from the memory's own stats, so a cached memory reports the
-build it was made by.
+``navbench run --limit N`` runs), so runs made with different limits compare on the same episodes.
+Storage and build time come from the memory's own stats, so a cached memory reports the build it was
+made by.
 """
 
 from __future__ import annotations

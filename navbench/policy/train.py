@@ -1,6 +1,6 @@
 """Train the PointNav policy on CPU by imitating the geodesic oracle, with DAgger.
 
-    make train-pointnav        # the two-stage recipe behind policies/pointnav_navbench.pth
+    make train-pointnav        # the two-stage recipe (policies/README.md: what it has reached)
     navbench train pointnav --out policies/pointnav_navbench.pth        # resumable: add --resume
 
 Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the policy reads) on the
@@ -127,7 +127,8 @@ class EpisodeBuffer:
         mask = np.zeros((T, n), bool)
         label = np.zeros((T, n), np.int64)
         weight = np.zeros((T, n), np.float32)
-        free = np.zeros((T, n, self.episodes[0]["free"].shape[1]), np.float32)
+        has_free = "free" in self.episodes[0]
+        free = np.zeros((T, n, self.episodes[0]["free"].shape[1] if has_free else 0), np.float32)
         for j, e in enumerate(eps):
             ep = self.episodes[e]
             L = len(ep["label"])
@@ -140,10 +141,13 @@ class EpisodeBuffer:
             mask[0, j] = False  # no history before the chunk: start it like an episode
             label[:k, j] = ep["label"][s:s + k]
             weight[:k, j] = ep["weight"][s:s + k]
-            free[:k, j] = ep["free"][s:s + k]
-        return {key: torch.from_numpy(depth), "goal": torch.from_numpy(goal), "prev": torch.from_numpy(prev),
-                "mask": torch.from_numpy(mask), "label": torch.from_numpy(label), "weight": torch.from_numpy(weight),
-                "free": torch.from_numpy(free)}
+            if has_free:
+                free[:k, j] = ep["free"][s:s + k]
+        batch = {key: torch.from_numpy(depth), "goal": torch.from_numpy(goal), "prev": torch.from_numpy(prev),
+                 "mask": torch.from_numpy(mask), "label": torch.from_numpy(label), "weight": torch.from_numpy(weight)}
+        if has_free:
+            batch["free"] = torch.from_numpy(free)
+        return batch
 
 
 def pooled_uint8(depth: np.ndarray) -> np.ndarray:
@@ -209,6 +213,8 @@ class Collector:
 
     def __init__(self, envs: list[PointNavEnv], cfg: TrainConfig, rng: np.random.Generator):
         self.envs, self.cfg, self.rng = envs, cfg, rng
+        # The free-space target is only read by the auxiliary loss, which needs a trainable encoder.
+        self.free_space = not cfg.freeze_visual and cfg.aux_free_space_weight > 0
         self.state: list[dict] = [self._start(env) for env in envs]
 
     def _start(self, env: PointNavEnv) -> dict:
@@ -216,16 +222,17 @@ class Collector:
         return {"obs": obs, "follower": make_expert(env, self.cfg), "steps": 0, "last": 0, "new": True,
                 **self._empty()}
 
-    @staticmethod
-    def _empty() -> dict:
-        return {"depth": [], "goal": [], "prev": [], "mask": [], "label": [], "free": []}
+    def _empty(self) -> dict:
+        lists = {"depth": [], "goal": [], "prev": [], "mask": [], "label": []}
+        return {**lists, "free": []} if self.free_space else lists
 
     def _segment(self, s: dict) -> dict[str, np.ndarray]:
         labels = np.array(s["label"], np.int64)
         seg = {"depth": np.stack(s["depth"]), "goal": np.stack(s["goal"]).astype(np.float32),
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
-               "free": np.stack(s["free"]),
                "weight": inflection_weights(labels, self.cfg.inflection_weight)}
+        if self.free_space:
+            seg["free"] = np.stack(s["free"])
         s.update(self._empty())
         return seg
 
@@ -244,15 +251,15 @@ class Collector:
                                if beta < 1.0 else np.zeros(n, np.int64))
             for i, env in enumerate(self.envs):
                 s = self.state[i]
-                if isinstance(s["follower"], OptimisticFollower):
-                    s["follower"].observe(s["obs"]["depth"], env.agent_position, env.agent_yaw)
+                s["follower"].observe(s["obs"]["depth"], env.agent_position, env.agent_yaw)
                 label = int(s["follower"].next_action(env.agent_position, env.agent_rotation))
                 s["depth"].append(pooled_uint8(s["obs"]["depth"]))
                 s["goal"].append(s["obs"]["pointgoal_with_gps_compass"].copy())
                 s["prev"].append(s["last"])
                 s["mask"].append(s["steps"] > 0)
                 s["label"].append(label)
-                s["free"].append(free_space(env, cfg.free_space_headings_deg, cfg.free_space_range))
+                if self.free_space:
+                    s["free"].append(free_space(env, cfg.free_space_headings_deg, cfg.free_space_range))
                 action = label if rng.random() < beta else int(learner_actions[i])
                 if action != STOP and rng.random() < cfg.random_action_prob:
                     action = int(rng.integers(1, 4))

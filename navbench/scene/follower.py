@@ -54,6 +54,10 @@ class GreedyFollower:
         self._plan_yaw = 0.0
         self._yaw0 = 0.0  # heading the current plan's offsets are relative to
 
+    def observe(self, depth01, position, yaw: float) -> None:
+        """Take in a depth frame: nothing to do for a follower that knows the whole map (see
+        :class:`navbench.scene.optimistic.OptimisticFollower`, which plans on what it has seen)."""
+
     def distance(self, position) -> float:
         """Geodesic distance from ``position`` to the nearest goal (inf if unreachable)."""
         return self.field.distance(position)

@@ -124,13 +124,9 @@ class OptimisticFollower(GreedyFollower):
         new = self.mask.update(depth01, position, yaw)
         # Seeing free cells changes nothing (unseen cells already count as free): replan only when
         # an obstacle appeared.
-        if (new & ~self.grid_navigable).any():
+        if (new & ~self.navgrid.navigable).any():
             self.field = optimistic_field(self.navgrid, self.goal, self.mask.seen)
             self._plan_xz = None
-
-    @property
-    def grid_navigable(self) -> np.ndarray:
-        return self.navgrid.navigable
 
     def next_action(self, position, rotation_xyzw) -> int:
         p = np.asarray(position, float)

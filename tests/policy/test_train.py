@@ -29,6 +29,7 @@ def test_oracle_rollouts_are_whole_labelled_episodes():
         assert not seg["mask"][0] and seg["mask"][1:].all()  # starts at the episode's first step
         assert seg["prev"][0] == 0 and (seg["prev"][1:] == seg["label"][:-1]).all()  # beta=1: oracle acts
         assert seg["depth"].dtype == np.uint8 and seg["depth"].shape[1:] == (112, 112)
+        assert "free" not in seg  # the auxiliary target is only computed when the encoder trains
         assert seg["label"][-1] == 0 or len(seg["label"]) == cfg.max_episode_steps  # STOP or cut
     assert stats["rollout_success"] == 1.0  # the oracle reaches every goal it stops at
 
@@ -75,7 +76,6 @@ def test_both_experts_reach_the_goal_of_a_val_episode():
     from navbench.episodes.io import load_dataset
     from navbench.paths import split_file
     from navbench.policy.train import make_expert
-    from navbench.scene.optimistic import OptimisticFollower
 
     ds = load_dataset(split_file("pointnav", "val"))
     env = PointNavEnv(ds, config=EnvConfig(rgb=False, depth=True, success_distance=0.2))
@@ -84,8 +84,7 @@ def test_both_experts_reach_the_goal_of_a_val_episode():
         obs, _ = env.reset(options={"episode": ds.episodes[1]})  # 12.6 m geodesic, through doors
         follower = make_expert(env, TrainConfig(expert=expert))
         while True:
-            if isinstance(follower, OptimisticFollower):
-                follower.observe(obs["depth"], env.agent_position, env.agent_yaw)
+            follower.observe(obs["depth"], env.agent_position, env.agent_yaw)
             obs, _, term, trunc, info = env.step(follower.next_action(env.agent_position, env.agent_rotation))
             if term or trunc:
                 break
