@@ -59,10 +59,11 @@ results-localize: setup
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --no-fusion --out results/localize/oracle_heavy_single
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
 
-# How policies/pointnav_navbench.pth is trained (model card: policies/README.md). Two stages, each
-# resumable (rerun the same line after a kill, with --resume): 1. the whole network on short chunks
-# with the free-space auxiliary loss, to train the depth encoder; 2. the encoder frozen, the rest on
-# whole DAgger episodes from cached encoder features.
+# The from-scratch training recipe under development. It has NOT yet beaten the shipped checkpoint:
+# policies/README.md says how that file was trained and what this recipe's stages reached. Two stages,
+# each resumable (rerun the same line with --resume after a kill): 1. the whole network on short
+# chunks with the free-space auxiliary loss, to train the depth encoder; 2. the encoder frozen, the
+# rest on whole DAgger episodes (optimistic expert) from cached encoder features.
 STAGE1_ITERS ?= 5
 STAGE2_ITERS ?= 10
 train-pointnav: setup
