@@ -1,4 +1,7 @@
-"""Train the PointNav policy on CPU by imitating the geodesic oracle, with DAgger.
+"""Train the PointNav policy on CPU by imitating a shortest-path expert with DAgger.
+
+The expert is the optimistic follower (plans on what the agent has seen; ``--expert optimistic``, the
+default) or the geodesic oracle (plans on the true map; ``--expert geodesic``).
 
     make train-pointnav        # the two-stage recipe (policies/README.md: what it has reached)
     navbench train pointnav --out policies/pointnav_navbench.pth        # resumable: add --resume
