@@ -3,7 +3,7 @@
     navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes [--seed 0]
-    navbench train pointnav [--out policies/pointnav_navbench.pth] [--resume]
+    navbench train encoder|pointnav [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
     navbench bench [--json]
@@ -208,7 +208,14 @@ def cmd_generate(args) -> int:
 
 
 def cmd_train(args) -> int:
-    from navbench.policy.train import main_args
+    if args.what == "encoder":
+        from navbench.policy.pretrain import main_args
+        args.out = args.out or "runs/pointnav/encoder.pth"
+        args.state_dir = args.state_dir or "runs/pointnav/encoder_state"
+    else:
+        from navbench.policy.train import main_args
+        args.out = args.out or "policies/pointnav_navbench.pth"
+        args.state_dir = args.state_dir or "runs/train_pointnav"
     return main_args(args)
 
 
@@ -296,10 +303,12 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)
 
-    tr = sub.add_parser("train", help="train the PointNav policy (DAgger imitation of the geodesic oracle)")
-    tr.add_argument("what", choices=("pointnav",))
-    tr.add_argument("--out", default="policies/pointnav_navbench.pth")
-    tr.add_argument("--state-dir", default="runs/train_pointnav", help="resumable training state")
+    tr = sub.add_parser("train", help="pre-train the PointNav depth encoder (encoder) or train the policy "
+                                      "by DAgger imitation of a shortest-path expert (pointnav)")
+    tr.add_argument("what", choices=("encoder", "pointnav"))
+    tr.add_argument("--out", help="checkpoint (default runs/pointnav/encoder.pth | policies/pointnav_navbench.pth)")
+    tr.add_argument("--state-dir", help="resumable training state (default runs/pointnav/encoder_state | "
+                                        "runs/train_pointnav)")
     tr.add_argument("--resume", action="store_true")
     tr.add_argument("--iterations", type=int)
     tr.add_argument("--frames-per-iteration", type=int)
@@ -318,6 +327,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--lr", type=float)
     tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
     tr.add_argument("--seed", type=int)
+    tr.add_argument("--updates", type=int, help="encoder: gradient updates")
+    tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
+    tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)
 
     mem = sub.add_parser("memory", help="build a scene's keyframe memory (pre-scan, keyframes, index)")

@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.env.config import MOVE_FORWARD, STOP, SUCCESS_DISTANCE, TURN_LEFT, TURN_RIGHT, EnvConfig
-from navbench.env.sensors import compass, gps
+from navbench.env.sensors import compass, gps, normalize_depth
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import episode_metrics
@@ -222,11 +222,7 @@ class NavEnv(gym.Env):
                 obs["rgb"] = out.rgb
                 self._last_rgb = out.rgb
             if c.depth:
-                # Habitat: clip to [min, max] (so "nothing hit" = 0 becomes min), then normalise.
-                d = np.clip(out.depth, c.min_depth, c.max_depth)
-                if c.normalize_depth:
-                    d = (d - c.min_depth) / (c.max_depth - c.min_depth)
-                obs["depth"] = d.astype(np.float32)[..., None]
+                obs["depth"] = normalize_depth(out.depth, c.min_depth, c.max_depth, c.normalize_depth)
             if c.semantic:
                 obs["semantic"] = out.ids.astype(np.int32)[..., None]
         obs["gps"] = gps(self._position, self._start_position, self._start_yaw)

@@ -51,6 +51,17 @@ def world_pose(gps_obs: np.ndarray, compass_obs: np.ndarray, start_position: np.
     return np.asarray(start_position, np.float64) + offset, wrap_angle(start_yaw + float(compass_obs[0]))
 
 
+def normalize_depth(depth_m: np.ndarray, min_depth: float, max_depth: float, normalized: bool) -> np.ndarray:
+    """Rendered linear depth in metres (H, W) -> the depth sensor's (H, W, 1) float32 observation.
+
+    Habitat's DepthSensor: clip to [min, max] (so "nothing hit" = 0 becomes min), then optionally
+    normalise to [0, 1]."""
+    d = np.clip(depth_m, min_depth, max_depth)
+    if normalized:
+        d = (d - min_depth) / (max_depth - min_depth)
+    return d.astype(np.float32)[..., None]
+
+
 def depth_metres(depth_obs: np.ndarray, min_depth: float, max_depth: float, normalized: bool) -> np.ndarray:
     """The depth sensor's (H, W, 1) observation back in metres (H, W), float64. Pixels the sensor
     clipped to the minimum (nothing measured, or nearer than ``min_depth``) come back as ``min_depth``."""

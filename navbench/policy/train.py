@@ -43,6 +43,7 @@ from navbench.episodes.io import load_dataset
 from navbench.paths import split_file
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
+from navbench.policy.pretrain import free_distances
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.optimistic import OptimisticFollower
 
@@ -167,18 +168,6 @@ def unpool(depth_u8: torch.Tensor) -> torch.Tensor:
     return d.unsqueeze(-1)
 
 
-def free_space(env: PointNavEnv, headings_deg: tuple[float, ...], max_range: float) -> np.ndarray:
-    """Fraction of ``max_range`` the agent could walk straight along each heading (relative to its own)."""
-    p, yaw = env.agent_position, env.agent_yaw
-    out = np.empty(len(headings_deg), np.float32)
-    for k, h in enumerate(headings_deg):
-        a = yaw + np.radians(h)
-        target = p + max_range * np.array([-np.sin(a), 0.0, -np.cos(a)])  # the agent faces -z
-        q, _ = env.navgrid.try_step(p, target)
-        out[k] = np.hypot(q[0] - p[0], q[2] - p[2]) / max_range
-    return out
-
-
 def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
     out = np.ones(len(labels), np.float32)
     out[0] = w
@@ -262,7 +251,8 @@ class Collector:
                 s["mask"].append(s["steps"] > 0)
                 s["label"].append(label)
                 if self.free_space:
-                    s["free"].append(free_space(env, cfg.free_space_headings_deg, cfg.free_space_range))
+                    s["free"].append(free_distances(env.navgrid, env.agent_position, env.agent_yaw,
+                                                     cfg.free_space_headings_deg, cfg.free_space_range))
                 action = label if rng.random() < beta else int(learner_actions[i])
                 if action != STOP and rng.random() < cfg.random_action_prob:
                     action = int(rng.integers(1, 4))
