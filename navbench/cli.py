@@ -319,6 +319,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="train the visual encoder too (truncated chunks + free-space auxiliary loss)")
     tr.add_argument("--truncated", dest="full_episodes", action="store_false", default=None,
                     help="train on chunks of --chunk-len steps instead of whole episodes")
+    tr.add_argument("--no-prev-action", dest="prev_action", action="store_false", default=None,
+                    help="zero and freeze the previous-action embedding (against copycat policies)")
+    tr.add_argument("--expert-margin", type=float, help="extra clearance (m) the geodesic expert keeps")
     tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default optimistic)")
     tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
     tr.add_argument("--max-episode-steps", type=int)

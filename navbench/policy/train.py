@@ -75,6 +75,16 @@ class TrainConfig:
     lr: float = 5e-4
     weight_decay: float = 0.0
     inflection_weight: float = 3.0
+    # Feed the previous action to the LSTM (habitat's prev_action_embedding). Cloned policies that see
+    # their previous action can learn to repeat it (expert actions come in long runs: the "copycat"
+    # failure of behaviour cloning), but without it a policy cannot tell that its last FORWARD was
+    # blocked (no sliding: the frame does not change), and DAgger labels exactly those states. Off
+    # (--no-prev-action), the embedding table is zeroed and frozen; the state_dict keeps its layout.
+    prev_action: bool = True
+    # Extra room (m) the geodesic expert keeps from obstacles where it can (GreedyFollower's
+    # clearance_margin): shortest paths graze corners, and a learner that follows them a few
+    # centimetres off clips the corner with its body and, without sliding, does not move at all.
+    expert_margin: float = 0.15
     grad_clip: float = 1.0
     val_episodes: int = 16
     # Monitoring only (the shipped figures come from `navbench run` with the full 500): an untrained
@@ -119,7 +129,11 @@ class EpisodeBuffer:
         lens = np.array([len(e["label"]) for e in self.episodes])
         whole = T is None
         if whole:
-            eps = rng.choice(len(self.episodes), size=n)
+            # n episodes of similar length (a random window of the length-sorted list): padding to the
+            # longest then wastes little of the LSTM's time, the cost of a whole-episode update.
+            by_len = np.argsort(lens, kind="stable")
+            start = int(rng.integers(max(1, len(by_len) - n + 1)))
+            eps = by_len[start:start + n] if len(by_len) >= n else rng.choice(len(self.episodes), size=n)
             T = int(lens[eps].max())
         else:
             eps = rng.choice(len(self.episodes), size=n, p=lens / lens.sum())
@@ -168,6 +182,14 @@ def unpool(depth_u8: torch.Tensor) -> torch.Tensor:
     return d.unsqueeze(-1)
 
 
+def silence_prev_action(policy: PointNavResNetPolicy) -> None:
+    """Zero and freeze the previous-action embedding (TrainConfig.prev_action explains why)."""
+    emb = policy.net.prev_action_embedding
+    with torch.no_grad():
+        emb.weight.zero_()
+    emb.requires_grad_(False)
+
+
 def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
     out = np.ones(len(labels), np.float32)
     out[0] = w
@@ -187,7 +209,7 @@ def make_envs(n: int, split: str, seed: int) -> list[PointNavEnv]:
 
 def make_expert(env: PointNavEnv, cfg: TrainConfig) -> GreedyFollower:
     if cfg.expert == "geodesic":
-        return GreedyFollower(env.navgrid, env.goal_points, cfg.success_distance)
+        return GreedyFollower(env.navgrid, env.goal_points, cfg.success_distance, clearance_margin=cfg.expert_margin)
     if cfg.expert == "optimistic":
         c = env.config
         return OptimisticFollower(env.navgrid, env.goal_points, cfg.success_distance, c.hfov_deg, c.min_depth,
@@ -378,6 +400,8 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     aux_head = None
     if cfg.freeze_visual:
         policy.net.visual_encoder.requires_grad_(False)
+    if not cfg.prev_action:
+        silence_prev_action(policy)
     elif cfg.aux_free_space_weight > 0:
         aux_head = make_aux_head(policy, cfg)
     params = [p for p in policy.parameters() if p.requires_grad]
@@ -396,6 +420,8 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     else:
         if init is not None:  # warm start: weights only, fresh optimizer
             policy.load_state_dict(load_checkpoint(init).state_dict())
+            if not cfg.prev_action:
+                silence_prev_action(policy)
             log_every(f"initialised from {init}")
         if log_path.exists():
             log_path.unlink()

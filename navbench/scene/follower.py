@@ -34,7 +34,8 @@ class GreedyFollower:
     """Chooses the next action towards the nearest of ``goals`` (see module docstring)."""
 
     def __init__(self, navgrid: NavGrid, goals, success_distance: float, forward_step: float = 0.25,
-                 turn_angle_deg: float = 30.0, sliding: bool = False, endgame_steps: int = 4):
+                 turn_angle_deg: float = 30.0, sliding: bool = False, endgame_steps: int = 4,
+                 clearance_margin: float = 0.0):
         if not (math.isfinite(success_distance) and success_distance > 0):
             raise ValueError(f"success_distance must be a positive number, got {success_distance}")
         if not (math.isfinite(forward_step) and forward_step > 0):
@@ -43,6 +44,9 @@ class GreedyFollower:
             raise ValueError(f"turn_angle_deg must be in (0, 180], got {turn_angle_deg}")
         self.navgrid = navgrid
         self.field = navgrid.distance_field(goals)
+        # Far from the goal, steer on a field that keeps clearance_margin of extra room from obstacles
+        # where it can (NavGrid.distance_field explains); the endgame and STOP use true distances.
+        self._steer = navgrid.distance_field(goals, clearance_margin) if clearance_margin > 0 else None
         self.success_distance = float(success_distance)
         self.forward_step = float(forward_step)
         self.turn = math.radians(turn_angle_deg)
@@ -53,6 +57,11 @@ class GreedyFollower:
         self._plan_xz: tuple[float, float] | None = None
         self._plan_yaw = 0.0
         self._yaw0 = 0.0  # heading the current plan's offsets are relative to
+
+    @property
+    def steer(self):
+        """The field the greedy step and the beam search descend (``field`` unless a margin is set)."""
+        return self.field if self._steer is None else self._steer
 
     def observe(self, depth01, position, yaw: float) -> None:
         """Take in a depth frame: nothing to do for a follower that knows the whole map (see
@@ -116,10 +125,12 @@ class GreedyFollower:
         return [m if m <= n // 2 else m - n for m in offsets]
 
     def _greedy(self, x: float, z: float, yaw: float, d: float) -> float:
+        if self._steer is not None:
+            d = self._steer._distance_xz(x, z)
         best_score, best_d, best_m = math.inf, math.inf, 0
         for m in self._lattice():
             x1, z1 = self._step(x, z, yaw + m * self.turn)
-            d1 = self.field._distance_xz(x1, z1)
+            d1 = self.steer._distance_xz(x1, z1)
             score = d1 + _TURN_PENALTY * abs(m)
             if score < best_score:
                 best_score, best_d, best_m = score, d1, m
@@ -132,7 +143,7 @@ class GreedyFollower:
     def _beam(self, x: float, z: float, width: int = 12, depth: int = 3) -> int:
         """First heading offset of the best sequence found by a beam search over forward steps."""
         lattice = self._lattice()
-        beam = [(self.field._distance_xz(x, z), x, z, 0, None)]  # (distance, x, z, last offset, first offset)
+        beam = [(self.steer._distance_xz(x, z), x, z, 0, None)]  # (distance, x, z, last offset, first offset)
         best = (math.inf, 0)
         for _ in range(depth):
             children = []
@@ -141,7 +152,7 @@ class GreedyFollower:
                     qx, qz = self._step(px, pz, self._yaw0 + m * self.turn)
                     if abs(qx - px) + abs(qz - pz) < 1e-6:
                         continue
-                    dq = self.field._distance_xz(qx, qz)
+                    dq = self.steer._distance_xz(qx, qz)
                     f = m if first is None else first
                     children.append((dq + _TURN_PENALTY * self._turns(m - prev), qx, qz, m, f))
             if not children:

@@ -33,6 +33,8 @@ from navbench.scene.asset import SceneError
 _HORIZONTAL_NY = 0.7
 # Cells the goal's exact-distance disc spans in the fast-marching initialisation (see distance_field).
 _GOAL_DISC_CELLS = 1.5
+# Slowest speed of a clearance-weighted field (distance_field(margin=...)), on the navigable boundary.
+_MIN_SPEED = 0.3
 
 
 @dataclass(frozen=True)
@@ -520,8 +522,15 @@ class NavGrid:
 
     # ------------------------------------------------------------------ geodesics
 
-    def distance_field(self, goals) -> GeodesicField:
+    def distance_field(self, goals, margin: float = 0.0) -> GeodesicField:
         """Geodesic distance field to the nearest of ``goals`` ((3,) or (N, 3)), LRU-cached per goal set.
+
+        ``margin > 0`` gives a *clearance-weighted* field for steering instead: the travel time at a
+        speed of 1 m/s in the open that falls linearly to ``_MIN_SPEED`` on cells closer than ``margin``
+        to the navigable boundary. Its shortest paths keep that much extra room from walls and corners
+        where they can (doorways, wider than the agent by more than 2 x margin, stay at full speed), so
+        an agent that follows them a few centimetres off cannot clip a corner. Its values are not
+        metres: success and SPL always use the plain field.
 
         Goals on a navigable cell are used exactly. A goal off the navigable area is replaced by
         its snapped point (nearest navigable cell centre), with nothing added for the snap, as
@@ -533,18 +542,18 @@ class NavGrid:
         each goal (only on the goal's island, so it cannot leak across a wall), and r is added back.
         """
         g = _points(goals, "goals").reshape(-1, 3)
-        key = np.round(g[:, [0, 2]] * 1000.0).astype(np.int64).tobytes()
+        key = np.round(g[:, [0, 2]] * 1000.0).astype(np.int64).tobytes() + np.float64(margin).tobytes()
         field = self._fields.get(key)
         if field is not None:
             self._fields.move_to_end(key)
             return field
-        field = self._compute_field(g)
+        field = self._compute_field(g, margin)
         self._fields[key] = field
         while len(self._fields) > self.config.field_cache_size:
             self._fields.popitem(last=False)
         return field
 
-    def _compute_field(self, goals: np.ndarray) -> GeodesicField:
+    def _compute_field(self, goals: np.ndarray, margin: float = 0.0) -> GeodesicField:
         cs = self.cell_size
         h, w = self.navigable.shape
         used = []
@@ -584,7 +593,12 @@ class NavGrid:
         near_goal.ravel()[ii[sel] * w + jj[sel]] = gidx[sel]
         phi = np.ones((h, w))
         phi.ravel()[ii[sel] * w + jj[sel]] = np.minimum(dist[sel] - r, 1.0)
-        d = skfmm.distance(np.ma.MaskedArray(phi, mask=~self.navigable), dx=cs, order=2)
+        phi = np.ma.MaskedArray(phi, mask=~self.navigable)
+        if margin > 0:
+            speed = np.clip(self._navigable_clearance() / margin, _MIN_SPEED, 1.0)
+            d = skfmm.travel_time(phi, speed, dx=cs, order=2)
+        else:
+            d = skfmm.distance(phi, dx=cs, order=2)
         d = np.ma.filled(d, np.inf) + r
         # Inside the zero level set skfmm returns minus the distance to the set's boundary, which for a
         # dense goal set (ObjectNav view points) is far more than r: use the exact distance to the
@@ -619,13 +633,18 @@ class NavGrid:
             self._clearance = ndimage.distance_transform_edt(self.free) * self.cell_size
         return self._clearance
 
+    def _navigable_clearance(self) -> np.ndarray:
+        """Per cell, metres to the nearest non-navigable cell (0 off the navigable area)."""
+        if self._nav_clearance is None:
+            self._nav_clearance = ndimage.distance_transform_edt(self.navigable) * self.cell_size
+        return self._nav_clearance
+
     def _straight(self, x0: float, z0: float, x1: float, z1: float) -> tuple[float, float, bool]:
         """Furthest point along the segment that stays navigable; (x, z, stopped short)."""
         length = math.hypot(x1 - x0, z1 - z0)
         if length == 0.0:
             return x0, z0, False
-        if self._nav_clearance is None:
-            self._nav_clearance = ndimage.distance_transform_edt(self.navigable) * self.cell_size
+        self._navigable_clearance()
         start = self._cell(x0, z0)
         # Every sample's cell centre lies within length + 1.5 cells of the start cell's centre; if
         # all cells that close are navigable, the whole segment is (the common case, kept cheap).

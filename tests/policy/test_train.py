@@ -93,3 +93,36 @@ def test_both_experts_reach_the_goal_of_a_val_episode():
     assert results["geodesic"]["success"] and results["optimistic"]["success"]
     # knowing only what it has seen can only make the path longer
     assert results["optimistic"]["path_length"] >= results["geodesic"]["path_length"] - 1e-6
+
+
+def test_silenced_previous_action_changes_nothing_and_stays_zero():
+    from navbench.policy.train import silence_prev_action
+
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    silence_prev_action(policy)
+    emb = policy.net.prev_action_embedding
+    assert not emb.weight.requires_grad and not emb.weight.any()
+    feats = torch.randn(3, 2, 2048)
+    goal, mask = torch.rand(3, 2, 2), torch.ones(3, 2, dtype=torch.bool)
+    hidden = policy.initial_hidden(2)
+    a = policy.forward_features(feats, goal, torch.zeros(3, 2, dtype=torch.long), mask, hidden)[0]
+    b = policy.forward_features(feats, goal, torch.full((3, 2), 2, dtype=torch.long), mask, hidden)[0]
+    assert torch.equal(a, b)
+    assert "net.prev_action_embedding.weight" in policy.state_dict()  # habitat's layout is kept
+
+
+def test_whole_episode_batches_group_similar_lengths():
+    buffer = EpisodeBuffer(10_000)
+    for L in (5, 6, 7, 50, 52, 200):
+        buffer.add({"feat": np.zeros((L, 4), np.float16), "goal": np.zeros((L, 2), np.float32),
+                    "prev": np.zeros(L, np.int64), "mask": np.arange(L) > 0, "label": np.ones(L, np.int64),
+                    "weight": np.ones(L, np.float32)})
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        batch = buffer.sample(rng, 3, None)
+        lengths = batch["weight"].sum(0)
+        assert batch["label"].shape[0] == lengths.max()  # padded to the longest of the three only
+        assert batch["weight"].sum() == lengths.sum()  # padding weighs nothing
+    assert {int(buffer.sample(np.random.default_rng(s), 3, None)["label"].shape[0]) for s in range(30)} \
+        == {7, 50, 52, 200}

@@ -41,11 +41,14 @@ def furnished_grid() -> NavGrid:
     return NavGrid.from_mesh(trimesh.util.concatenate(parts))
 
 
-def run_episode(grid: NavGrid, start, yaw: float, goals, success: float, max_steps: int = 500):
+def run_episode(grid: NavGrid, start, yaw: float, goals, success: float, max_steps: int = 500, margin: float = 0.0,
+                positions: list | None = None):
     """Drive the follower with the no-sliding motion; returns (success, path length, actions, collisions)."""
-    follower = GreedyFollower(grid, goals, success)
+    follower = GreedyFollower(grid, goals, success, clearance_margin=margin)
     pos, path, actions, collisions = np.asarray(start, float), 0.0, [], 0
     for _ in range(max_steps):
+        if positions is not None:
+            positions.append(pos)
         a = follower.next_action(pos, quat_from_yaw(yaw))
         actions.append(a)
         if a == STOP:
@@ -154,3 +157,31 @@ def test_follower_success_and_spl_on_random_episodes(furnished_grid):
     sr, spl = np.mean(results, axis=0)
     assert sr == 1.0
     assert spl >= 0.92
+
+
+def test_clearance_margin_keeps_away_from_the_wall_end_at_little_cost(wall_grid):
+    """Round the end of the wall (z = 4): the plain shortest path grazes it, the margin path keeps room."""
+    clearance = wall_grid._navigable_clearance()
+    runs = {}
+    for margin in (0.0, 0.15):
+        positions: list = []
+        ok, path, _, collisions = run_episode(wall_grid, P(1.5, 1.0), 0.0, P(4.5, 1.0), 0.2, margin=margin,
+                                              positions=positions)
+        room = min(clearance[wall_grid._cell(p[0], p[2])] for p in positions)
+        runs[margin] = (ok, path, collisions, room)
+    assert runs[0.0][0] and runs[0.15][0] and runs[0.15][2] == 0
+    assert runs[0.0][3] < 0.08 <= runs[0.15][3]  # closest approach to the navigable boundary
+    assert runs[0.15][1] < 1.1 * runs[0.0][1]  # the detour is small
+
+
+def test_clearance_weighted_field_is_distance_in_the_open_and_slower_near_walls(wall_grid):
+    goal = P(1.5, 5.0)
+    plain, weighted = wall_grid.distance_field(goal), wall_grid.distance_field(goal, margin=0.15)
+    assert weighted is not plain and wall_grid.distance_field(goal, margin=0.15) is weighted  # cached apart
+    # open floor, straight line from the goal: travel time at 1 m/s equals the distance
+    assert weighted.distance(P(1.5, 3.0)) == pytest.approx(plain.distance(P(1.5, 3.0)), rel=0.02)
+    # along the wall's face the agent is slowed: time exceeds distance (speed is never above 1)
+    along, along_plain = wall_grid.distance_field(P(2.76, 3.5), margin=0.15), wall_grid.distance_field(P(2.76, 3.5))
+    assert along.distance(P(2.76, 0.5)) > along_plain.distance(P(2.76, 0.5)) + 0.1  # measured +0.17
+    finite = np.isfinite(plain.values)
+    assert (weighted.values[finite] >= plain.values[finite] - 0.02).all()
