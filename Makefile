@@ -59,20 +59,15 @@ results-localize: setup
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --no-fusion --out results/localize/oracle_heavy_single
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
 
-# The from-scratch training recipe under development. It has NOT yet beaten the shipped checkpoint:
-# policies/README.md says how that file was trained and what this recipe's stages reached. Two stages,
-# each resumable (rerun the same line with --resume after a kill): 1. the whole network on short
-# chunks with the free-space auxiliary loss, to train the depth encoder; 2. the encoder frozen, the
-# rest on whole DAgger episodes (optimistic expert) from cached encoder features.
-STAGE1_ITERS ?= 5
-STAGE2_ITERS ?= 10
+# The shipped PointNav checkpoint's recipe (policies/README.md): 1. pre-train the depth encoder on
+# geometric targets from rendered train-house frames; 2. freeze it and train the rest by DAgger
+# imitation of the clearance-keeping geodesic expert on whole episodes (cached encoder outputs). Each
+# stage is resumable: rerun the same line with --resume after a kill.
+DAGGER_ITERS ?= 14
 train-pointnav: setup
-	$(BIN)/navbench train pointnav --train-encoder --truncated --chunk-len 8 --batch-chunks 16 \
-	  --iterations $(STAGE1_ITERS) --frames-per-iteration 6000 --epochs-per-iteration 3 --val-episodes 0 \
-	  --out runs/pointnav_stage1/stage1.pth --state-dir runs/pointnav_stage1/state
-	$(BIN)/navbench train pointnav --init runs/pointnav_stage1/stage1.pth --beta0 0.5 \
-	  --iterations $(STAGE2_ITERS) --frames-per-iteration 6000 --epochs-per-iteration 16 \
-	  --out policies/pointnav_navbench.pth --state-dir runs/pointnav_stage2/state
+	$(BIN)/navbench train encoder --out runs/pointnav/encoder.pth --state-dir runs/pointnav/encoder_state
+	$(BIN)/navbench train pointnav --init runs/pointnav/encoder.pth --expert geodesic --iterations $(DAGGER_ITERS) \
+	  --frames-per-iteration 8000 --out policies/pointnav_navbench.pth --state-dir runs/pointnav/dagger_state
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
 results-pointnav: setup

@@ -85,6 +85,10 @@ class TrainConfig:
     # clearance_margin): shortest paths graze corners, and a learner that follows them a few
     # centimetres off clips the corner with its body and, without sliding, does not move at all.
     expert_margin: float = 0.15
+    # Where the expert says STOP (None: success_distance). A cloned STOP is imprecise by a few
+    # centimetres; an expert that stops at 0.1 m puts the learner's stops inside the 0.2 m success
+    # radius instead of just outside it (most failed STOPs of the 0.2 m expert's policy were at 0.2-0.35 m).
+    expert_success_distance: float | None = None
     grad_clip: float = 1.0
     val_episodes: int = 16
     # Monitoring only (the shipped figures come from `navbench run` with the full 500): an untrained
@@ -208,12 +212,12 @@ def make_envs(n: int, split: str, seed: int) -> list[PointNavEnv]:
 
 
 def make_expert(env: PointNavEnv, cfg: TrainConfig) -> GreedyFollower:
+    stop = cfg.expert_success_distance or cfg.success_distance
     if cfg.expert == "geodesic":
-        return GreedyFollower(env.navgrid, env.goal_points, cfg.success_distance, clearance_margin=cfg.expert_margin)
+        return GreedyFollower(env.navgrid, env.goal_points, stop, clearance_margin=cfg.expert_margin)
     if cfg.expert == "optimistic":
         c = env.config
-        return OptimisticFollower(env.navgrid, env.goal_points, cfg.success_distance, c.hfov_deg, c.min_depth,
-                                  c.max_depth)
+        return OptimisticFollower(env.navgrid, env.goal_points, stop, c.hfov_deg, c.min_depth, c.max_depth)
     raise ValueError(f"unknown expert {cfg.expert!r}: choose geodesic or optimistic")
 
 
@@ -344,6 +348,20 @@ def make_aux_head(policy: PointNavResNetPolicy, cfg: TrainConfig) -> torch.nn.Mo
                                torch.nn.Linear(256, len(cfg.free_space_headings_deg)))
 
 
+def build_learner(cfg: TrainConfig) -> tuple[PointNavResNetPolicy, torch.nn.Module | None]:
+    """The policy to train (what is frozen set by ``cfg``) and the auxiliary head, if it trains one."""
+    # channels_last: oneDNN's NHWC convolution kernels train ~1.7x faster on this CPU class
+    policy = PointNavResNetPolicy(PolicyNetConfig()).to(memory_format=torch.channels_last)
+    aux_head = None
+    if cfg.freeze_visual:
+        policy.net.visual_encoder.requires_grad_(False)
+    elif cfg.aux_free_space_weight > 0:
+        aux_head = make_aux_head(policy, cfg)
+    if not cfg.prev_action:
+        silence_prev_action(policy)
+    return policy, aux_head
+
+
 def train_step(policy, opt, batch, cfg: TrainConfig, aux_head: torch.nn.Module | None = None
                ) -> tuple[float, float]:
     T, n = batch["label"].shape
@@ -395,15 +413,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     state_path = state_dir / "train_state.pt"  # weights + optimizer (100 MB): resumable, not shipped
     log_path = out.with_suffix(".log.csv")
 
-    # channels_last: oneDNN's NHWC convolution kernels train ~1.7x faster on this CPU class
-    policy = PointNavResNetPolicy(PolicyNetConfig()).to(memory_format=torch.channels_last)
-    aux_head = None
-    if cfg.freeze_visual:
-        policy.net.visual_encoder.requires_grad_(False)
-    if not cfg.prev_action:
-        silence_prev_action(policy)
-    elif cfg.aux_free_space_weight > 0:
-        aux_head = make_aux_head(policy, cfg)
+    policy, aux_head = build_learner(cfg)
     params = [p for p in policy.parameters() if p.requires_grad]
     opt = torch.optim.Adam(params + (list(aux_head.parameters()) if aux_head is not None else []), lr=cfg.lr,
                            weight_decay=cfg.weight_decay)

@@ -79,6 +79,9 @@ def test_both_experts_reach_the_goal_of_a_val_episode():
 
     ds = load_dataset(split_file("pointnav", "val"))
     env = PointNavEnv(ds, config=EnvConfig(rgb=False, depth=True, success_distance=0.2))
+    env.reset(options={"episode": ds.episodes[1]})
+    assert make_expert(env, TrainConfig(expert_success_distance=0.1)).success_distance == 0.1
+    assert make_expert(env, TrainConfig()).success_distance == 0.2
     results = {}
     for expert in ("geodesic", "optimistic"):
         obs, _ = env.reset(options={"episode": ds.episodes[1]})  # 12.6 m geodesic, through doors
@@ -126,3 +129,14 @@ def test_whole_episode_batches_group_similar_lengths():
         assert batch["weight"].sum() == lengths.sum()  # padding weighs nothing
     assert {int(buffer.sample(np.random.default_rng(s), 3, None)["label"].shape[0]) for s in range(30)} \
         == {7, 50, 52, 200}
+
+
+def test_learner_freezes_what_the_config_says():
+    from navbench.policy.train import build_learner
+
+    policy, aux = build_learner(TrainConfig())  # defaults: frozen encoder, previous action used
+    assert aux is None and not any(p.requires_grad for p in policy.net.visual_encoder.parameters())
+    assert policy.net.prev_action_embedding.weight.requires_grad and policy.net.visual_fc[1].weight.requires_grad
+    policy, aux = build_learner(TrainConfig(freeze_visual=False, prev_action=False))
+    assert aux is not None and all(p.requires_grad for p in policy.net.visual_encoder.parameters())
+    assert not policy.net.prev_action_embedding.weight.requires_grad
