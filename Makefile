@@ -59,15 +59,19 @@ results-localize: setup
 	$(BIN)/navbench localize --split goat_val --perception oracle --noise heavy --no-fusion --out results/localize/oracle_heavy_single
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
 
-# The shipped PointNav checkpoint's recipe (policies/README.md): 1. pre-train the depth encoder on
-# geometric targets from rendered train-house frames; 2. freeze it and train the rest by DAgger
-# imitation of the clearance-keeping geodesic expert on whole episodes (cached encoder outputs). Each
-# stage is resumable: rerun the same line with --resume after a kill.
-DAGGER_ITERS ?= 14
+# The shipped PointNav checkpoint's recipe (policies/README.md has its log and figures): 1. pre-train
+# the depth encoder on geometric targets from rendered train-house frames; 2. freeze it and train the
+# rest by DAgger imitation of the clearance-keeping geodesic expert on whole episodes (cached encoder
+# outputs); 3. continue with the expert stopping at 0.1 m. Each stage is resumable: rerun the same
+# line with --resume after a kill.
 train-pointnav: setup
 	$(BIN)/navbench train encoder --out runs/pointnav/encoder.pth --state-dir runs/pointnav/encoder_state
-	$(BIN)/navbench train pointnav --init runs/pointnav/encoder.pth --expert geodesic --iterations $(DAGGER_ITERS) \
-	  --frames-per-iteration 8000 --out policies/pointnav_navbench.pth --state-dir runs/pointnav/dagger_state
+	$(BIN)/navbench train pointnav --init runs/pointnav/encoder.pth --expert geodesic --iterations 14 \
+	  --frames-per-iteration 8000 --out runs/pointnav/policy_stage2.pth --state-dir runs/pointnav/dagger_state
+	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage2.pth --expert geodesic --expert-success-distance 0.1 \
+	  --beta0 0.1 --iterations 6 --frames-per-iteration 8000 --out runs/pointnav/policy_stage3.pth \
+	  --state-dir runs/pointnav/stage3_state
+	cp runs/pointnav/policy_stage3.pth policies/pointnav_navbench.pth
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
 results-pointnav: setup

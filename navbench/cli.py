@@ -323,7 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="zero and freeze the previous-action embedding (against copycat policies)")
     tr.add_argument("--expert-margin", type=float, help="extra clearance (m) the geodesic expert keeps")
     tr.add_argument("--expert-success-distance", type=float, help="where the expert says STOP (default 0.2 m)")
-    tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default optimistic)")
+    tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default geodesic)")
     tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
     tr.add_argument("--max-episode-steps", type=int)
     tr.add_argument("--chunk-len", type=int)

@@ -1,10 +1,11 @@
 """Train the PointNav policy on CPU by imitating a shortest-path expert with DAgger.
 
-The expert is the optimistic follower (plans on what the agent has seen; ``--expert optimistic``, the
-default) or the geodesic oracle (plans on the true map; ``--expert geodesic``).
+The expert is the geodesic follower (plans on the true map and keeps ``expert_margin`` of clearance;
+``--expert geodesic``, the default) or the optimistic follower (plans on what the agent has seen;
+``--expert optimistic``).
 
-    make train-pointnav        # the two-stage recipe (policies/README.md: what it has reached)
-    navbench train pointnav --out policies/pointnav_navbench.pth        # resumable: add --resume
+    make train-pointnav        # the shipped checkpoint's three-stage recipe (policies/README.md)
+    navbench train pointnav --init runs/pointnav/encoder.pth --out runs/pointnav/policy.pth  # add --resume
 
 Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the policy reads) on the
 bundled train scenes. The executed action is the oracle's with probability beta (1 in the first
@@ -19,9 +20,9 @@ bundled PointNav ``val`` episodes, logs to CSV and writes a resumable checkpoint
 
 By default (``freeze_visual``) the visual encoder is not trained: frames are encoded once and the
 rest of the network trains on the cached encoder outputs, ~50x cheaper per update on 2 cores. Start
-from a checkpoint whose encoder was trained (``--init PATH``). ``--train-encoder`` trains the whole
-network, with an auxiliary free-space regression on the encoder output; the recipe (``make
-train-pointnav``) runs that on short chunks first, then freezes the encoder.
+from a checkpoint whose encoder was trained (``--init PATH``, e.g. ``navbench train encoder``'s output,
+see :mod:`navbench.policy.pretrain`). ``--train-encoder`` trains the whole network on short chunks,
+with an auxiliary free-space regression on the encoder output.
 """
 
 from __future__ import annotations
@@ -50,10 +51,10 @@ from navbench.scene.optimistic import OptimisticFollower
 
 @dataclass(frozen=True)
 class TrainConfig:
-    # "optimistic": label with the shortest path on the map seen so far (unseen cells free), which a
-    # policy with memory can infer from its observations; "geodesic": the true shortest path, which
-    # often heads for a door the agent has never seen (navbench.scene.optimistic explains).
-    expert: str = "optimistic"
+    # "geodesic": the true shortest path (with expert_margin of clearance), the shipped policy's expert;
+    # "optimistic": the shortest path on the map seen so far (unseen cells free), whose labels follow
+    # from the observation history (navbench.scene.optimistic explains); slower to label.
+    expert: str = "geodesic"
     iterations: int = 14
     frames_per_iteration: int = 6_000
     num_envs: int = 8
