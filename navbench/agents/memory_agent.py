@@ -8,7 +8,8 @@ to the nearest with the PointNav policy. Each step it:
 2. projects up to ``max_projected_points`` of the target's fused cloud into the current depth image;
    a point is *visible* when ``|z - depth| < visible_depth_tol`` (dynamic goal tracking);
 3. moves the goal to the nearest visible cloud point (xz) when it moved >= ``goal_update_far``
-   (>= ``goal_update_near`` within ``near_radius`` of the goal), resetting the policy's memory;
+   (>= ``goal_update_near`` within ``near_radius`` of the goal), resetting the policy's memory; a goal
+   that has left the view is only replaced by a nearer point;
 4. STOPs when within ``stop_radius`` (xz) of the goal and >= ``visible_fraction`` of in-view points
    are visible, or opportunistically when any other candidate passes the same test;
 5. otherwise acts with the policy on the goal's polar coordinates; a policy STOP on a target that
@@ -113,9 +114,10 @@ class MemoryAgent:
         c = self.env_config
         return depth_metres(obs["depth"], c.min_depth, c.max_depth, c.normalize_depth)
 
-    def visibility(self, cloud: np.ndarray, depth: np.ndarray, position: np.ndarray, yaw: float
-                   ) -> tuple[np.ndarray, int]:
-        """Visible cloud points and the number in view (projected inside the image, in front)."""
+    def visibility(self, cloud: np.ndarray, depth: np.ndarray, position: np.ndarray, yaw: float,
+                   check_depth: bool = True) -> tuple[np.ndarray, int]:
+        """Visible cloud points and the number in view (projected inside the image, in front, within
+        the sensor's range); ``check_depth=False`` returns every in-view point as visible."""
         if len(cloud) == 0:
             return cloud, 0
         cam_pos = position + np.array([0.0, self.env_config.agent_height, 0.0])
@@ -125,6 +127,8 @@ class MemoryAgent:
         in_view &= (z > self.env_config.min_depth) & (z < self.env_config.max_depth)
         if not in_view.any():
             return cloud[:0], 0
+        if not check_depth:
+            return cloud[in_view], int(in_view.sum())
         u = np.clip(np.round(uv[in_view, 0]).astype(int), 0, depth.shape[1] - 1)
         v = np.clip(np.round(uv[in_view, 1]).astype(int), 0, depth.shape[0] - 1)
         ok = np.abs(z[in_view] - depth[v, u]) < self.config.visible_depth_tol
@@ -149,7 +153,13 @@ class MemoryAgent:
             nearest = visible[int(np.argmin(xz_dists(visible, position)))]
             moved = xz_dist(nearest, self.goal)
             near = xz_dist(position, self.goal) < cfg.near_radius
-            if moved >= (cfg.goal_update_near if near else cfg.goal_update_far):
+            # A goal that has left the view (e.g. below the camera's field of view once the agent is
+            # close to a low object) can be neither confirmed nor refuted: keep it unless the new point
+            # is nearer. Replacing it by the nearest point still in view would move the goal away as
+            # the agent approaches, so it could never come within stop_radius of a rug.
+            in_view = self.visibility(self.goal[None], depth, position, yaw, check_depth=False)[1] > 0
+            closer = xz_dist(nearest, position) < xz_dist(self.goal, position)
+            if moved >= (cfg.goal_update_near if near else cfg.goal_update_far) and (in_view or closer):
                 self.goal = nearest
                 self.policy.reset_hidden()
                 self._event("goal_update", goal=nearest, moved=moved)

@@ -120,6 +120,30 @@ def test_goal_update_thresholds_far_and_near():
     assert agent2.episode_log()["events"][0]["event"] == "goal_update"
 
 
+def test_goal_out_of_view_is_only_replaced_by_a_nearer_point():
+    from navbench.localize.geometry import project, world_to_camera
+    from navbench.render.renderer import camera_pose
+    from navbench.scene.pose import quat_from_yaw
+
+    # a floor-level patch 0.5-2.5 m ahead: its near edge (the initial goal) is below the field of view
+    xs, zs = np.meshgrid(np.linspace(-0.3, 0.3, 7), np.linspace(-2.5, -0.5, 21))
+    pts = np.stack([xs.ravel(), np.zeros(xs.size), zs.ravel()], axis=1)
+    agent, policy = make_agent([cand(pts)])
+    g0 = agent.goal.copy()
+    # the depth the sensor would measure: the patch's own points where they project, 5 m elsewhere
+    uv, z, in_view = project(pts, agent.K, world_to_camera(camera_pose(np.array([0, ENV.agent_height, 0]),
+                                                                       quat_from_yaw(0.0))), W, H)
+    depth = np.full((H, W), 5.0)
+    depth[np.round(uv[in_view, 1]).astype(int), np.round(uv[in_view, 0]).astype(int)] = z[in_view]
+    visible, _ = agent.visibility(pts, depth, np.zeros(3), 0.0)
+    assert len(visible) > 0 and agent.visibility(g0[None], depth, np.zeros(3), 0.0, check_depth=False)[1] == 0
+    agent.act(obs_at(((depth - 0.5) / 4.5).astype(np.float32)[..., None]))
+    # the nearest visible point is > 0.5 m beyond the goal, which would move it; the goal is out of
+    # view and the visible point farther, so the goal stays
+    assert np.min(np.hypot(visible[:, 0] - g0[0], visible[:, 2] - g0[2])) >= 0.5
+    assert np.array_equal(agent.goal, g0) and policy.hidden_resets == 0
+
+
 def test_no_tracking_ablation_keeps_the_goal():
     agent, _ = make_agent([cand(plane_points(-1.5))], goal_tracking=False)
     g = agent.goal.copy()
