@@ -23,7 +23,6 @@ other weights are at their initialisation, the ``--init`` of the DAgger stage.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import math
@@ -40,6 +39,7 @@ from navbench.env.sensors import normalize_depth
 from navbench.paths import SCENES_DIR
 from navbench.policy.checkpoint import save_checkpoint
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
+from navbench.policy.progress import log_row
 from navbench.render.renderer import CameraConfig, Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid, NavGridConfig
@@ -252,13 +252,7 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
                     **{f"val_{k}": float(np.mean([float(r[k]) for r in val])) for k in val[0]},
                     "wall_s": time.time() - t_start}
             running = {}
-            write_header = not log_path.exists()
-            with open(log_path, "a", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=list(last))
-                if write_header:
-                    w.writeheader()
-                w.writerow({k: (round(v, 5) if isinstance(v, float) else v) for k, v in last.items()})
-            log(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in last.items()))
+            log(log_row(log_path, last))
         if done % cfg.save_every == 0 or done == cfg.updates:
             save_checkpoint(out, policy, {"pretrain_config": dataclasses.asdict(cfg), "update": done,
                                           "frames": n, "wall_s": time.time() - t_start,

@@ -27,7 +27,6 @@ with an auxiliary free-space regression on the encoder output.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import time
@@ -45,6 +44,7 @@ from navbench.paths import split_file
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.pretrain import free_distances
+from navbench.policy.progress import log_row
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.optimistic import OptimisticFollower
 
@@ -472,13 +472,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "loss": float(np.mean(losses)),
                 "acc": float(np.mean(accs)), **stats, **val, "collect_s": t_collect, "train_s": t_train,
                 "updates": n_updates, "buffer_frames": buffer.frames, "wall_s": time.time() - t_start}
-        write_header = not log_path.exists()
-        with open(log_path, "a", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(last))
-            if write_header:
-                w.writeheader()
-            w.writerow({k: (round(v, 4) if isinstance(v, float) else v) for k, v in last.items()})
-        log_every(" ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in last.items()))
+        log_every(log_row(log_path, last, digits=3))
         meta = {"train_config": dataclasses.asdict(cfg), "frames": frames_total, "wall_s": last["wall_s"],
                 "iteration": it + 1, "val_sr": val["val_sr"], "val_spl": val["val_spl"]}
         save_checkpoint(out, policy, meta)

@@ -90,3 +90,14 @@ def test_rendered_frames_have_targets_and_a_few_updates_reduce_the_loss() -> Non
         opt.step()
         history.append(loss.item())
     assert history[-1] < 0.6 * history[0], history
+
+
+def test_tiny_pretrain_run_logs_and_writes_a_habitat_checkpoint(tmp_path) -> None:
+    from navbench.policy.checkpoint import load_checkpoint
+    from navbench.policy.pretrain import pretrain
+
+    cfg = PretrainConfig(frames_per_scene=2, heldout_frames=4, updates=2, batch_size=4, log_every=1, save_every=2)
+    last = pretrain(cfg, tmp_path / "enc.pth", tmp_path / "state", log=lambda _: None)
+    assert last["update"] == 2 and np.isfinite(last["val_loss"])
+    assert (tmp_path / "enc.log.csv").read_text().count("\n") == 3  # header + two rows
+    assert load_checkpoint(tmp_path / "enc.pth") is not None
