@@ -116,7 +116,7 @@ class GreedyFollower:
             m = self._search(x, z, yaw, d)
             if m is not None:
                 return yaw + m * self.turn
-        return self._greedy(x, z, yaw, d)
+        return self._greedy(x, z, yaw)
 
     def _lattice(self) -> list[int]:
         """Heading offsets in lattice steps, fewest turns first, left before right on ties."""
@@ -124,9 +124,8 @@ class GreedyFollower:
         offsets = sorted(range(n), key=lambda m: (self._turns(m), -1 if 0 < m <= n // 2 else 1))
         return [m if m <= n // 2 else m - n for m in offsets]
 
-    def _greedy(self, x: float, z: float, yaw: float, d: float) -> float:
-        if self._steer is not None:
-            d = self._steer._distance_xz(x, z)
+    def _greedy(self, x: float, z: float, yaw: float) -> float:
+        d = self.steer._distance_xz(x, z)
         best_score, best_d, best_m = math.inf, math.inf, 0
         for m in self._lattice():
             x1, z1 = self._step(x, z, yaw + m * self.turn)

@@ -644,11 +644,11 @@ class NavGrid:
         length = math.hypot(x1 - x0, z1 - z0)
         if length == 0.0:
             return x0, z0, False
-        self._navigable_clearance()
+        clearance = self._navigable_clearance()
         start = self._cell(x0, z0)
         # Every sample's cell centre lies within length + 1.5 cells of the start cell's centre; if
         # all cells that close are navigable, the whole segment is (the common case, kept cheap).
-        if start is not None and self._nav_clearance[start] > length + 1.5 * self.cell_size:
+        if start is not None and clearance[start] > length + 1.5 * self.cell_size:
             return x1, z1, False
         n = max(1, int(math.ceil(length / (0.25 * self.cell_size))))
         t = np.arange(1, n + 1) / n
