@@ -25,6 +25,19 @@ class Agent(Protocol):
     def act(self, observations: dict[str, np.ndarray]) -> int: ...
 
 
+@runtime_checkable
+class BatchAgent(Protocol):
+    """An agent that acts for ``num_envs`` episodes at once (one forward pass of its network for all):
+    ``reset_env(i, episode)`` starts an episode in slot ``i``; ``act_batch`` takes one observation
+    dict per slot (slots without an episode repeat their last one) and returns an action per slot."""
+    sensors: tuple[str, ...]
+    num_envs: int
+
+    def reset_env(self, i: int, episode: Episode) -> None: ...
+
+    def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray: ...
+
+
 def episode_log(agent: Agent) -> dict[str, Any]:
     log = getattr(agent, "episode_log", None)
     return log() if callable(log) else {}
@@ -57,3 +70,14 @@ def log_value(v: Any) -> Any:
     if isinstance(v, np.ndarray):
         return [round(float(x), 3) for x in v.ravel()]
     return v
+
+
+def fov_stop_radius(goal: np.ndarray, stop_radius: float, margin: float, camera_height: float,
+                    tan_half_vfov: float) -> float:
+    """STOP radius (xz) for a goal point: ``stop_radius``, grown for a goal so far above or below the
+    camera that it leaves the vertical field of view closer than that (a rug, a picture high on a
+    wall) to the distance where it leaves the view plus ``margin``. Within a plain 0.9 m radius such a
+    goal could never pass a visibility test; the episodes' view points (cells that see the object)
+    lie outside it too."""
+    leaves_view = abs(float(goal[1]) - camera_height) / tan_half_vfov
+    return max(stop_radius, leaves_view + margin)

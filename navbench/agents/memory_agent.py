@@ -11,7 +11,12 @@ to the nearest with the PointNav policy. Each step it:
    (>= ``goal_update_near`` within ``near_radius`` of the goal), resetting the policy's memory; a goal
    that has left the view is only replaced by a nearer point;
 4. STOPs when within ``stop_radius`` (xz) of the goal and >= ``visible_fraction`` of in-view points
-   are visible, or opportunistically when any other candidate passes the same test;
+   are visible, or opportunistically when any other candidate passes the same test. Two additions
+   for goals far above or below the camera, which the camera cannot see from within ``stop_radius``
+   (a rug on the floor, a picture high on a wall): the radius grows to the xz distance at which the
+   goal leaves the vertical field of view plus ``fov_stop_margin``; and while no point of the target
+   is in view at all because the agent is too close to see it, the last visibility result from the
+   past ``visibility_memory`` steps stands in for the test;
 5. otherwise acts with the policy on the goal's polar coordinates; a policy STOP on a target that
    fails the visibility test becomes MOVE_FORWARD (at most ``max_stop_overrides`` times in a row);
 6. when stuck (< ``stuck_progress`` m in ``stuck_window`` steps) or oscillating, switches to the
@@ -28,7 +33,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from navbench.agents.base import PoseTracker, log_value, xz_dist, xz_dists
+from navbench.agents.base import PoseTracker, fov_stop_radius, log_value, xz_dist, xz_dists
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
@@ -48,6 +53,11 @@ class MemoryAgentConfig:
     visible_fraction: float = 0.05
     max_projected_points: int = 2000
     max_stop_overrides: int = 5
+    # Goals the camera cannot see from within stop_radius (module docstring, step 4). The margin is one
+    # forward step: approached in 0.25 m steps, a tighter window is stepped over (a picture 1.7 m high
+    # is visible from >= 1.0 m only, and its view points lie 0.9-1.0 m from the wall).
+    fov_stop_margin: float = 0.25
+    visibility_memory: int = 20  # steps a passed visibility test is remembered while nothing is in view
     stuck_window: int = 30
     stuck_progress: float = 0.5
     oscillation_window: int = 8  # this many alternating turns in a row is oscillation
@@ -74,6 +84,7 @@ class MemoryAgent:
         self.localize, self.policy, self.config, self.env_config = localize, policy, config, env_config
         cam = CameraConfig(width=env_config.width, height=env_config.height, hfov_deg=env_config.hfov_deg)
         self.K = intrinsics(cam)
+        self._tan_half_vfov = float(np.tan(cam.yfov / 2.0))
         self._pose = PoseTracker()
 
     # ----------------------------------------------------------------------------------- episode
@@ -89,6 +100,7 @@ class MemoryAgent:
         self.switches = 0
         self.overrides = 0
         self.step = 0
+        self.last_pass = -10**9  # step of the current target's last passed visibility test
         self.positions: list[np.ndarray] = []
         self.turns: list[int] = []
         self.log: dict[str, Any] = {"candidates": [[round(float(v), 3) for v in c.centre] for c in self.candidates],
@@ -137,6 +149,16 @@ class MemoryAgent:
     def _passes(self, visible: np.ndarray, in_view: int) -> bool:
         return in_view > 0 and len(visible) / in_view >= self.config.visible_fraction
 
+    def fov_distance(self, point: np.ndarray) -> float:
+        """xz distance below which ``point`` is above or below the camera's vertical field of view."""
+        return fov_stop_radius(point, 0.0, 0.0, self.env_config.agent_height, self._tan_half_vfov)
+
+    def stop_radius(self, goal: np.ndarray) -> float:
+        """``stop_radius``, grown for a goal the camera cannot see from within it (module docstring)."""
+        cfg = self.config
+        return fov_stop_radius(goal, cfg.stop_radius, cfg.fov_stop_margin, self.env_config.agent_height,
+                               self._tan_half_vfov)
+
     # -------------------------------------------------------------------------------------- act
     def act(self, observations: dict[str, np.ndarray]) -> int:
         cfg = self.config
@@ -166,7 +188,12 @@ class MemoryAgent:
 
         dist = xz_dist(position, self.goal)
         visible_ok = self._passes(visible, in_view)
-        if dist < cfg.stop_radius and (visible_ok or not cfg.visibility_stop):
+        if visible_ok:
+            self.last_pass = self.step
+        elif in_view == 0 and dist < self.fov_distance(self.goal) and \
+                self.step - self.last_pass <= cfg.visibility_memory:
+            visible_ok = True  # too close to see the target at all: its recent sighting stands
+        if dist < self.stop_radius(self.goal) and (visible_ok or not cfg.visibility_stop):
             self._event("stop", candidate=self.current, distance=dist)
             return STOP
         for j, cloud in enumerate(self._clouds):  # opportunistic: another candidate right here
@@ -224,6 +251,7 @@ class MemoryAgent:
         self._clouds = [self._clouds[j] for j in order]
         self.current += 1
         self.switches += 1
+        self.last_pass = -10**9
         self.goal = self._initial_goal(position)
         self.positions.clear()
         self.turns.clear()

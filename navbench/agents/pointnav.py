@@ -19,14 +19,29 @@ DEFAULT_CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
 
 
 class PointNavAgent:
+    """Habitat's Agent protocol (``reset``/``act``, one episode) and, with ``num_envs > 1``, the batched
+    :class:`navbench.agents.base.BatchAgent` protocol the runner uses to step several episodes with one
+    forward pass (``navbench run --envs-per-worker N``)."""
+
     sensors: tuple[str, ...] = ("depth",)
 
-    def __init__(self, checkpoint: str | Path | None = None, config: InferenceConfig = InferenceConfig()):
+    def __init__(self, checkpoint: str | Path | None = None, config: InferenceConfig = InferenceConfig(),
+                 num_envs: int = 1):
         self.checkpoint = Path(checkpoint) if checkpoint else DEFAULT_CHECKPOINT
-        self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=1, config=config)
+        self.num_envs = num_envs
+        self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=num_envs, config=config)
 
     def reset(self, episode: Episode) -> None:
-        self.policy.reset()
+        self.reset_env(0, episode)
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
-        return int(self.policy.act(observations["depth"][None], observations["pointgoal_with_gps_compass"][None])[0])
+        if self.num_envs != 1:
+            raise ValueError(f"act() steps one episode; this agent has {self.num_envs} slots: use act_batch")
+        return int(self.act_batch([observations])[0])
+
+    def reset_env(self, i: int, episode: Episode) -> None:
+        self.policy.reset(i)
+
+    def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray:
+        return self.policy.act(np.stack([o["depth"] for o in observations]),
+                               np.stack([o["pointgoal_with_gps_compass"] for o in observations]))

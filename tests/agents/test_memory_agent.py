@@ -90,6 +90,37 @@ def test_close_but_hidden_does_not_stop_and_stop_override_is_bounded():
     assert sum(e["event"] == "stop_override" for e in agent.episode_log()["events"]) == 5
 
 
+def test_stop_radius_grows_for_goals_the_camera_cannot_see_from_close():
+    # A picture high on a wall (1.9 m; camera at 0.88 m, vertical half-FOV 39.5 deg) is out of view
+    # closer than ~1.24 m, so the 0.9 m radius alone could never see it pass the visibility test.
+    high = plane_points(-1.3, y=1.9, half=0.02, n=3)
+    agent, _ = make_agent([cand(high)], action=TURN_LEFT)
+    assert agent.fov_distance(np.array([0.0, 1.9, -1.3])) == pytest.approx(1.02 / np.tan(np.radians(39.5)), abs=0.02)
+    assert agent.act(obs_at(wall_depth(1.3))) == STOP
+    # the same distance to a goal at camera height keeps the 0.9 m radius
+    agent, _ = make_agent([cand(plane_points(-1.3, half=0.02, n=3))], action=TURN_LEFT)
+    assert agent.stop_radius(agent.goal) == pytest.approx(0.9)
+    assert agent.act(obs_at(wall_depth(1.3))) == TURN_LEFT
+
+
+def test_recent_sighting_stands_in_while_the_target_is_below_the_view():
+    rug = plane_points(-1.6, y=0.02, half=0.05, n=3)  # floor-level: out of view closer than ~1.04 m
+    agent, policy = make_agent([cand(rug)], action=MOVE_FORWARD)
+    assert agent.act(obs_at(wall_depth(1.6))) == MOVE_FORWARD  # seen, but still too far
+    # 0.9 m on, nothing of the rug is in view; its sighting a step ago stands: STOP
+    assert agent.act(obs_at(wall_depth(1.6), forward=0.9)) == STOP
+    assert agent.episode_log()["events"][-1]["event"] == "stop"
+    # never seen: the same position does not stop (the policy's action goes through)
+    agent, policy = make_agent([cand(rug)], action=MOVE_FORWARD)
+    assert agent.act(obs_at(wall_depth(1.6), forward=0.9)) == MOVE_FORWARD
+    # seen too long ago: no longer stands in
+    agent, policy = make_agent([cand(rug)], action=TURN_LEFT, visibility_memory=3)
+    agent.act(obs_at(wall_depth(1.6)))
+    for _ in range(4):
+        agent.act(obs_at(wall_depth(1.6), compass=np.pi))  # turned away
+    assert agent.act(obs_at(wall_depth(1.6), forward=0.9)) == TURN_LEFT
+
+
 def test_ablation_without_visibility_stop_stops_on_distance():
     agent, _ = make_agent([cand(plane_points(-0.85))], action=TURN_LEFT, visibility_stop=False)
     assert agent.act(obs_at(wall_depth(0.5))) == STOP
