@@ -158,10 +158,11 @@ class SplitPlan:
     objectnav_val_per_scene: int = 40
 
 
-def scene_files(scene_dir: Path, split: str) -> list[Path]:
-    files = sorted((scene_dir / "houses" / split).glob("*.glb"))
+def scene_files(scene_dir: Path, split: str, dataset: str = "houses") -> list[Path]:
+    files = sorted((scene_dir / dataset / split).glob("*.glb"))
     if not files:
-        raise FileNotFoundError(f"{scene_dir / 'houses' / split}: no scenes (run `navbench generate scenes`)")
+        command = "policy-train" if dataset != "houses" else "scenes"
+        raise FileNotFoundError(f"{scene_dir / dataset / split}: no scenes (run `navbench generate {command}`)")
     return files
 
 
@@ -205,3 +206,19 @@ def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCEN
     (out_dir / "objectnav" / "categories.json").write_text(json.dumps(categories_table(), indent=1) + "\n")
     return counts
 
+
+
+def generate_policy_train_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
+                                per_scene: int = 100, log=print) -> int:
+    """PointNav ``train_large``: the bundled train houses plus the policy's extra training houses
+    (``envs/houses_policy_train``, :data:`navbench.scene.procedural.POLICY_TRAIN_HOUSES`), ``per_scene``
+    episodes each. Its own generator stream, so the bundled splits are unchanged by it."""
+    from navbench.scene.procedural import POLICY_TRAIN_HOUSES
+
+    rng = np.random.default_rng([seed, 0, 2])
+    eps: list[Episode] = []
+    for path in scene_files(scene_dir, "train") + scene_files(scene_dir, "train", POLICY_TRAIN_HOUSES["dir"]):
+        eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
+    save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / "train_large" / "train_large.json.gz")
+    log(f"pointnav/train_large: {len(eps)} episodes")
+    return len(eps)
