@@ -2,7 +2,7 @@
 
     navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
-    navbench generate scenes|episodes [--seed 0]
+    navbench generate scenes|episodes|policy-train [--seed 0]
     navbench train encoder|pointnav [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
@@ -42,7 +42,7 @@ def make_random(cfg):
 
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
-    return PointNavAgent(cfg.agent_options.get("checkpoint"))
+    return PointNavAgent(cfg.agent_options.get("checkpoint"), num_envs=max(1, cfg.envs_per_worker))
 
 
 def scan_config(keyframe_res: str, all_frames: bool):
@@ -117,7 +117,7 @@ def cmd_run(args) -> int:
     from navbench.eval.runner import RunConfig, run
     from navbench.eval.table import summary_markdown
 
-    if args.agent not in AGENTS:
+    if args.agent is not None and args.agent not in AGENTS:
         raise ValueError(f"unknown agent {args.agent!r}: choose from {', '.join(AGENTS)}")
     task = args.task
     if args.episodes:
@@ -138,11 +138,15 @@ def cmd_run(args) -> int:
         episodes = split_file(task, split)
         default_sd = SUCCESS_DISTANCE["ovon"] if task == "objectnav" and split in OVON_SPLITS \
             else SUCCESS_DISTANCE[task]
+    # The benchmark's own methods by default: the memory agent for ObjectNav, the policy for PointNav.
+    args.agent = args.agent or ("memory" if task == "objectnav" else "pointnav")
     cfg = RunConfig(
         task=task, split=split, agent=args.agent, episodes=str(episodes),
         scene_dir=str(args.scene_dir or SCENES_DIR),
         success_distance=args.success_distance if args.success_distance is not None else default_sd,
         seed=args.seed, limit=args.limit, workers=args.workers,
+        # batched policy inference: default 8 episodes per worker for the pointnav agent
+        envs_per_worker=args.envs_per_worker or (8 if args.agent == "pointnav" else 1),
         agent_options=_agent_options(args),
     )
     cfg.label = _label(args, cfg)
@@ -201,6 +205,12 @@ def cmd_generate(args) -> int:
     if args.what == "scenes":
         from navbench.scene.procedural import generate_dataset
         generate_dataset(Path(args.out or SCENES_DIR / "houses"), seed=args.seed)
+    elif args.what == "policy-train":  # the PointNav policy's extra houses and its train_large episodes
+        from navbench.episodes.generate import generate_policy_train_split
+        from navbench.scene.procedural import POLICY_TRAIN_HOUSES, generate_dataset
+        h = POLICY_TRAIN_HOUSES
+        generate_dataset(SCENES_DIR / h["dir"], n_train=h["n_train"], n_val=0, seed=h["seed"])
+        generate_policy_train_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
     else:
         from navbench.episodes.generate import generate_bundled_splits
         generate_bundled_splits(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
@@ -266,7 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="evaluate an agent on a split and print SR/SPL")
     r.add_argument("--split", help="bundled split (default val_unseen)")
     r.add_argument("--task", choices=("pointnav", "objectnav"))
-    r.add_argument("--agent", default="oracle", help=f"one of: {', '.join(AGENTS)}")
+    r.add_argument("--agent", help=f"one of: {', '.join(AGENTS)} (default: memory for ObjectNav, "
+                                   "pointnav for PointNav)")
     r.add_argument("--episodes", help="a Habitat-format episode file (.json/.json.gz) instead of a bundled split")
     r.add_argument("--scene-dir", help="where episode scene_id paths are resolved (default: bundled envs/)")
     r.add_argument("--limit", type=int, help="first N episodes only")
@@ -287,6 +298,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--siglip2", help="local SigLIP2 model directory")
     m.add_argument("--qwen-vl", help="local Qwen2.5-VL model directory")
     m.add_argument("--sam3", help="local SAM 3 model directory")
+    r.add_argument("--envs-per-worker", type=int, help="episodes a worker steps at once with one batched "
+                   "policy forward pass (pointnav agent; default 8)")
     r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=cmd_run)
@@ -297,8 +310,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--long", action="store_true", help="one row per run instead of agent x split")
     t.set_defaults(func=cmd_table)
 
-    g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes")
-    g.add_argument("what", choices=("scenes", "episodes"))
+    g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
+                                        "extra training houses and episodes (policy-train)")
+    g.add_argument("what", choices=("scenes", "episodes", "policy-train"))
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)
@@ -326,6 +340,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default geodesic)")
     tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
     tr.add_argument("--max-episode-steps", type=int)
+    tr.add_argument("--train-split", help="PointNav split to roll out in (default train; train_large adds the "
+                                          "40 houses of `navbench generate policy-train`)")
     tr.add_argument("--chunk-len", type=int)
     tr.add_argument("--batch-chunks", type=int)
     tr.add_argument("--lr", type=float)

@@ -8,7 +8,8 @@ most the episodes in flight), ``OUT/config.json`` (everything needed to rerun) a
 config differs in anything that changes results.
 
 Parallelism: ``workers`` processes, each with its own env (and renderer) and agent, one episode per
-task. Every episode's outcome depends only on the episode and the seed, never on which worker ran
+task; agents with a batched policy (``pointnav``) step ``envs_per_worker`` episodes per worker in
+lockstep with one forward pass for all of them. Every episode's outcome depends only on the episode and the seed, never on which worker ran
 it or in what order, so the same seed gives the same records and summary to the last digit.
 """
 
@@ -27,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from navbench import __version__
-from navbench.agents.base import Agent, episode_log
+from navbench.agents.base import Agent, BatchAgent, episode_log
 from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
@@ -56,6 +57,9 @@ class RunConfig:
     env: dict[str, Any] = field(default_factory=dict)  # EnvConfig overrides
     agent_options: dict[str, Any] = field(default_factory=dict)  # e.g. {"checkpoint": ...}
     label: str = ""  # the row name in tables (default: the agent's name)
+    # Episodes each worker steps at once with one batched policy forward pass (agents with act_batch,
+    # e.g. pointnav; others run one episode at a time). Outcomes do not depend on it.
+    envs_per_worker: int = 1
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)
@@ -65,7 +69,8 @@ class RunConfig:
 
 
 # Keys that may differ between a run and its resumption without changing any episode's result.
-_RESUME_FREE_KEYS = ("limit", "workers", "navbench_version")
+_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version")
+_CHUNK_PER_SLOT = 4  # a batched worker's task: this many episodes per slot
 
 AgentFactory = Callable[[RunConfig], Agent]
 
@@ -83,7 +88,8 @@ def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) 
     return env
 
 
-def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> dict[str, Any]:
+def _begin(env: NavEnv, episode: Episode, cfg: RunConfig) -> tuple[dict[str, Any], dict | None, float]:
+    """Reset ``env`` to ``episode``: (record so far, first observation or None if skipped, start time)."""
     t0 = time.perf_counter()
     try:
         obs, info = env.reset(options={"episode": episode})
@@ -96,25 +102,71 @@ def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> 
     if not math.isfinite(info["geodesic_distance"]):
         record.update(skipped=True, skip_reason="unreachable: no goal on the start's navigable island",
                       geodesic_distance=None, elapsed_s=round(time.perf_counter() - t0, 4))
-        return record
-    agent.reset(episode)
-    actions = []
-    while True:
-        action = agent.act(obs)
-        actions.append(int(action))
-        obs, _, terminated, truncated, info = env.step(action)
-        if terminated or truncated:
-            break
+        return record, None, t0
+    return record, obs, t0
+
+
+def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any]) -> dict[str, Any]:
     record.update(
         success=info["success"], spl=info["spl"], soft_spl=info["soft_spl"],
         distance_to_goal=info["distance_to_goal"], geodesic_distance=info["geodesic_distance"],
         path_length=info["path_length"], num_steps=info["num_steps"], stop_called=info["stop_called"],
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
-    log = episode_log(agent)
     if log:
         record["log"] = log
     return record
+
+
+def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> dict[str, Any]:
+    record, obs, t0 = _begin(env, episode, cfg)
+    if obs is None:
+        return record
+    agent.reset(episode)
+    while True:
+        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        if terminated or truncated:
+            break
+    return _end(record, info, t0, episode_log(agent))
+
+
+def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[Episode], cfg: RunConfig,
+                         finish: Callable[[dict[str, Any]], None]) -> None:
+    """Step ``len(envs)`` episodes in lockstep, one ``agent.act_batch`` per step for all of them; a slot
+    whose episode ends takes the next one, in order. Each record goes to ``finish`` as its episode ends.
+
+    Every slot's recurrent state is its own, so an episode's outcome does not depend on which slot or
+    batch it ran in (tests/eval/test_runner.py checks the records equal the one-at-a-time run's).
+    """
+    queue = list(episodes)
+    slots: list[tuple[dict[str, Any], float] | None] = [None] * len(envs)
+    obs: list[dict | None] = [None] * len(envs)
+
+    def start(i: int) -> None:
+        while queue:
+            ep = queue.pop(0)
+            record, first, t0 = _begin(envs[i], ep, cfg)
+            if first is None:
+                finish(record)
+                continue
+            agent.reset_env(i, ep)
+            slots[i], obs[i] = (record, t0), first
+            return
+        slots[i] = None
+
+    for i in range(len(envs)):
+        start(i)
+    while any(s is not None for s in slots):
+        filler = next(o for o, s in zip(obs, slots) if s is not None)
+        actions = agent.act_batch([o if s is not None else filler for o, s in zip(obs, slots)])
+        for i, env in enumerate(envs):
+            if slots[i] is None:
+                continue
+            obs[i], _, terminated, truncated, info = env.step(int(actions[i]))
+            if terminated or truncated:
+                record, t0 = slots[i]
+                finish(_end(record, info, t0, {}))
+                start(i)
 
 
 # ------------------------------------------------------------------------------------------ workers
@@ -130,14 +182,22 @@ def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) 
         torch.set_num_threads(1)
     dataset = load_dataset(cfg.episodes)
     agent = make_agent(cfg)
+    sensors = tuple(getattr(agent, "sensors", ("rgb", "depth")))
+    n_envs = agent.num_envs if isinstance(agent, BatchAgent) else 1
     _WORKER.update(cfg=cfg, dataset=dataset, agent=agent,
-                   env=make_env(cfg, dataset, tuple(getattr(agent, "sensors", ("rgb", "depth")))),
+                   envs=[make_env(cfg, dataset, sensors) for _ in range(n_envs)],
                    by_key={(e.scene_id, e.episode_id): e for e in dataset.episodes})
 
 
-def _worker_run(key: tuple[str, str]) -> dict[str, Any]:
+def _worker_run(keys: list[tuple[str, str]]) -> list[dict[str, Any]]:
+    """Run one task: a list of episodes (one for single-episode agents, a chunk for batched ones)."""
     w = _WORKER
-    return run_episode(w["env"], w["agent"], w["by_key"][key], w["cfg"])
+    episodes = [w["by_key"][k] for k in keys]
+    if isinstance(w["agent"], BatchAgent):
+        out: list[dict[str, Any]] = []
+        run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], out.append)
+        return out
+    return [run_episode(w["envs"][0], w["agent"], ep, w["cfg"]) for ep in episodes]
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -226,17 +286,26 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
 
             if cfg.workers <= 1 or len(todo) <= 1:
                 _worker_init(cfg, make_agent, single_thread=False)
-                for key in todo:
-                    finish(_worker_run(key))
+                w = _WORKER
+                if isinstance(w["agent"], BatchAgent):  # records land as each episode ends
+                    run_episodes_batched(w["envs"], w["agent"], [w["by_key"][k] for k in todo], cfg, finish)
+                else:
+                    for key in todo:
+                        finish(run_episode(w["envs"][0], w["agent"], w["by_key"][key], cfg))
             else:
+                # Batched agents take chunks of episodes (a worker keeps its slots busy; a killed run
+                # loses at most the chunks in flight), others one episode per task.
+                size = max(1, cfg.envs_per_worker) * _CHUNK_PER_SLOT if cfg.envs_per_worker > 1 else 1
+                tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
                 with ProcessPoolExecutor(max_workers=cfg.workers, mp_context=get_context("spawn"),
                                          initializer=_worker_init, initargs=(cfg, make_agent, True)) as pool:
-                    pending = {pool.submit(_worker_run, k) for k in todo}
+                    pending = {pool.submit(_worker_run, t) for t in tasks}
                     try:
                         while pending:
                             finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                             for f in finished:
-                                finish(f.result())
+                                for rec in f.result():
+                                    finish(rec)
                     except BaseException:
                         for f in pending:
                             f.cancel()

@@ -55,6 +55,9 @@ class TrainConfig:
     # "optimistic": the shortest path on the map seen so far (unseen cells free), whose labels follow
     # from the observation history (navbench.scene.optimistic explains); slower to label.
     expert: str = "geodesic"
+    # PointNav split the envs roll out in: "train" (the 8 bundled train houses) or "train_large" (those
+    # plus the 40 extra houses of `navbench generate policy-train`: more scenes, a smaller train-val gap).
+    train_split: str = "train"
     iterations: int = 14
     frames_per_iteration: int = 6_000
     num_envs: int = 8
@@ -437,7 +440,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         if log_path.exists():
             log_path.unlink()
 
-    envs = make_envs(cfg.num_envs, "train", cfg.seed + start_it)
+    envs = make_envs(cfg.num_envs, cfg.train_split, cfg.seed + start_it)
     collector = Collector(envs, cfg, rng)
     buffer = EpisodeBuffer(cfg.buffer_frames)
     t_start = time.time() - wall0
