@@ -197,7 +197,7 @@ def _label(args, cfg) -> str:
 
 def cmd_table(args) -> int:
     from navbench.eval.table import render, runs_frame
-    print(render(runs_frame(args.run_dirs, wide=not args.long), args.format))
+    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first), args.format))
     return 0
 
 
@@ -308,6 +308,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("run_dirs", nargs="+")
     t.add_argument("--format", default="markdown", choices=("markdown", "csv", "latex"))
     t.add_argument("--long", action="store_true", help="one row per run instead of agent x split")
+    t.add_argument("--first", type=int, help="score every run on the first N episodes of its split only")
     t.set_defaults(func=cmd_table)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "

@@ -20,22 +20,17 @@ from pathlib import Path
 
 import pandas as pd
 
-from navbench.episodes.io import load_dataset
 from navbench.eval.runner import read_records
-from navbench.metrics import aggregate
+from navbench.eval.table import first_records, first_summary
 
 
 def memory_row(run_dir: str | Path, first: int | None = None) -> dict:
     run_dir = Path(run_dir)
     cfg = json.loads((run_dir / "config.json").read_text())
-    summary = json.loads((run_dir / "summary.json").read_text())
-    recs = read_records(run_dir / "episodes.jsonl")
-    if first is not None:
-        keep = {(e.scene_id, e.episode_id) for e in load_dataset(cfg["episodes"]).episodes[:first]}
-        recs = [r for r in recs if (r["scene_id"], r["episode_id"]) in keep]
-        if len(recs) < len(keep):
-            raise ValueError(f"{run_dir}: has {len(recs)} of the first {first} episodes")
-        summary = {**summary, **aggregate(recs)}
+    if first is None:
+        summary, recs = json.loads((run_dir / "summary.json").read_text()), read_records(run_dir / "episodes.jsonl")
+    else:
+        summary, recs = first_summary(run_dir, first), first_records(run_dir, first)
     recs = [r for r in recs if not r.get("skipped")]
     logs = pd.DataFrame([{"scene": r["scene_id"], **(r.get("log") or {})} for r in recs])
     missing = {"memory_keyframes", "memory_frames", "memory_bytes", "query_ms"} - set(logs.columns)

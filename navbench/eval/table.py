@@ -1,6 +1,7 @@
 """Result tables as navigation papers print them: one row per agent, SR and SPL in percent.
 
     navbench table runs/oracle_val_seen runs/oracle_val_unseen --format markdown|csv|latex
+    navbench table runs/frontier_val_unseen runs/memory_val_unseen --first 20   # on the same 20 episodes
 """
 
 from __future__ import annotations
@@ -28,6 +29,35 @@ def load_summary(run_dir: str | Path) -> dict[str, Any]:
         raise TableError(f"{path}: corrupt summary ({exc})") from None
 
 
+def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
+    """The run's records of the first ``first`` episodes of its dataset file (file order); a run
+    lacking any of them is an error."""
+    from navbench.episodes.io import load_dataset
+    from navbench.eval.runner import read_records
+    from navbench.paths import split_file
+
+    run_dir = Path(run_dir)
+    cfg = json.loads((run_dir / "config.json").read_text())
+    # a bundled split is read where this checkout keeps it (config.json holds the writer's path)
+    bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
+    episodes = bundled if bundled is not None and bundled.is_file() else Path(cfg["episodes"])
+    keep = {(e.scene_id, e.episode_id) for e in load_dataset(episodes).episodes[:first]}
+    recs = [r for r in read_records(run_dir / "episodes.jsonl") if (r["scene_id"], r["episode_id"]) in keep]
+    if len(recs) < len(keep):
+        raise TableError(f"{run_dir}: has {len(recs)} of the first {first} episodes of {episodes.name}")
+    return recs
+
+
+def first_summary(run_dir: str | Path, first: int) -> dict[str, Any]:
+    """The run's summary recomputed on :func:`first_records`, so runs of different lengths can be
+    compared on the same episodes."""
+    from navbench.metrics import aggregate
+
+    summary = load_summary(run_dir)
+    by = "object_category" if summary.get("task") == "objectnav" else None
+    return {**summary, **aggregate(first_records(run_dir, first), by=by)}
+
+
 def summary_row(s: dict[str, Any]) -> dict[str, Any]:
     return {
         "agent": s.get("agent"), "task": s.get("task"), "split": s.get("split") or "custom",
@@ -37,9 +67,11 @@ def summary_row(s: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def runs_frame(run_dirs: list[str | Path], wide: bool = True) -> pd.DataFrame:
-    """Long form (one row per run) or wide form (rows = agent, columns = (split, SR/SPL))."""
-    df = pd.DataFrame([summary_row(load_summary(d)) for d in run_dirs])
+def runs_frame(run_dirs: list[str | Path], wide: bool = True, first: int | None = None) -> pd.DataFrame:
+    """Long form (one row per run) or wide form (rows = agent, columns = (split, SR/SPL)); with
+    ``first``, every run is scored on the first ``first`` episodes of its split only."""
+    df = pd.DataFrame([summary_row(load_summary(d) if first is None else first_summary(d, first))
+                       for d in run_dirs])
     if not wide or df["split"].nunique() <= 1:
         return df
     wide_df = df.pivot_table(index="agent", columns="split", values=["SR", "SPL"], aggfunc="first", sort=False)

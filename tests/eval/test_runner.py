@@ -122,6 +122,12 @@ def test_cli_run_and_table(pointnav_file, tmp_path, capsys):
     assert list(df["agent"]) == ["oracle", "random"] and df.loc[0, "SR"] == 100.0
     assert "oracle" in render(df, "latex") and render(df, "csv").count("\n") == 3
     assert main(["table", str(tmp_path / "oracle"), str(tmp_path / "random")]) == 0
+    # --first N: every run scored on the same first N episodes of its file
+    first = runs_frame([tmp_path / "random"], wide=False, first=2)
+    recs = {r["episode_id"]: r for r in read_records(tmp_path / "random" / "episodes.jsonl")}
+    ids = [e.episode_id for e in load_dataset(pointnav_file).episodes[:2]]
+    assert first.loc[0, "episodes"] == 2
+    assert first.loc[0, "SoftSPL"] == pytest.approx(100 * sum(recs[i]["soft_spl"] for i in ids) / 2)
 
 
 @pytest.mark.parametrize("argv,needle", [
