@@ -141,18 +141,25 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
     queue = list(episodes)
     slots: list[tuple[dict[str, Any], float] | None] = [None] * len(envs)
     obs: list[dict | None] = [None] * len(envs)
+    failed: list[Exception] = []
 
     def start(i: int) -> None:
+        slots[i] = None
         while queue:
             ep = queue.pop(0)
-            record, first, t0 = _begin(envs[i], ep, cfg)
+            try:
+                record, first, t0 = _begin(envs[i], ep, cfg)
+            except (EpisodeError, SceneError) as exc:
+                # A bad episode ends the run, but the episodes in flight finish and are recorded first.
+                failed.append(exc)
+                queue.clear()
+                return
             if first is None:
                 finish(record)
                 continue
             agent.reset_env(i, ep)
             slots[i], obs[i] = (record, t0), first
             return
-        slots[i] = None
 
     for i in range(len(envs)):
         start(i)
@@ -167,6 +174,8 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
                 record, t0 = slots[i]
                 finish(_end(record, info, t0, {}))
                 start(i)
+    if failed:
+        raise failed[0]
 
 
 # ------------------------------------------------------------------------------------------ workers
@@ -189,15 +198,21 @@ def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) 
                    by_key={(e.scene_id, e.episode_id): e for e in dataset.episodes})
 
 
-def _worker_run(keys: list[tuple[str, str]]) -> list[dict[str, Any]]:
-    """Run one task: a list of episodes (one for single-episode agents, a chunk for batched ones)."""
+def _worker_run(keys: list[tuple[str, str]]) -> tuple[list[dict[str, Any]], Exception | None]:
+    """Run one task: a list of episodes (one for single-episode agents, a chunk for batched ones).
+    Returns the records and the error that stopped the task, if any, so finished records are kept."""
     w = _WORKER
     episodes = [w["by_key"][k] for k in keys]
-    if isinstance(w["agent"], BatchAgent):
-        out: list[dict[str, Any]] = []
-        run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], out.append)
-        return out
-    return [run_episode(w["envs"][0], w["agent"], ep, w["cfg"]) for ep in episodes]
+    out: list[dict[str, Any]] = []
+    try:
+        if isinstance(w["agent"], BatchAgent):
+            run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], out.append)
+        else:
+            for ep in episodes:
+                out.append(run_episode(w["envs"][0], w["agent"], ep, w["cfg"]))
+    except (EpisodeError, SceneError) as exc:
+        return out, exc
+    return out, None
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -304,8 +319,11 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
                         while pending:
                             finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                             for f in finished:
-                                for rec in f.result():
+                                recs, error = f.result()
+                                for rec in recs:
                                     finish(rec)
+                                if error is not None:
+                                    raise error
                     except BaseException:
                         for f in pending:
                             f.cancel()
