@@ -72,6 +72,11 @@ def log_value(v: Any) -> Any:
     return v
 
 
+def fov_leave_distance(point: np.ndarray, camera_height: float, tan_half_vfov: float) -> float:
+    """xz distance below which ``point`` is above or below the camera's vertical field of view."""
+    return abs(float(point[1]) - camera_height) / tan_half_vfov
+
+
 def fov_stop_radius(goal: np.ndarray, stop_radius: float, margin: float, camera_height: float,
                     tan_half_vfov: float) -> float:
     """STOP radius (xz) for a goal point: ``stop_radius``, grown for a goal so far above or below the
@@ -79,5 +84,4 @@ def fov_stop_radius(goal: np.ndarray, stop_radius: float, margin: float, camera_
     wall) to the distance where it leaves the view plus ``margin``. Within a plain 0.9 m radius such a
     goal could never pass a visibility test; the episodes' view points (cells that see the object)
     lie outside it too."""
-    leaves_view = abs(float(goal[1]) - camera_height) / tan_half_vfov
-    return max(stop_radius, leaves_view + margin)
+    return max(stop_radius, fov_leave_distance(goal, camera_height, tan_half_vfov) + margin)

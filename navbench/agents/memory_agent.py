@@ -33,7 +33,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from navbench.agents.base import PoseTracker, fov_stop_radius, log_value, xz_dist, xz_dists
+from navbench.agents.base import PoseTracker, fov_leave_distance, fov_stop_radius, log_value, xz_dist, xz_dists
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
@@ -151,7 +151,7 @@ class MemoryAgent:
 
     def fov_distance(self, point: np.ndarray) -> float:
         """xz distance below which ``point`` is above or below the camera's vertical field of view."""
-        return fov_stop_radius(point, 0.0, 0.0, self.env_config.agent_height, self._tan_half_vfov)
+        return fov_leave_distance(point, self.env_config.agent_height, self._tan_half_vfov)
 
     def stop_radius(self, goal: np.ndarray) -> float:
         """``stop_radius``, grown for a goal the camera cannot see from within it (module docstring)."""

@@ -9,8 +9,9 @@ config differs in anything that changes results.
 
 Parallelism: ``workers`` processes, each with its own env (and renderer) and agent, one episode per
 task; agents with a batched policy (``pointnav``) step ``envs_per_worker`` episodes per worker in
-lockstep with one forward pass for all of them. Every episode's outcome depends only on the episode and the seed, never on which worker ran
-it or in what order, so the same seed gives the same records and summary to the last digit.
+lockstep with one forward pass for all of them. Every episode's outcome depends only on the episode
+and the seed, never on which worker or slot ran it or in what order, so the same seed gives the same
+records and summary to the last digit.
 """
 
 from __future__ import annotations
@@ -198,18 +199,23 @@ def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) 
                    by_key={(e.scene_id, e.episode_id): e for e in dataset.episodes})
 
 
-def _worker_run(keys: list[tuple[str, str]]) -> tuple[list[dict[str, Any]], Exception | None]:
-    """Run one task: a list of episodes (one for single-episode agents, a chunk for batched ones).
-    Returns the records and the error that stopped the task, if any, so finished records are kept."""
+def _run_keys(keys: list[tuple[str, str]], finish: Callable[[dict[str, Any]], None]) -> None:
+    """Run episodes with this process's agent and envs, handing each record to ``finish`` as it ends."""
     w = _WORKER
     episodes = [w["by_key"][k] for k in keys]
+    if isinstance(w["agent"], BatchAgent):
+        run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], finish)
+    else:
+        for ep in episodes:
+            finish(run_episode(w["envs"][0], w["agent"], ep, w["cfg"]))
+
+
+def _worker_run(keys: list[tuple[str, str]]) -> tuple[list[dict[str, Any]], Exception | None]:
+    """A worker task (one episode for single-episode agents, a chunk for batched ones): the records and
+    the error that stopped the task, if any, so the records finished before it are kept."""
     out: list[dict[str, Any]] = []
     try:
-        if isinstance(w["agent"], BatchAgent):
-            run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], out.append)
-        else:
-            for ep in episodes:
-                out.append(run_episode(w["envs"][0], w["agent"], ep, w["cfg"]))
+        _run_keys(keys, out.append)
     except (EpisodeError, SceneError) as exc:
         return out, exc
     return out, None
@@ -301,16 +307,11 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
 
             if cfg.workers <= 1 or len(todo) <= 1:
                 _worker_init(cfg, make_agent, single_thread=False)
-                w = _WORKER
-                if isinstance(w["agent"], BatchAgent):  # records land as each episode ends
-                    run_episodes_batched(w["envs"], w["agent"], [w["by_key"][k] for k in todo], cfg, finish)
-                else:
-                    for key in todo:
-                        finish(run_episode(w["envs"][0], w["agent"], w["by_key"][key], cfg))
+                _run_keys(todo, finish)
             else:
                 # Batched agents take chunks of episodes (a worker keeps its slots busy; a killed run
                 # loses at most the chunks in flight), others one episode per task.
-                size = max(1, cfg.envs_per_worker) * _CHUNK_PER_SLOT if cfg.envs_per_worker > 1 else 1
+                size = cfg.envs_per_worker * _CHUNK_PER_SLOT if cfg.envs_per_worker > 1 else 1
                 tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
                 with ProcessPoolExecutor(max_workers=cfg.workers, mp_context=get_context("spawn"),
                                          initializer=_worker_init, initargs=(cfg, make_agent, True)) as pool:
