@@ -207,7 +207,6 @@ def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCEN
     return counts
 
 
-
 def generate_policy_train_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
                                 per_scene: int = 100, log=print) -> int:
     """PointNav ``train_large``: the bundled train houses plus the policy's extra training houses

@@ -4,11 +4,11 @@ The expert is the geodesic follower (plans on the true map and keeps ``expert_ma
 ``--expert geodesic``, the default) or the optimistic follower (plans on what the agent has seen;
 ``--expert optimistic``).
 
-    make train-pointnav        # the shipped checkpoint's three-stage recipe (policies/README.md)
+    make train-pointnav        # the shipped checkpoint's four-stage recipe (policies/README.md)
     navbench train pointnav --init runs/pointnav/encoder.pth --out runs/pointnav/policy.pth  # add --resume
 
 Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the policy reads) on the
-bundled train scenes. The executed action is the oracle's with probability beta (1 in the first
+PointNav split ``train_split`` (the 8 bundled train houses, or ``train_large`` with 40 more). The executed action is the oracle's with probability beta (1 in the first
 iteration, decaying) and the learner's otherwise, plus occasional random turns/moves so the data
 covers recovery from off-path states; every step is labelled with the oracle's action from the
 state actually reached (DAgger). Frames join an aggregated buffer (depth stored 2x2-pooled as

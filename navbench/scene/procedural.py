@@ -896,7 +896,7 @@ def generate_dataset(out_dir: str | Path, n_train: int = 8, n_val: int = 4, seed
     """Write houses ``house_000 ...`` into ``out_dir/train`` and ``out_dir/val`` plus ``out_dir/README.md``.
 
     House ``i`` uses seed ``seed * 1000 + i``, so the default call reproduces the bundled dataset and
-    other seeds give disjoint houses (``PolicyTrainHouses`` below uses seed 1).
+    other seeds give disjoint houses (``POLICY_TRAIN_HOUSES`` below uses seed 1).
     """
     if n_train < 0 or n_val < 0 or n_train + n_val > 1000:
         raise ValueError(f"dataset sizes n_train={n_train}, n_val={n_val} must be >= 0 and total <= 1000")
