@@ -42,7 +42,7 @@ def _phrase_table() -> list[tuple[str, str]]:
     table = {phrase(c): c for c in VOCABULARY}
     for cat, synonyms in SYNONYMS.items():
         for s in synonyms:
-            table.setdefault(s, cat)  # a scene category of the same name (armchair) keeps its own meaning
+            table.setdefault(s, cat)  # a scene category of the same name keeps its own meaning
     return sorted(table.items(), key=lambda kv: (-len(kv[0]), kv[0]))
 
 
