@@ -63,7 +63,8 @@ results-localize: setup
 # the depth encoder on geometric targets from rendered train-house frames; 2. freeze it and train the
 # rest by DAgger imitation of the clearance-keeping geodesic expert on whole episodes (cached encoder
 # outputs); 3. continue with the expert stopping at 0.1 m; 4. continue on train_large (the 8 train
-# houses plus the 40 of `navbench generate policy-train`, bundled). Each stage is resumable: rerun the
+# houses plus the 40 of `navbench generate policy-train`, bundled); 5. continue there with half the
+# learning rate and 1.5x the updates per iteration (no monitor episodes). Each stage is resumable: rerun the
 # same line with --resume after a kill (the DAgger buffer restarts empty).
 train-pointnav: setup
 	$(BIN)/navbench train encoder --out runs/pointnav/encoder.pth --state-dir runs/pointnav/encoder_state
@@ -75,7 +76,10 @@ train-pointnav: setup
 	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage3.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 18 --frames-per-iteration 8000 \
 	  --out runs/pointnav/policy_stage4.pth --state-dir runs/pointnav/stage4_state
-	cp runs/pointnav/policy_stage4.pth policies/pointnav_navbench.pth
+	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage4.pth --train-split train_large --expert geodesic \
+	  --expert-success-distance 0.1 --beta0 0.1 --iterations 16 --frames-per-iteration 8000 --lr 2.5e-4 \
+	  --epochs-per-iteration 24 --val-episodes 0 --out runs/pointnav/policy_stage5.pth --state-dir runs/pointnav/stage5_state
+	cp runs/pointnav/policy_stage5.pth policies/pointnav_navbench.pth
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
 results-pointnav: setup
