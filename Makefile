@@ -88,7 +88,7 @@ results-pointnav: setup
 
 # ObjectNav tables (the paper's Table 2 on our data), oracle perception: the memory agent on every
 # episode of the three OVON-style val splits (LIMIT=N: the first N), the frontier baseline and the
-# no-re-rank ablation on the first FRONTIER_LIMIT of each (frontier takes ~20 s per episode here), the
+# no-re-rank ablation on the first FRONTIER_LIMIT of each (~1 min per split at 20), the
 # memory agent with the default noise profile on val_unseen. objectnav.md compares all agents on the
 # same first FRONTIER_LIMIT episodes, then the full-split runs.
 OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen

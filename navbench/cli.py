@@ -77,10 +77,17 @@ def make_memory(cfg):
     from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
     from navbench.agents.perceive import SceneLocalizer
     o = cfg.agent_options
+    from navbench.agents.perceive import LiveDetector
     agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
-                                  visibility_stop=o.get("visibility_stop", True))
-    return MemoryAgent(SceneLocalizer(cfg.scene_dir, _perception_config(cfg)), _step_policy(cfg), agent_cfg,
-                       cfg.env_config(MemoryAgent.sensors))
+                                  visibility_stop=o.get("visibility_stop", True),
+                                  recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0)
+    pcfg = _perception_config(cfg)
+    # The arrival check segments frames the env renders for it; the env config is fixed per run, so the
+    # detector is built first (its sensors decide what the env renders) with the agent's env config.
+    verify = LiveDetector(cfg.scene_dir, pcfg, cfg.env_config(("depth",))) if o.get("verify", True) else None
+    sensors = ("depth",) + (verify.sensors if verify is not None else ())
+    return MemoryAgent(SceneLocalizer(cfg.scene_dir, pcfg), _step_policy(cfg), agent_cfg, cfg.env_config(sensors),
+                       verify=verify)
 
 
 def make_frontier(cfg):
@@ -173,6 +180,7 @@ def _agent_options(args) -> dict:
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
                     goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
+                    verify=not args.no_verify, recovery=not args.no_recovery,
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
@@ -185,7 +193,9 @@ def _label(args, cfg) -> str:
     if args.agent in ("memory", "frontier"):
         parts += [tag for tag, on in (("norerank", not o["rerank"]), ("nofusion", not o["fusion"]),
                                       ("notrack", not o["goal_tracking"]), ("novisstop", not o["visibility_stop"]),
-                                      ("allframes", o["all_frames"])) if on]
+                                      ("noverify", not o.get("verify", True)),
+                                      ("norecover", not o.get("recovery", True)), ("allframes", o["all_frames"]))
+                  if on]
         if o["noise"] != "none":
             parts.append(f"noise_{o['noise']}")
         if o["keyframe_res"] != "full":
@@ -293,6 +303,9 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--no-fusion", action="store_true", help="single-view backprojection (no multi-view fusion)")
     m.add_argument("--no-tracking", action="store_true", help="no dynamic goal tracking")
     m.add_argument("--no-visibility-stop", action="store_true", help="STOP on distance alone")
+    m.add_argument("--no-verify", action="store_true", help="memory agent: no re-detection of the target before STOP")
+    m.add_argument("--no-recovery", action="store_true",
+                   help="memory agent: no recovery manoeuvre when stuck with no candidate left")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")

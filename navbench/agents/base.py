@@ -77,11 +77,19 @@ def fov_leave_distance(point: np.ndarray, camera_height: float, tan_half_vfov: f
     return abs(float(point[1]) - camera_height) / tan_half_vfov
 
 
-def fov_stop_radius(goal: np.ndarray, stop_radius: float, margin: float, camera_height: float,
+def nearest_to_height(points: np.ndarray, height: float) -> np.ndarray:
+    """The point of a target's cloud whose height is closest to ``height`` (the camera's): the part of
+    the target the camera keeps in view longest as it closes in."""
+    return points[int(np.argmin(np.abs(points[:, 1] - height)))]
+
+
+def fov_stop_radius(target: np.ndarray, stop_radius: float, margin: float, camera_height: float,
                     tan_half_vfov: float) -> float:
-    """STOP radius (xz) for a goal point: ``stop_radius``, grown for a goal so far above or below the
-    camera that it leaves the vertical field of view closer than that (a rug, a picture high on a
-    wall) to the distance where it leaves the view plus ``margin``. Within a plain 0.9 m radius such a
-    goal could never pass a visibility test; the episodes' view points (cells that see the object)
-    lie outside it too."""
-    return max(stop_radius, fov_leave_distance(goal, camera_height, tan_half_vfov) + margin)
+    """STOP radius (xz) for a target whose point nearest the camera's height is ``target``:
+    ``stop_radius``, grown for a target so far above or below the camera that it leaves the vertical
+    field of view closer than that (a rug, a picture high on a wall) to the distance where it leaves
+    the view plus ``margin``. Within a plain 0.9 m radius such a target could never pass a visibility
+    test; the episodes' view points (cells that see the object) lie outside it too. Taking the
+    target's point nearest the camera height, not the goal point (the nearest in xz, which may be a
+    picture's top edge or a fridge's top), keeps the radius as small as the target allows."""
+    return max(stop_radius, fov_leave_distance(target, camera_height, tan_half_vfov) + margin)

@@ -17,7 +17,7 @@ pose (start pose + GPS/compass), and never sees the scene mesh or the navigabili
    within ``stop_radius`` (xz) when the target passes the memory agent's visibility test (project
    the points into the current depth; a point is visible when ``|z - depth| < visible_depth_tol``;
    pass when >= ``visible_fraction`` of in-view points are). As for the memory agent, the radius
-   grows for goals far above or below the camera (``navbench.agents.base.fov_stop_radius``).
+   grows for targets far above or below the camera (``navbench.agents.base.fov_stop_radius``).
 5. **STOP** when no reachable frontier remains and nothing was detected.
 
 Locomotion is the injected PointNav policy (the same ``StepPolicy`` as the memory agent). As in
@@ -47,7 +47,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import PoseTracker, fov_stop_radius, log_value, xz_dist, xz_dists
+from navbench.agents.base import PoseTracker, fov_stop_radius, log_value, nearest_to_height, xz_dist, xz_dists
 from navbench.agents.memory_agent import StepPolicy
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
@@ -77,7 +77,7 @@ class FrontierAgentConfig:
     visible_fraction: float = 0.05
     max_projected_points: int = 2000
     max_stop_overrides: int = 5  # steps within stop_radius without a visible target before stopping anyway
-    fov_stop_margin: float = 0.25  # as the memory agent: a larger radius for goals far above/below the camera
+    fov_stop_margin: float = 0.15  # as the memory agent: a larger radius for targets far above/below the camera
     target_voxel: float = 0.05  # m; accumulated target points are voxel-downsampled to this
     target_cluster_eps: float = 0.5  # m; target points closer than this belong to one object
     min_target_points: int = 1  # clusters with fewer points are ignored (detector noise)
@@ -316,7 +316,8 @@ class FrontierAgent:
         self.goal = goal
         dist = xz_dist(position, goal)
         depth = self.depth_metres(obs)
-        radius = fov_stop_radius(goal, cfg.stop_radius, cfg.fov_stop_margin, self.env_config.agent_height,
+        cam_h = self.env_config.agent_height
+        radius = fov_stop_radius(nearest_to_height(cluster, cam_h), cfg.stop_radius, cfg.fov_stop_margin, cam_h,
                                  self._tan_half_vfov)
         if dist >= radius:
             self.overrides = 0

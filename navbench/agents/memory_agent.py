@@ -6,7 +6,8 @@ to the nearest with the PointNav policy. Each step it:
 
 1. recovers its world pose from the episode's start pose plus GPS+compass (as Habitat agents do);
 2. projects up to ``max_projected_points`` of the target's fused cloud into the current depth image;
-   a point is *visible* when ``|z - depth| < visible_depth_tol`` (dynamic goal tracking);
+   a point is *visible* when ``|z - depth| < visible_depth_tol`` (dynamic goal tracking), and is then
+   placed on the measured surface along its camera ray (stored clouds carry the pre-scan's depth noise);
 3. moves the goal to the nearest visible cloud point (xz) when it moved >= ``goal_update_far``
    (>= ``goal_update_near`` within ``near_radius`` of the goal), resetting the policy's memory; a goal
    that has left the view is only replaced by a nearer point;
@@ -14,13 +15,17 @@ to the nearest with the PointNav policy. Each step it:
    are visible, or opportunistically when any other candidate passes the same test. Two additions
    for goals far above or below the camera, which the camera cannot see from within ``stop_radius``
    (a rug on the floor, a picture high on a wall): the radius grows to the xz distance at which the
-   goal leaves the vertical field of view plus ``fov_stop_margin``; and while no point of the target
-   is in view at all because the agent is too close to see it, the last visibility result from the
-   past ``visibility_memory`` steps stands in for the test;
+   target's point nearest the camera height leaves the vertical field of view, plus
+   ``fov_stop_margin``; and while no point of the target is in view at all because the agent is too
+   close to see it, the last visibility result from the past ``visibility_memory`` steps stands in.
+   Before stopping, the target is verified: the perception backend's segmenter (``verify``, the frontier
+   agent's live detector) must have found the goal text near the target's cloud in most of the recent
+   frames that saw it; a target that fails ``verify_attempts`` times is rejected for the next candidate;
 5. otherwise acts with the policy on the goal's polar coordinates; a policy STOP on a target that
    fails the visibility test becomes MOVE_FORWARD (at most ``max_stop_overrides`` times in a row);
 6. when stuck (< ``stuck_progress`` m in ``stuck_window`` steps) or oscillating, switches to the
-   next nearest candidate (at most ``max_switches`` times).
+   next nearest candidate (at most ``max_switches`` times); with none left, it recovers instead: a
+   fresh policy memory, a 90 deg turn towards the more open side and two steps forward.
 
 Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
 """
@@ -33,7 +38,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from navbench.agents.base import PoseTracker, fov_leave_distance, fov_stop_radius, log_value, xz_dist, xz_dists
+from navbench.agents.base import (PoseTracker, fov_leave_distance, fov_stop_radius, log_value, nearest_to_height,
+                                  xz_dist, xz_dists)
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
@@ -53,15 +59,33 @@ class MemoryAgentConfig:
     visible_fraction: float = 0.05
     max_projected_points: int = 2000
     max_stop_overrides: int = 5
-    # Goals the camera cannot see from within stop_radius (module docstring, step 4). The margin is one
-    # forward step: approached in 0.25 m steps, a tighter window is stepped over (a picture 1.7 m high
-    # is visible from >= 1.0 m only, and its view points lie 0.9-1.0 m from the wall).
-    fov_stop_margin: float = 0.25
+    # Targets the camera cannot see from within stop_radius (module docstring, step 4). The radius is
+    # where the target's point nearest the camera height leaves the view, plus this margin. A stop
+    # inside the window is seen to pass; one stepped over lands where the target is out of view and
+    # its recent sighting stands in. Kept small because view points lie within 1 m of the object:
+    # with 0.25, agents stopped 1.28-1.30 m from rugs, just beyond reach of the nearest view point.
+    fov_stop_margin: float = 0.15
     visibility_memory: int = 20  # steps a passed visibility test is remembered while nothing is in view
     stuck_window: int = 30
     stuck_progress: float = 0.5
     oscillation_window: int = 8  # this many alternating turns in a row is oscillation
     max_switches: int = 4
+    # Stuck or oscillating with no candidate left to switch to: the policy is in a state it does not get
+    # out of on its own (pressing into a wall beside the view, turning left and right in place, circling).
+    # Recovery forgets the policy's memory, turns recovery_turns x 30 deg towards the more open half of
+    # the depth image and steps forward recovery_forward times; then the policy drives again.
+    # recovery_turns=0 turns it off (the issue's agent as written: keep driving to the last candidate).
+    recovery_turns: int = 3
+    recovery_forward: int = 2
+    # Verification on arrival: every frame that sees the target from within near_radius is segmented
+    # for the goal text by the same perception backend (the frontier agent's live detector); a check
+    # passes when the detection lies within verify_radius of the target's cloud. STOP needs a majority
+    # of the checks of the last visibility_memory steps; failing that verify_attempts times rejects the
+    # target for the next candidate (with none left, the agent keeps driving to it). This catches a
+    # localiser's false detection (a washer taken for a microwave in one keyframe) from a new view, and
+    # a target seen "through" a thin wall, whose points pass the depth test. No detector, no check.
+    verify_attempts: int = 2
+    verify_radius: float = 0.5
     goal_tracking: bool = True  # ablation: off = drive to the candidate's initial goal point
     visibility_stop: bool = True  # ablation: off = STOP on distance alone
 
@@ -76,12 +100,24 @@ class StepPolicy(Protocol):
     def act(self, depth: np.ndarray, pointgoal: np.ndarray) -> np.ndarray: ...
 
 
-class MemoryAgent:
-    sensors: tuple[str, ...] = ("rgb", "depth")
+class Detector(Protocol):
+    """The goal text segmented in the current frame, as world points (``LiveDetector``)."""
 
+    sensors: tuple[str, ...]
+
+    def reset(self, episode: Episode) -> None: ...
+
+    def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray: ...
+
+
+class MemoryAgent:
     def __init__(self, localize: Callable[[Episode], list[GoalCandidate]], policy: StepPolicy,
-                 config: MemoryAgentConfig = MemoryAgentConfig(), env_config: EnvConfig = EnvConfig()):
+                 config: MemoryAgentConfig = MemoryAgentConfig(), env_config: EnvConfig = EnvConfig(),
+                 verify: Detector | None = None):
         self.localize, self.policy, self.config, self.env_config = localize, policy, config, env_config
+        self.verify = verify
+        # The policy and the visibility test read depth only; the detector adds the image it segments.
+        self.sensors: tuple[str, ...] = ("depth",) + (tuple(verify.sensors) if verify is not None else ())
         cam = CameraConfig(width=env_config.width, height=env_config.height, hfov_deg=env_config.hfov_deg)
         self.K = intrinsics(cam)
         self._tan_half_vfov = float(np.tan(cam.yfov / 2.0))
@@ -103,9 +139,15 @@ class MemoryAgent:
         self.last_pass = -10**9  # step of the current target's last passed visibility test
         self.positions: list[np.ndarray] = []
         self.turns: list[int] = []
+        self.recovery: list[int] = []  # queued actions of a recovery manoeuvre
+        self.verify_fails = 0  # failed arrival checks on the current target
+        self.checks: list[tuple[int, bool]] = []  # (step, detector confirmed) on the current target
+        self.rejected: set[int] = set()  # id() of candidates that failed verification
         self.log: dict[str, Any] = {"candidates": [[round(float(v), 3) for v in c.centre] for c in self.candidates],
                                     "events": [], **getattr(self.localize, "last", {})}
         self.goal = self._initial_goal(start) if self.candidates else None
+        if self.verify is not None:
+            self.verify.reset(episode)
         self.policy.reset()
 
     def _initial_goal(self, position: np.ndarray) -> np.ndarray:
@@ -127,9 +169,14 @@ class MemoryAgent:
         return depth_metres(obs["depth"], c.min_depth, c.max_depth, c.normalize_depth)
 
     def visibility(self, cloud: np.ndarray, depth: np.ndarray, position: np.ndarray, yaw: float,
-                   check_depth: bool = True) -> tuple[np.ndarray, int]:
+                   check_depth: bool = True, snap: bool = False) -> tuple[np.ndarray, int]:
         """Visible cloud points and the number in view (projected inside the image, in front, within
-        the sensor's range); ``check_depth=False`` returns every in-view point as visible."""
+        the sensor's range); ``check_depth=False`` returns every in-view point as visible.
+
+        ``snap=True`` returns each visible point moved along its camera ray onto the surface the depth
+        sensor measures now (at most ``visible_depth_tol`` away): the goal is then placed on the live
+        surface, not on a stored point that depth noise in the memory put up to 0.3 m in front of it.
+        """
         if len(cloud) == 0:
             return cloud, 0
         cam_pos = position + np.array([0.0, self.env_config.agent_height, 0.0])
@@ -143,21 +190,31 @@ class MemoryAgent:
             return cloud[in_view], int(in_view.sum())
         u = np.clip(np.round(uv[in_view, 0]).astype(int), 0, depth.shape[1] - 1)
         v = np.clip(np.round(uv[in_view, 1]).astype(int), 0, depth.shape[0] - 1)
-        ok = np.abs(z[in_view] - depth[v, u]) < self.config.visible_depth_tol
-        return cloud[in_view][ok], int(in_view.sum())
+        measured = depth[v, u]
+        ok = np.abs(z[in_view] - measured) < self.config.visible_depth_tol
+        visible = cloud[in_view][ok]
+        if snap and len(visible):
+            scale = (measured[ok] / z[in_view][ok])[:, None]  # planar depth: scale along the ray
+            visible = cam_pos + (visible - cam_pos) * scale
+        return visible, int(in_view.sum())
 
     def _passes(self, visible: np.ndarray, in_view: int) -> bool:
         return in_view > 0 and len(visible) / in_view >= self.config.visible_fraction
 
-    def fov_distance(self, point: np.ndarray) -> float:
-        """xz distance below which ``point`` is above or below the camera's vertical field of view."""
-        return fov_leave_distance(point, self.env_config.agent_height, self._tan_half_vfov)
+    def _height_point(self) -> np.ndarray:
+        """The current target's point nearest the camera height (the goal point if it has no cloud)."""
+        cloud = self._clouds[self.current]
+        return nearest_to_height(cloud, self.env_config.agent_height) if len(cloud) else self.goal
 
-    def stop_radius(self, goal: np.ndarray) -> float:
-        """``stop_radius``, grown for a goal the camera cannot see from within it (module docstring)."""
+    def fov_distance(self) -> float:
+        """xz distance below which all of the current target is above or below the vertical field of view."""
+        return fov_leave_distance(self._height_point(), self.env_config.agent_height, self._tan_half_vfov)
+
+    def stop_radius(self) -> float:
+        """``stop_radius``, grown for a target the camera cannot see from within it (module docstring)."""
         cfg = self.config
-        return fov_stop_radius(goal, cfg.stop_radius, cfg.fov_stop_margin, self.env_config.agent_height,
-                               self._tan_half_vfov)
+        return fov_stop_radius(self._height_point(), cfg.stop_radius, cfg.fov_stop_margin,
+                               self.env_config.agent_height, self._tan_half_vfov)
 
     # -------------------------------------------------------------------------------------- act
     def act(self, observations: dict[str, np.ndarray]) -> int:
@@ -169,7 +226,7 @@ class MemoryAgent:
             self._event("no_candidates")
             return STOP
         depth = self.depth_metres(observations)
-        visible, in_view = self.visibility(self._clouds[self.current], depth, position, yaw)
+        visible, in_view = self.visibility(self._clouds[self.current], depth, position, yaw, snap=True)
 
         if cfg.goal_tracking and len(visible):
             nearest = visible[int(np.argmin(xz_dists(visible, position)))]
@@ -187,31 +244,56 @@ class MemoryAgent:
                 self._event("goal_update", goal=nearest, moved=moved)
 
         dist = xz_dist(position, self.goal)
-        visible_ok = self._passes(visible, in_view)
+        visible_ok = seen_now = self._passes(visible, in_view)
         if visible_ok:
             self.last_pass = self.step
-        elif in_view == 0 and dist < self.fov_distance(self.goal) and \
+        elif in_view == 0 and dist < self.fov_distance() and \
                 self.step - self.last_pass <= cfg.visibility_memory:
             visible_ok = True  # too close to see the target at all: its recent sighting stands
-        if dist < self.stop_radius(self.goal) and (visible_ok or not cfg.visibility_stop):
-            self._event("stop", candidate=self.current, distance=dist)
-            return STOP
+        # Check the target with the detector in every frame that sees it from near. The verdict is the
+        # majority (ties pass) of the checks of the last visibility_memory steps: one view's missed or
+        # mistaken detection does not decide, and a STOP on a remembered sighting (target out of view)
+        # rests on the checks made while it was in view.
+        if self.verify is not None and seen_now and dist < max(cfg.near_radius, self.stop_radius()):
+            self.checks.append((self.step, self._verify(observations, position, yaw, self._clouds[self.current])))
+        unverified = False
+        if dist < self.stop_radius() and (visible_ok or not cfg.visibility_stop):
+            if self._verified():
+                self._event("stop", candidate=self.current, distance=dist)
+                return STOP
+            self.verify_fails += 1
+            unverified = True
+            self._event("verify_failed", candidate=self.current, distance=dist)
+            # With no other candidate the agent keeps driving to this one instead: the check also fails
+            # through a thin wall (points just behind it pass the depth test), and the policy may still
+            # find the way round to the side the target is seen from.
+            if self.verify_fails >= cfg.verify_attempts and self.current + 1 < len(self.candidates):
+                self.rejected.add(id(self.candidates[self.current]))
+                self._switch(position, reason="rejected")
         for j, cloud in enumerate(self._clouds):  # opportunistic: another candidate right here
-            if j == self.current or not len(cloud):
+            if j == self.current or not len(cloud) or id(self.candidates[j]) in self.rejected:
                 continue
             if np.min(xz_dists(cloud, position)) < cfg.stop_radius:
                 vis_j, n_j = self.visibility(cloud, depth, position, yaw)
-                if self._passes(vis_j, n_j):
+                if self._passes(vis_j, n_j) and self._verify(observations, position, yaw, cloud):
                     self._event("opportunistic_stop", candidate=j)
                     return STOP
 
-        if self._stuck_or_oscillating() and self.switches < cfg.max_switches and \
-                self.current + 1 < len(self.candidates):
-            self._switch(position)
+        if self.recovery:
+            return self.recovery.pop(0)
+        if self._stuck_or_oscillating():
+            if self.switches < cfg.max_switches and self.current + 1 < len(self.candidates):
+                self._switch(position)
+            elif cfg.recovery_turns > 0:
+                self._start_recovery(depth)
+                return self.recovery.pop(0)
 
         action = int(self.policy.act(observations["depth"][None],
                                      pointgoal_polar(self.goal, position, yaw)[None])[0])
-        if action == STOP:
+        if action == STOP and unverified:
+            action = TURN_LEFT  # look again from a new view before deciding
+            self._event("stop_override", distance=dist, reason="unverified")
+        elif action == STOP:
             if self.overrides < cfg.max_stop_overrides and (cfg.visibility_stop and not visible_ok):
                 self.overrides += 1
                 self._event("stop_override", distance=dist)
@@ -240,7 +322,35 @@ class MemoryAgent:
             return True
         return False
 
-    def _switch(self, position: np.ndarray) -> None:
+    def _verified(self) -> bool:
+        if self.verify is None:
+            return True
+        recent = [ok for step, ok in self.checks if self.step - step <= self.config.visibility_memory]
+        return bool(recent) and 2 * sum(recent) >= len(recent)  # a tie stands (no worse than no check)
+
+    def _verify(self, observations: dict[str, np.ndarray], position: np.ndarray, yaw: float,
+                cloud: np.ndarray) -> bool:
+        """Whether the detector finds the goal text in this frame within ``verify_radius`` of ``cloud``."""
+        if self.verify is None or not len(cloud):
+            return True
+        found = self.verify(observations, (position, yaw))
+        if not len(found):
+            return False
+        # nearest detected point to the cloud, on a subsample of the detection (cheap, and enough)
+        found = found[:: max(1, len(found) // 500)]
+        d2 = ((found[:, None, :] - cloud[None, :: max(1, len(cloud) // 500), :]) ** 2).sum(-1)
+        return bool(np.sqrt(d2.min()) < self.config.verify_radius)
+
+    def _start_recovery(self, depth: np.ndarray) -> None:
+        third = depth.shape[1] // 3
+        left, right = float(depth[:, :third].mean()), float(depth[:, -third:].mean())
+        turn = TURN_LEFT if left >= right else TURN_RIGHT
+        self.recovery = [turn] * self.config.recovery_turns + [MOVE_FORWARD] * self.config.recovery_forward
+        self.turns.clear()
+        self.policy.reset_hidden()
+        self._event("recover", turn="left" if turn == TURN_LEFT else "right")
+
+    def _switch(self, position: np.ndarray, reason: str = "stuck") -> None:
         """Next nearest remaining candidate (from here), fresh policy memory and history."""
         remaining = list(range(self.current + 1, len(self.candidates)))
         # Re-sort the untried candidates by distance from where the agent now is.
@@ -251,10 +361,12 @@ class MemoryAgent:
         self._clouds = [self._clouds[j] for j in order]
         self.current += 1
         self.switches += 1
+        self.verify_fails = 0
+        self.checks = []
         self.last_pass = -10**9
         self.goal = self._initial_goal(position)
         self.positions.clear()
         self.turns.clear()
         self.policy.reset_hidden()
-        self._event("switch", to=self.current, from_index=nxt, goal=self.goal)
+        self._event("switch", to=self.current, from_index=nxt, goal=self.goal, reason=reason)
 

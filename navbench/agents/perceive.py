@@ -89,6 +89,11 @@ class LiveDetector:
         self._path: Path | None = None
         self.query = ""
 
+    @property
+    def sensors(self) -> tuple[str, ...]:
+        """The image the segmenter reads: the renderer's instance ids for the oracle, else RGB."""
+        return ("semantic",) if self.cfg.perception == "oracle" else ("rgb",)
+
     def reset(self, episode: Episode) -> None:
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if path != self._path:

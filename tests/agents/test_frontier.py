@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from navbench.agents.base import fov_stop_radius
+from navbench.agents.base import fov_stop_radius, nearest_to_height
 from navbench.agents.frontier import FrontierAgent, FrontierAgentConfig
 from navbench.agents.occupancy import FREE, OCCUPIED, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
@@ -241,11 +241,13 @@ def test_heads_to_detected_target_and_stops_close_when_visible():
     assert log["stop_reason"] == "target_visible"
     assert log["first_detection_step"] is not None
     d = np.min(np.hypot(target[:, 0] - world.pos[0], target[:, 2] - world.pos[2]))
-    # within the STOP radius: 0.9 m, grown for a goal point low enough to leave the view closer in
-    # (the goal is a point of the patch at 0.3 m: it leaves the 79 deg view at 0.70 m, +0.25 m margin)
-    goal = np.array([e for e in log["events"] if e["event"] == "target"][-1]["goal"])
-    radius = fov_stop_radius(goal, 0.9, 0.25, ENV.agent_height, math.tan(math.radians(79.0) / 2))
-    assert d < radius <= 0.96
+    # within the STOP radius. The patch spans 0.3-0.9 m, so it stays in view down to 0 m: the radius is
+    # the plain 0.9 m, though the goal (its point nearest the agent) may be its 0.3 m edge, which alone
+    # would leave the view at 0.70 m and grow the radius
+    radius = fov_stop_radius(nearest_to_height(target, ENV.agent_height), 0.9, 0.15, ENV.agent_height,
+                             math.tan(math.radians(79.0) / 2))
+    assert radius == pytest.approx(0.9)
+    assert d < radius
     # a detector that never fires in the same room: the agent does not stop at the wall
     agent2 = FrontierAgent(no_detection, GreedyPolicy(), FrontierAgentConfig(), ENV)
     world2 = BoxWorld(-3.0, 3.0, -6.0, 1.0)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
-from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, EnvConfig
+from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
 
@@ -91,16 +91,32 @@ def test_close_but_hidden_does_not_stop_and_stop_override_is_bounded():
 
 
 def test_stop_radius_grows_for_goals_the_camera_cannot_see_from_close():
-    # A picture high on a wall (1.9 m; camera at 0.88 m, vertical half-FOV 39.5 deg) is out of view
-    # closer than ~1.24 m, so the 0.9 m radius alone could never see it pass the visibility test.
+    # A picture high on a wall (1.88-1.92 m; camera at 0.88 m, vertical half-FOV 39.5 deg) is out of view
+    # closer than ~1.21 m, so the 0.9 m radius alone could never see it pass the visibility test.
     high = plane_points(-1.3, y=1.9, half=0.02, n=3)
     agent, _ = make_agent([cand(high)], action=TURN_LEFT)
-    assert agent.fov_distance(np.array([0.0, 1.9, -1.3])) == pytest.approx(1.02 / np.tan(np.radians(39.5)), abs=0.02)
+    assert agent.fov_distance() == pytest.approx(1.0 / np.tan(np.radians(39.5)), abs=0.01)
+    assert agent.stop_radius() == pytest.approx(agent.fov_distance() + 0.15)
     assert agent.act(obs_at(wall_depth(1.3))) == STOP
     # the same distance to a goal at camera height keeps the 0.9 m radius
     agent, _ = make_agent([cand(plane_points(-1.3, half=0.02, n=3))], action=TURN_LEFT)
-    assert agent.stop_radius(agent.goal) == pytest.approx(0.9)
+    assert agent.stop_radius() == pytest.approx(0.9)
     assert agent.act(obs_at(wall_depth(1.3))) == TURN_LEFT
+
+
+def test_stop_radius_follows_the_target_point_nearest_camera_height_not_the_goal():
+    # A tall target (0.1-1.9 m, a fridge): whichever of its points is the goal, part of it stays in view
+    # down to 0 m, so the radius stays 0.9 m even when the goal is its top edge.
+    tall = plane_points(-1.3, y=1.0, half=0.9, n=7)
+    agent, _ = make_agent([cand(tall)], action=TURN_LEFT)
+    agent.goal = tall[np.argmax(tall[:, 1])]
+    assert agent.goal[1] == pytest.approx(1.9)
+    assert agent.stop_radius() == pytest.approx(0.9)
+    assert agent.act(obs_at(wall_depth(1.3))) == TURN_LEFT
+    # a picture whose lower edge is 1.5 m: the radius comes from that edge, not from its top
+    picture = plane_points(-1.3, y=1.7, half=0.2, n=5)
+    agent, _ = make_agent([cand(picture)], action=TURN_LEFT)
+    assert agent.stop_radius() == pytest.approx((1.5 - 0.88) / np.tan(np.radians(39.5)) + 0.15, abs=0.01)
 
 
 def test_recent_sighting_stands_in_while_the_target_is_below_the_view():
@@ -241,3 +257,127 @@ def test_stuck_is_reported_once_per_window_when_no_candidate_is_left():
         agent.act(obs_at(wall_depth(0.5)))
     stuck = [e for e in agent.episode_log()["events"] if e["event"] == "stuck"]
     assert len(stuck) == 3  # steps 31, 61, 91: one per 30-step window
+
+
+def open_on_the_right():
+    d = wall_depth(0.6)
+    d[:, 2 * W // 3:] = wall_depth(4.0)[:, 2 * W // 3:]
+    return d
+
+
+def test_recovery_when_stuck_with_no_candidate_left():
+    agent, policy = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT)
+    actions = [agent.act(obs_at(open_on_the_right())) for _ in range(37)]
+    # stuck at step 31 (no progress, no candidate to switch to): turn 90 deg towards the open side,
+    # two steps forward, with fresh policy memory; then the policy drives again
+    assert actions[:30] == [TURN_LEFT] * 30
+    assert actions[30:35] == [TURN_RIGHT] * 3 + [MOVE_FORWARD] * 2
+    assert actions[35:] == [TURN_LEFT] * 2
+    assert policy.calls == 32 and policy.hidden_resets == 1
+    recover = [e for e in agent.episode_log()["events"] if e["event"] == "recover"]
+    assert recover == [{"step": 31, "event": "recover", "turn": "right"}]
+    # recovery_turns=0: the issue's agent as written keeps handing the policy the same goal
+    agent, policy = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_turns=0)
+    assert [agent.act(obs_at(open_on_the_right())) for _ in range(37)] == [TURN_LEFT] * 37
+    assert not any(e["event"] == "recover" for e in agent.episode_log()["events"])
+
+
+def test_stop_still_wins_during_recovery():
+    agent, _ = make_agent([cand(plane_points(-0.7))], action=TURN_LEFT)
+    agent.recovery = [TURN_RIGHT, MOVE_FORWARD]
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP  # target within reach and visible: STOP first
+
+
+class ScriptedDetector:
+    """Finds the goal at ``points`` (world) on the frames listed in ``hits`` (1-based calls), else nothing."""
+    sensors = ("semantic",)
+
+    def __init__(self, points, hits=None):
+        self.points, self.hits, self.calls = points, hits, 0
+
+    def reset(self, episode):
+        self.calls = 0
+
+    def __call__(self, observations, pose):
+        self.calls += 1
+        return self.points if self.hits is None or self.calls in self.hits else np.zeros((0, 3))
+
+
+def make_verified_agent(candidates, detector, action=TURN_LEFT, **cfg):
+    policy = ScriptedPolicy(action)
+    agent = MemoryAgent(lambda ep: candidates, policy, MemoryAgentConfig(**cfg), ENV, verify=detector)
+    agent.reset(EPISODE)
+    return agent, policy
+
+
+def test_verification_confirms_a_stop_on_the_detected_target():
+    pts = plane_points(-0.7)
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts + 0.1))
+    assert agent.sensors == ("depth", "semantic")
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP
+    # a detection elsewhere (another object, 2 m away) does not confirm it
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts + np.array([2.0, 0, 0])))
+    assert agent.act(obs_at(wall_depth(0.7))) != STOP
+    assert agent.episode_log()["events"][-1]["event"] == "verify_failed"
+
+
+def test_a_target_failing_verification_is_rejected_for_the_next_candidate():
+    false_near = cand(plane_points(-0.7))
+    true_far = cand(plane_points(-5.0) + np.array([3.0, 0, 0]))
+    detector = ScriptedDetector(true_far.points)  # the goal is only ever found at the far candidate
+    agent, policy = make_verified_agent([false_near, true_far], detector, action=STOP)
+    first = agent.act(obs_at(wall_depth(0.7)))
+    assert first == TURN_LEFT  # the policy's STOP is not taken on an unverified target: look again
+    assert agent.act(obs_at(wall_depth(0.7))) != STOP  # second failed check: rejected, switch
+    events = [e["event"] for e in agent.episode_log()["events"]]
+    assert events.count("verify_failed") == 2
+    switch = [e for e in agent.episode_log()["events"] if e["event"] == "switch"]
+    assert switch and switch[0]["reason"] == "rejected" and agent.current == 1
+    # the rejected candidate is no longer an opportunistic STOP either
+    assert agent.act(obs_at(wall_depth(0.7))) != STOP
+
+
+def test_one_missed_detection_does_not_reject_a_true_target():
+    pts = plane_points(-0.7)
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts, hits={2}))
+    assert agent.act(obs_at(wall_depth(0.7))) != STOP  # missed once
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP  # found on the next view: one of two checks
+    assert agent.episode_log()["events"][-1]["event"] == "stop"
+
+
+def test_a_target_out_of_view_stops_on_the_checks_made_while_it_was_seen():
+    rug = plane_points(-1.6, y=0.02, half=0.05, n=3)
+    detector = ScriptedDetector(rug)
+    agent, _ = make_verified_agent([cand(rug)], detector, action=MOVE_FORWARD)
+    assert agent.act(obs_at(wall_depth(1.6))) == MOVE_FORWARD  # seen and confirmed from 1.6 m
+    assert detector.calls == 1
+    assert agent.act(obs_at(wall_depth(1.6), forward=0.9)) == STOP  # below the view now: the check stands
+    assert detector.calls == 1 and agent.episode_log()["events"][-1]["event"] == "stop"
+    # a detector that never confirmed it: no STOP on the remembered sighting
+    agent, _ = make_verified_agent([cand(rug), cand(plane_points(-6.0))], ScriptedDetector(np.zeros((0, 3))),
+                                   action=MOVE_FORWARD)
+    agent.act(obs_at(wall_depth(1.6)))
+    assert agent.act(obs_at(wall_depth(1.6), forward=0.9)) != STOP
+
+
+def test_with_no_candidate_left_an_unverified_target_is_not_a_stop():
+    # e.g. seen through a thin wall: the agent keeps driving to it (the policy may find the way round)
+    pts = plane_points(-0.7)
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(np.zeros((0, 3))), action=STOP)
+    actions = [agent.act(obs_at(wall_depth(0.7))) for _ in range(4)]
+    assert STOP not in actions and agent.current == 0
+    assert not any(e["event"] == "switch" for e in agent.episode_log()["events"])
+
+
+def test_goal_is_placed_on_the_measured_surface():
+    # The stored cloud sits 0.2 m in front of the wall the sensor sees at 1.8 m (depth noise in the
+    # memory): the points pass the 0.3 m visibility test and the goal (within 2 m: updated on a 0.1 m
+    # move) lands on the wall itself.
+    agent, _ = make_agent([cand(plane_points(-1.6))], action=MOVE_FORWARD)
+    depth = agent.depth_metres(obs_at(wall_depth(1.8)))
+    snapped, n = agent.visibility(agent._clouds[0], depth, np.zeros(3), 0.0, snap=True)
+    assert n == len(snapped) == 121
+    assert np.allclose(snapped[:, 2], -1.8, atol=0.02)
+    assert agent.act(obs_at(wall_depth(1.8))) == MOVE_FORWARD
+    assert agent.goal[2] == pytest.approx(-1.8, abs=0.02)
+
