@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from navbench.agents.base import (PoseTracker, fov_leave_distance, fov_stop_radius, log_value, nearest_to_height,
                                   xz_dist, xz_dists)
@@ -45,6 +46,7 @@ from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import project, world_to_camera
+from navbench.localize.grouping import nearest_distances
 from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
 from navbench.scene.pose import quat_from_yaw
 
@@ -336,10 +338,10 @@ class MemoryAgent:
         found = self.verify(observations, (position, yaw))
         if not len(found):
             return False
-        # nearest detected point to the cloud, on a subsample of the detection (cheap, and enough)
-        found = found[:: max(1, len(found) // 500)]
-        d2 = ((found[:, None, :] - cloud[None, :: max(1, len(cloud) // 500), :]) ** 2).sum(-1)
-        return bool(np.sqrt(d2.min()) < self.config.verify_radius)
+        # nearest detected point to the cloud, both subsampled to ~500 points (cheap, and enough)
+        r = self.config.verify_radius
+        tree = cKDTree(cloud[:: max(1, len(cloud) // 500)])
+        return bool(nearest_distances(found[:: max(1, len(found) // 500)], tree, r).min() < r)
 
     def _start_recovery(self, depth: np.ndarray) -> None:
         third = depth.shape[1] // 3
