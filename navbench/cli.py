@@ -75,19 +75,17 @@ def _step_policy(cfg):
 
 def make_memory(cfg):
     from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
-    from navbench.agents.perceive import SceneLocalizer
+    from navbench.agents.perceive import LiveDetector, SceneLocalizer
     o = cfg.agent_options
-    from navbench.agents.perceive import LiveDetector
     agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
                                   visibility_stop=o.get("visibility_stop", True),
                                   recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0)
     pcfg = _perception_config(cfg)
-    # The arrival check segments frames the env renders for it; the env config is fixed per run, so the
-    # detector is built first (its sensors decide what the env renders) with the agent's env config.
-    verify = LiveDetector(cfg.scene_dir, pcfg, cfg.env_config(("depth",))) if o.get("verify", True) else None
-    sensors = ("depth",) + (verify.sensors if verify is not None else ())
-    return MemoryAgent(SceneLocalizer(cfg.scene_dir, pcfg), _step_policy(cfg), agent_cfg, cfg.env_config(sensors),
-                       verify=verify)
+    # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
+    # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
+    env_cfg = cfg.env_config(("depth",))
+    verify = LiveDetector(cfg.scene_dir, pcfg, env_cfg) if o.get("verify", True) else None
+    return MemoryAgent(SceneLocalizer(cfg.scene_dir, pcfg), _step_policy(cfg), agent_cfg, env_cfg, verify=verify)
 
 
 def make_frontier(cfg):
