@@ -79,7 +79,8 @@ def make_memory(cfg):
     o = cfg.agent_options
     agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
                                   visibility_stop=o.get("visibility_stop", True),
-                                  recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0)
+                                  recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0,
+                                  goal_standoff=MemoryAgentConfig.goal_standoff if o.get("standoff", True) else 0.0)
     pcfg = _perception_config(cfg)
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
@@ -178,7 +179,7 @@ def _agent_options(args) -> dict:
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
                     goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
-                    verify=not args.no_verify, recovery=not args.no_recovery,
+                    verify=not args.no_verify, recovery=not args.no_recovery, standoff=not args.no_standoff,
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
@@ -192,7 +193,8 @@ def _label(args, cfg) -> str:
         parts += [tag for tag, on in (("norerank", not o["rerank"]), ("nofusion", not o["fusion"]),
                                       ("notrack", not o["goal_tracking"]), ("novisstop", not o["visibility_stop"]),
                                       ("noverify", not o.get("verify", True)),
-                                      ("norecover", not o.get("recovery", True)), ("allframes", o["all_frames"]))
+                                      ("norecover", not o.get("recovery", True)),
+                                      ("nostandoff", not o.get("standoff", True)), ("allframes", o["all_frames"]))
                   if on]
         if o["noise"] != "none":
             parts.append(f"noise_{o['noise']}")
@@ -304,6 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--no-verify", action="store_true", help="memory agent: no re-detection of the target before STOP")
     m.add_argument("--no-recovery", action="store_true",
                    help="memory agent: no recovery manoeuvre when stuck with no candidate left")
+    m.add_argument("--no-standoff", action="store_true",
+                   help="memory agent: the policy drives to the target point itself, not to a point short of it")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")
@@ -357,6 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--chunk-len", type=int)
     tr.add_argument("--batch-chunks", type=int)
     tr.add_argument("--lr", type=float)
+    tr.add_argument("--collision-weight", type=float, help="loss weight of steps after a blocked FORWARD (default 1)")
     tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
     tr.add_argument("--seed", type=int)
     tr.add_argument("--updates", type=int, help="encoder: gradient updates")

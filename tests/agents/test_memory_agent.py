@@ -381,3 +381,45 @@ def test_goal_is_placed_on_the_measured_surface():
     assert agent.act(obs_at(wall_depth(1.8))) == MOVE_FORWARD
     assert agent.goal[2] == pytest.approx(-1.8, abs=0.02)
 
+
+
+def test_policy_drives_to_a_point_short_of_a_seen_target_then_to_the_target():
+    # A picture on the wall 3 m ahead: while it is seen and the agent is outside the STOP radius, the
+    # policy gets the goal pulled goal_standoff back (a point in front of the wall it can reach).
+    agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD)
+    agent.act(obs_at(wall_depth(3.0)))
+    assert policy.last_goal[0] == pytest.approx(3.0 - MemoryAgentConfig().goal_standoff, abs=1e-4) and policy.last_goal[1] == pytest.approx(0.0)
+    # standoff off: the true goal
+    agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD, goal_standoff=0.0)
+    agent.act(obs_at(wall_depth(3.0)))
+    assert policy.last_goal[0] == pytest.approx(3.0, abs=1e-4)
+    # never seen (hidden behind something nearer): the true goal, wherever it leads the policy
+    agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD)
+    agent.act(obs_at(wall_depth(1.0)))
+    assert policy.last_goal[0] == pytest.approx(3.0, abs=1e-4)
+    # inside the STOP radius but hidden: the true goal again (no pulled point behind the agent)
+    agent, policy = make_agent([cand(plane_points(-0.85, half=0.05, n=3))], action=MOVE_FORWARD)
+    agent.last_pass = 0
+    assert agent.act(obs_at(wall_depth(0.5))) == MOVE_FORWARD
+    assert policy.last_goal[0] == pytest.approx(0.85, abs=1e-4)
+
+
+def test_a_policy_stop_far_from_a_visible_target_is_overridden():
+    # The STOP test is distance and visibility: a visible target 2 m away is not an arrival.
+    agent, _ = make_agent([cand(plane_points(-2.0))], action=STOP)
+    assert agent.act(obs_at(wall_depth(2.0))) == MOVE_FORWARD
+    assert agent.episode_log()["events"][-1]["event"] == "stop_override"
+
+
+def test_after_the_overrides_a_stop_on_a_refuted_target_becomes_a_look_around():
+    # Hidden up close (the overrides run out) while the detector's recent checks said "not it": no STOP.
+    pts = plane_points(-0.85)
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(np.zeros((0, 3))), action=STOP)
+    agent.checks = [(0, False), (0, False)]
+    hidden = wall_depth(0.5)
+    actions = [agent.act(obs_at(hidden)) for _ in range(7)]
+    assert actions[:5] == [MOVE_FORWARD] * 5 and actions[5:] == [TURN_LEFT] * 2
+    assert agent.episode_log()["events"][-1]["reason"] == "refuted"
+    # no checks at all (nothing to refute it): the bound holds and the STOP goes through
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(np.zeros((0, 3))), action=STOP)
+    assert [agent.act(obs_at(hidden)) for _ in range(6)][5] == STOP

@@ -1,0 +1,21 @@
+"""The CLI's ablation flags reach the agent's config and name the run."""
+
+from types import SimpleNamespace
+
+from navbench.agents.memory_agent import MemoryAgentConfig
+from navbench.cli import _agent_options, _label, build_parser
+
+
+def _options(*flags):
+    args = build_parser().parse_args(["run", "--agent", "memory", *flags])
+    opts = _agent_options(args)
+    return args, opts, _label(args, SimpleNamespace(agent_options=opts))
+
+
+def test_memory_ablation_flags_are_recorded_and_labelled():
+    _, opts, label = _options()
+    assert opts["standoff"] and opts["recovery"] and opts["verify"] and label == "memory"
+    _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none")
+    assert not opts["standoff"] and not opts["recovery"] and not opts["rerank"]
+    assert label == "memory-norerank-norecover-nostandoff"
+    assert MemoryAgentConfig().goal_standoff > 0  # on by default; the flag turns it off
