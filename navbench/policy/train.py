@@ -79,6 +79,12 @@ class TrainConfig:
     lr: float = 5e-4
     weight_decay: float = 0.0
     inflection_weight: float = 3.0
+    # Loss weight of steps right after a blocked FORWARD. The shipped stage-5 policy's commonest val
+    # failure (17 of 28) is pressing FORWARD into an obstacle beside the camera's view (a plant at the
+    # agent's flank) for the rest of the episode: without sliding the frame does not change, so only
+    # the unchanged point goal after a FORWARD tells the LSTM it is blocked. These steps are a small
+    # share of the buffer; weighting them makes the turn the expert labels there count. 1 = off.
+    collision_weight: float = 1.0
     # Feed the previous action to the LSTM (habitat's prev_action_embedding). Cloned policies that see
     # their previous action can learn to repeat it (expert actions come in long runs: the "copycat"
     # failure of behaviour cloning), but without it a policy cannot tell that its last FORWARD was
@@ -241,18 +247,19 @@ class Collector:
 
     def _start(self, env: PointNavEnv) -> dict:
         obs, _ = env.reset()  # seeded draw from the env's own generator
-        return {"obs": obs, "follower": make_expert(env, self.cfg), "steps": 0, "last": 0, "new": True,
+        return {"obs": obs, "follower": make_expert(env, self.cfg), "steps": 0, "last": 0, "new": True, "hit": False, "coll": 0,
                 **self._empty()}
 
     def _empty(self) -> dict:
-        lists = {"depth": [], "goal": [], "prev": [], "mask": [], "label": []}
+        lists = {"depth": [], "goal": [], "prev": [], "mask": [], "label": [], "blocked": []}
         return {**lists, "free": []} if self.free_space else lists
 
     def _segment(self, s: dict) -> dict[str, np.ndarray]:
         labels = np.array(s["label"], np.int64)
         seg = {"depth": np.stack(s["depth"]), "goal": np.stack(s["goal"]).astype(np.float32),
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
-               "weight": inflection_weights(labels, self.cfg.inflection_weight)}
+               "weight": inflection_weights(labels, self.cfg.inflection_weight)
+               * np.where(np.array(s["blocked"], bool), np.float32(self.cfg.collision_weight), np.float32(1.0))}
         if self.free_space:
             seg["free"] = np.stack(s["free"])
         s.update(self._empty())
@@ -280,6 +287,7 @@ class Collector:
                 s["prev"].append(s["last"])
                 s["mask"].append(s["steps"] > 0)
                 s["label"].append(label)
+                s["blocked"].append(s["hit"])
                 if self.free_space:
                     s["free"].append(free_distances(env.navgrid, env.agent_position, env.agent_yaw,
                                                      cfg.free_space_headings_deg, cfg.free_space_range))
@@ -289,6 +297,8 @@ class Collector:
                 if beta < 1.0:
                     learner.prev_actions[i] = action  # the learner's memory must see the action taken
                 s["obs"], _, term, trunc, info = env.step(action)
+                s["hit"] = info["collisions"] > s["coll"]  # this FORWARD was blocked
+                s["coll"] = info["collisions"]
                 s["last"], s["steps"], s["new"] = action, s["steps"] + 1, False
                 count += 1
                 if term or trunc or s["steps"] >= cfg.max_episode_steps:

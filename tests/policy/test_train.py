@@ -140,3 +140,26 @@ def test_learner_freezes_what_the_config_says():
     policy, aux = build_learner(TrainConfig(freeze_visual=False, prev_action=False))
     assert aux is not None and all(p.requires_grad for p in policy.net.visual_encoder.parameters())
     assert not policy.net.prev_action_embedding.weight.requires_grad
+
+
+def test_steps_after_a_blocked_forward_weigh_collision_weight():
+    # Learner-only rollouts of an untrained policy bump into things; the step after each blocked FORWARD
+    # (its point goal unchanged) carries collision_weight on top of the inflection weight.
+    cfg = TrainConfig(num_envs=2, max_episode_steps=40, random_action_prob=0.5, collision_weight=5.0,
+                      inflection_weight=1.0)
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    envs = make_envs(cfg.num_envs, "train", seed=0)
+    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
+    segments, _ = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, 160, beta=0.0)
+    blocked = 0
+    for seg in segments:
+        for t in range(1, len(seg["label"])):
+            weighted = seg["weight"][t] == 5.0
+            assert weighted or seg["weight"][t] == 1.0
+            assert not weighted or seg["prev"][t] == 1  # only FORWARDs collide
+            if seg["prev"][t] == 1 and np.allclose(seg["goal"][t], seg["goal"][t - 1]):
+                assert weighted  # did not move at all: blocked
+            blocked += weighted
+        assert seg["weight"][0] == 1.0
+    assert blocked > 0, "the scripted rollouts must hit something for this test to mean anything"
