@@ -84,6 +84,7 @@ class TrainConfig:
     # agent's flank) for the rest of the episode: without sliding the frame does not change, so only
     # the unchanged point goal after a FORWARD tells the LSTM it is blocked. These steps are a small
     # share of the buffer; weighting them makes the turn the expert labels there count. 1 = off.
+    # Tried at 3 from stage 5 (policies/README.md): pinned val failures 17 -> 10, early STOPs 5 -> 10.
     collision_weight: float = 1.0
     # Feed the previous action to the LSTM (habitat's prev_action_embedding). Cloned policies that see
     # their previous action can learn to repeat it (expert actions come in long runs: the "copycat"
