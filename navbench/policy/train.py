@@ -248,8 +248,9 @@ class Collector:
 
     def _start(self, env: PointNavEnv) -> dict:
         obs, _ = env.reset()  # seeded draw from the env's own generator
-        return {"obs": obs, "follower": make_expert(env, self.cfg), "steps": 0, "last": 0, "new": True, "hit": False, "coll": 0,
-                **self._empty()}
+        # hit: the last FORWARD was blocked; coll: the env's collision count so far
+        return {"obs": obs, "follower": make_expert(env, self.cfg), "steps": 0, "last": 0, "new": True,
+                "hit": False, "coll": 0, **self._empty()}
 
     def _empty(self) -> dict:
         lists = {"depth": [], "goal": [], "prev": [], "mask": [], "label": [], "blocked": []}
@@ -260,7 +261,7 @@ class Collector:
         seg = {"depth": np.stack(s["depth"]), "goal": np.stack(s["goal"]).astype(np.float32),
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
                "weight": inflection_weights(labels, self.cfg.inflection_weight)
-               * np.where(np.array(s["blocked"], bool), np.float32(self.cfg.collision_weight), np.float32(1.0))}
+               * np.where(s["blocked"], np.float32(self.cfg.collision_weight), np.float32(1.0))}
         if self.free_space:
             seg["free"] = np.stack(s["free"])
         s.update(self._empty())
