@@ -273,7 +273,9 @@ class MemoryAgent:
         if self.verify is not None and seen_now and dist < max(cfg.near_radius, self.stop_radius()):
             self.checks.append((self.step, self._verify(observations, position, yaw, self._clouds[self.current])))
         unverified = False
-        if dist < self.stop_radius() and (visible_ok or not cfg.visibility_stop):
+        # The STOP test; when it passes, the agent either stops here or marks the target unverified.
+        at_stop = dist < self.stop_radius() and (visible_ok or not cfg.visibility_stop)
+        if at_stop:
             if self._verified():
                 self._event("stop", candidate=self.current, distance=dist)
                 return STOP
@@ -310,12 +312,11 @@ class MemoryAgent:
             action = TURN_LEFT  # look again from a new view before deciding
             self._event("stop_override", distance=dist, reason="unverified")
         elif action == STOP:
-            passes = dist < self.stop_radius() and (visible_ok or not cfg.visibility_stop)
-            if self.overrides < cfg.max_stop_overrides and not passes:
+            if self.overrides < cfg.max_stop_overrides and not at_stop:
                 self.overrides += 1
                 self._event("stop_override", distance=dist)
                 action = MOVE_FORWARD
-            elif not passes and self._refuted():
+            elif not at_stop and self._refuted():
                 action = TURN_LEFT
                 self._event("stop_override", distance=dist, reason="refuted")
         else:
