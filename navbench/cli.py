@@ -80,7 +80,8 @@ def make_memory(cfg):
     agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
                                   visibility_stop=o.get("visibility_stop", True),
                                   recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0,
-                                  goal_standoff=MemoryAgentConfig.goal_standoff if o.get("standoff", True) else 0.0)
+                                  goal_standoff=MemoryAgentConfig.goal_standoff if o.get("standoff", True) else 0.0,
+                                  view_detour=o.get("detour", True))
     pcfg = _perception_config(cfg)
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
@@ -180,6 +181,7 @@ def _agent_options(args) -> dict:
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
                     goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
                     verify=not args.no_verify, recovery=not args.no_recovery, standoff=not args.no_standoff,
+                    detour=not args.no_detour,
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
@@ -194,7 +196,8 @@ def _label(args, cfg) -> str:
                                       ("notrack", not o["goal_tracking"]), ("novisstop", not o["visibility_stop"]),
                                       ("noverify", not o.get("verify", True)),
                                       ("norecover", not o.get("recovery", True)),
-                                      ("nostandoff", not o.get("standoff", True)), ("allframes", o["all_frames"]))
+                                      ("nostandoff", not o.get("standoff", True)),
+                                      ("nodetour", not o.get("detour", True)), ("allframes", o["all_frames"]))
                   if on]
         if o["noise"] != "none":
             parts.append(f"noise_{o['noise']}")
@@ -308,6 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="memory agent: no recovery manoeuvre when stuck with no candidate left")
     m.add_argument("--no-standoff", action="store_true",
                    help="memory agent: the policy drives to the target point itself, not to a point short of it")
+    m.add_argument("--no-detour", action="store_true",
+                   help="memory agent: no detour to a keyframe's view of a target hidden behind a wall")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")
@@ -355,6 +360,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--expert-success-distance", type=float, help="where the expert says STOP (default 0.2 m)")
     tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default geodesic)")
     tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
+    tr.add_argument("--beta-min", type=float, help="floor of the oracle share (default 0.1; 0 = pure learner rollouts)")
+    tr.add_argument("--random-action-prob", type=float, help="share of random non-STOP actions in rollouts (default 0.08)")
     tr.add_argument("--max-episode-steps", type=int)
     tr.add_argument("--train-split", help="PointNav split to roll out in (default train; train_large adds the "
                                           "40 houses of `navbench generate policy-train`)")

@@ -15,7 +15,8 @@ def _options(*flags):
 def test_memory_ablation_flags_are_recorded_and_labelled():
     _, opts, label = _options()
     assert opts["standoff"] and opts["recovery"] and opts["verify"] and label == "memory"
-    _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none")
-    assert not opts["standoff"] and not opts["recovery"] and not opts["rerank"]
-    assert label == "memory-norerank-norecover-nostandoff"
+    _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none", "--no-detour")
+    assert not opts["standoff"] and not opts["recovery"] and not opts["rerank"] and not opts["detour"]
+    assert label == "memory-norerank-norecover-nostandoff-nodetour"
     assert MemoryAgentConfig().goal_standoff > 0  # on by default; the flag turns it off
+    assert MemoryAgentConfig().view_detour

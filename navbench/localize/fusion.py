@@ -21,7 +21,7 @@ cutting the points several-fold. ``voxel_size=0`` restores the plain reference b
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -56,6 +56,9 @@ class GoalCandidate:
     points: np.ndarray  # (N, 3) fused (and HDBSCAN-filtered) cloud
     keyframe_ids: tuple[int, ...]  # supporting views: the cluster's, then the confirming neighbours
     score: float  # the seed view's rank score
+    # (K, 3) camera positions of the supporting views (keyframe_ids order): where the pre-scan saw the
+    # target from, i.e. places with a line of sight to it (the navigation agent's detour goals)
+    view_positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def neighbour_keyframes(target: np.ndarray, cam_to_world: np.ndarray, intrinsics: Intrinsics | Sequence[Intrinsics],

@@ -25,7 +25,7 @@ Backends are the protocols of :mod:`navbench.localize.backends.base`; each may d
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal, Protocol
 
 import numpy as np
@@ -246,6 +246,8 @@ class Localizer:
                 if clouds[kf] is not None:
                     others.setdefault(kf, clouds[kf])
             candidates.append(fuse(cluster, list(others.values()), cfg.fusion_config))
+        candidates = [replace(c, view_positions=self._poses[list(c.keyframe_ids), :3, 3].copy())
+                      for c in candidates]
         trace.seconds = time.perf_counter() - start
         self.last_trace = trace
         return candidates

@@ -369,6 +369,47 @@ def test_with_no_candidate_left_an_unverified_target_is_not_a_stop():
     assert not any(e["event"] == "switch" for e in agent.episode_log()["events"])
 
 
+def cand_seen_from(points, views):
+    return GoalCandidate(centre=points.mean(axis=0), points=points, keyframe_ids=tuple(range(len(views))),
+                         score=1.0, view_positions=np.asarray(views, float))
+
+
+def test_a_failed_check_sends_the_policy_to_the_nearest_view_of_the_target():
+    # Seen "through a wall" (the depth test passes, the detector finds nothing): the policy is sent to
+    # where the memory saw the target from, failures there do not count, and the detour ends on arrival.
+    pts = plane_points(-0.7)
+    views = [[3.0, 0.88, 3.0], [1.0, 0.88, 1.5], [0.2, 0.88, 0.2]]  # the last is where the agent stands
+    other = cand(plane_points(-6.0))
+    agent, policy = make_verified_agent([cand_seen_from(pts, views), other], ScriptedDetector(np.zeros((0, 3))),
+                                        action=MOVE_FORWARD)
+    assert agent.act(obs_at(wall_depth(0.7))) == MOVE_FORWARD
+    detour = [e for e in agent.episode_log()["events"] if e["event"] == "detour"]
+    assert detour and detour[0]["reason"] == "verify_failed" and detour[0]["goal"] == [1.0, 0.0, 1.5]
+    assert policy.last_goal[0] == pytest.approx(np.hypot(1.0, 1.5))  # the policy drives to the view
+    for _ in range(3):  # still beside the wall: no more failures counted, no rejection
+        agent.act(obs_at(wall_depth(0.7)))
+    assert agent.verify_fails == 1 and agent.current == 0
+    agent.act(obs_at(wall_depth(3.0), forward=-1.4, right=0.9))  # arrived at the view
+    assert agent.episode_log()["events"][-1] == {"step": 5, "event": "detour_end", "reason": "reached"}
+    # back to the target (seen lately, so the point short of it): 2.28 m away, less the 0.6 m standoff
+    assert agent.detour is None and policy.last_goal[0] == pytest.approx(np.hypot(0.9, 2.1) - 0.6, abs=0.02)
+
+
+def test_a_policy_stop_beside_a_target_not_seen_lately_starts_a_detour():
+    # Up against the wall the target is behind: hidden, never seen, the policy STOPs on its point.
+    pts = plane_points(-0.85)
+    agent, policy = make_agent([cand_seen_from(pts, [[0.0, 0.88, -2.0]])], action=STOP)
+    assert agent.act(obs_at(wall_depth(0.5))) == MOVE_FORWARD  # the override still applies
+    assert agent.episode_log()["events"][-1]["event"] == "detour"
+    agent.act(obs_at(wall_depth(0.5)))
+    assert policy.last_goal[0] == pytest.approx(2.0)
+    # without views, or with the detour off, the plain override rule alone
+    for agent, _ in (make_agent([cand(pts)], action=STOP),
+                     make_agent([cand_seen_from(pts, [[0.0, 0.88, -2.0]])], action=STOP, view_detour=False)):
+        agent.act(obs_at(wall_depth(0.5)))
+        assert all(e["event"] != "detour" for e in agent.episode_log()["events"])
+
+
 def test_goal_is_placed_on_the_measured_surface():
     # The stored cloud sits 0.2 m in front of the wall the sensor sees at 1.8 m (depth noise in the
     # memory): the points pass the 0.3 m visibility test and the goal (within 2 m: updated on a 0.1 m

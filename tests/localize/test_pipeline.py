@@ -43,6 +43,8 @@ def test_localises_a_known_object(oracle_memory, oracle_scene, fusion):
     assert best.keyframe_ids[0] == trace.kept[0] and len(best.points) > 100
     # Every supporting view actually shows the fridge (oracle ids), and the cloud sits on it.
     assert all((oracle_memory.store.instance_ids(k) == FRIDGE).any() for k in best.keyframe_ids)
+    # ... and the candidate carries where those views were taken from (the agent's detour goals)
+    assert np.allclose(best.view_positions, [oracle_memory.store.pose(k)[:3, 3] for k in best.keyframe_ids])
     lo, hi = np.asarray(fridge.aabb_min) - 0.1, np.asarray(fridge.aabb_max) + 0.1
     inside = np.all((best.points >= lo) & (best.points <= hi), axis=1).mean()
     assert inside > 0.95
