@@ -310,7 +310,7 @@ class MemoryAgent:
                 self._event("stop", candidate=self.current, distance=dist)
                 return STOP
             unverified = True
-        if at_stop and self.detour is None:  # (on a detour, failed checks are what started it)
+        if at_stop and self.detour is None:  # on a detour the agent is known to be on the wrong side
             self.verify_fails += 1
             self._event("verify_failed", candidate=self.current, distance=dist)
             # The check also fails through a thin wall (points just behind it pass the depth test):
@@ -380,12 +380,13 @@ class MemoryAgent:
         if not cfg.view_detour or self.detour is not None or len(self.detours_used) >= cfg.max_detours:
             return False
         views = np.asarray(self.candidates[self.current].view_positions, np.float64).reshape(-1, 3)
-        d = xz_dists(views, position) if len(views) else np.zeros(0)
+        d = xz_dists(views, position)
         ok = [i for i in np.argsort(d, kind="stable") if d[i] >= cfg.detour_reached
               and all(xz_dist(views[i], u) >= cfg.detour_reached for u in self.detours_used)]
         if not ok:
             return False
-        self.detour = views[ok[0]] * np.array([1.0, 0.0, 1.0]) + np.array([0.0, position[1], 0.0])
+        x, _, z = views[ok[0]]
+        self.detour = np.array([x, position[1], z])  # the camera's floor point
         self.detours_used.append(self.detour)
         self.policy.reset_hidden()
         self._event("detour", goal=self.detour, reason=reason)
