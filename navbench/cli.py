@@ -369,6 +369,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--batch-chunks", type=int)
     tr.add_argument("--lr", type=float)
     tr.add_argument("--collision-weight", type=float, help="loss weight of steps after a blocked FORWARD (default 1)")
+    tr.add_argument("--endgame-weight", type=float, help="loss weight of steps within 0.75 m of the goal (default 1)")
     tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
     tr.add_argument("--seed", type=int)
     tr.add_argument("--updates", type=int, help="encoder: gradient updates")

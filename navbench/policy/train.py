@@ -86,6 +86,11 @@ class TrainConfig:
     # share of the buffer; weighting them makes the turn the expert labels there count. 1 = off.
     # Tried at 3 from stage 5 (policies/README.md): pinned val failures 17 -> 10, early STOPs 5 -> 10.
     collision_weight: float = 1.0
+    # Loss weight of steps within endgame_radius of the goal, where the STOP is decided. Stages 6 and 7
+    # (policies/README.md) freed pinned episodes but lost as many to STOPs 0.2-0.5 m short of the goal;
+    # these steps are a few percent of the buffer. 1 = off.
+    endgame_weight: float = 1.0
+    endgame_radius: float = 0.75
     # Feed the previous action to the LSTM (habitat's prev_action_embedding). Cloned policies that see
     # their previous action can learn to repeat it (expert actions come in long runs: the "copycat"
     # failure of behaviour cloning), but without it a policy cannot tell that its last FORWARD was
@@ -261,7 +266,9 @@ class Collector:
         seg = {"depth": np.stack(s["depth"]), "goal": np.stack(s["goal"]).astype(np.float32),
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
                "weight": inflection_weights(labels, self.cfg.inflection_weight)
-               * np.where(s["blocked"], np.float32(self.cfg.collision_weight), np.float32(1.0))}
+               * np.where(s["blocked"], np.float32(self.cfg.collision_weight), np.float32(1.0))
+               * np.where(np.array(s["goal"])[:, 0] < self.cfg.endgame_radius,
+                          np.float32(self.cfg.endgame_weight), np.float32(1.0))}
         if self.free_space:
             seg["free"] = np.stack(s["free"])
         s.update(self._empty())

@@ -163,3 +163,19 @@ def test_steps_after_a_blocked_forward_weigh_collision_weight():
             blocked += weighted
         assert seg["weight"][0] == 1.0
     assert blocked > 0, "the scripted rollouts must hit something for this test to mean anything"
+
+
+def test_steps_near_the_goal_weigh_endgame_weight():
+    # Expert-driven rollouts reach their goals; the steps within endgame_radius of the goal (where the
+    # STOP is decided) carry endgame_weight, all others 1.
+    cfg = TrainConfig(num_envs=2, max_episode_steps=120, random_action_prob=0.0, endgame_weight=4.0,
+                      inflection_weight=1.0)
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    envs = make_envs(cfg.num_envs, "train", seed=0)
+    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
+    segments, _ = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, 240, beta=1.0)
+    near = np.concatenate([seg["goal"][:, 0] < cfg.endgame_radius for seg in segments])
+    weights = np.concatenate([seg["weight"] for seg in segments])
+    assert near.any(), "the expert must reach a goal for this test to mean anything"
+    assert np.array_equal(weights, np.where(near, 4.0, 1.0).astype(np.float32))
