@@ -10,12 +10,13 @@ from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, encode
                                    train_step)
 
 
-def _collect(cfg: TrainConfig, frames: int):
+def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
+    """An untrained policy's rollouts (beta: the expert's share of the executed actions)."""
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(PolicyNetConfig())
     envs = make_envs(cfg.num_envs, "train", seed=0)
     learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
-    segments, stats = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, frames, beta=1.0)
+    segments, stats = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, frames, beta=beta)
     for env in envs:
         env.close()
     return policy, segments, stats
@@ -145,13 +146,8 @@ def test_learner_freezes_what_the_config_says():
 def test_steps_after_a_blocked_forward_weigh_collision_weight():
     # Learner-only rollouts of an untrained policy bump into things; the step after each blocked FORWARD
     # (its point goal unchanged) carries collision_weight on top of the inflection weight.
-    cfg = TrainConfig(num_envs=2, max_episode_steps=40, random_action_prob=0.5, collision_weight=5.0,
-                      inflection_weight=1.0)
-    torch.manual_seed(0)
-    policy = PointNavResNetPolicy(PolicyNetConfig())
-    envs = make_envs(cfg.num_envs, "train", seed=0)
-    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
-    segments, _ = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, 160, beta=0.0)
+    _, segments, _ = _collect(TrainConfig(num_envs=2, max_episode_steps=40, random_action_prob=0.5,
+                                          collision_weight=5.0, inflection_weight=1.0), frames=160, beta=0.0)
     blocked = 0
     for seg in segments:
         for t in range(1, len(seg["label"])):
@@ -170,11 +166,7 @@ def test_steps_near_the_goal_weigh_endgame_weight():
     # STOP is decided) carry endgame_weight, all others 1.
     cfg = TrainConfig(num_envs=2, max_episode_steps=120, random_action_prob=0.0, endgame_weight=4.0,
                       inflection_weight=1.0)
-    torch.manual_seed(0)
-    policy = PointNavResNetPolicy(PolicyNetConfig())
-    envs = make_envs(cfg.num_envs, "train", seed=0)
-    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
-    segments, _ = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, 240, beta=1.0)
+    _, segments, _ = _collect(cfg, frames=240)
     near = np.concatenate([seg["goal"][:, 0] < cfg.endgame_radius for seg in segments])
     weights = np.concatenate([seg["weight"] for seg in segments])
     assert near.any(), "the expert must reach a goal for this test to mean anything"
