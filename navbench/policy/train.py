@@ -263,12 +263,13 @@ class Collector:
 
     def _segment(self, s: dict) -> dict[str, np.ndarray]:
         labels = np.array(s["label"], np.int64)
-        seg = {"depth": np.stack(s["depth"]), "goal": np.stack(s["goal"]).astype(np.float32),
+        goal = np.stack(s["goal"]).astype(np.float32)
+        seg = {"depth": np.stack(s["depth"]), "goal": goal,
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
                "weight": inflection_weights(labels, self.cfg.inflection_weight)
                * np.where(s["blocked"], np.float32(self.cfg.collision_weight), np.float32(1.0))
-               * np.where(np.array(s["goal"])[:, 0] < self.cfg.endgame_radius,
-                          np.float32(self.cfg.endgame_weight), np.float32(1.0))}
+               * np.where(goal[:, 0] < self.cfg.endgame_radius, np.float32(self.cfg.endgame_weight),
+                          np.float32(1.0))}
         if self.free_space:
             seg["free"] = np.stack(s["free"])
         s.update(self._empty())
