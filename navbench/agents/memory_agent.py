@@ -275,9 +275,9 @@ class MemoryAgent:
             # close to a low object) can be neither confirmed nor refuted: keep it unless the new point
             # is nearer. Replacing it by the nearest point still in view would move the goal away as
             # the agent approaches, so it could never come within stop_radius of a rug.
-            in_view = self.visibility(self.goal[None], depth, position, yaw, check_depth=False)[1] > 0
+            goal_in_view = self.visibility(self.goal[None], depth, position, yaw, check_depth=False)[1] > 0
             closer = xz_dist(nearest, position) < xz_dist(self.goal, position)
-            if moved >= (cfg.goal_update_near if near else cfg.goal_update_far) and (in_view or closer):
+            if moved >= (cfg.goal_update_near if near else cfg.goal_update_far) and (goal_in_view or closer):
                 self.goal = nearest
                 self.policy.reset_hidden()
                 self._event("goal_update", goal=nearest, moved=moved)

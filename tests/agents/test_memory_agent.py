@@ -81,6 +81,17 @@ def test_stops_when_close_and_visible():
     assert agent.episode_log()["events"][-1]["event"] == "stop"
 
 
+def test_stop_test_counts_the_cloud_in_view_even_when_the_goal_point_is_not():
+    # The goal is the target's nearest point, here beside the camera's field of view (85 deg to the
+    # right); the rest of the target is in plain view. The STOP test is the share of in-view points
+    # confirmed visible, not whether the goal point itself is in the image.
+    side = np.array([[0.6, 0.88, -0.05]])
+    agent, policy = make_agent([cand(np.vstack([plane_points(-0.7), side]))], action=TURN_LEFT)
+    np.testing.assert_allclose(agent.goal, side[0])
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP
+    assert policy.calls == 0
+
+
 def test_close_but_hidden_does_not_stop_and_stop_override_is_bounded():
     pts = plane_points(-0.85)
     agent, policy = make_agent([cand(pts)], action=STOP)
