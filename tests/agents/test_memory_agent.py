@@ -325,7 +325,7 @@ def test_verification_confirms_a_stop_on_the_detected_target():
     pts = plane_points(-0.7)
     agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts + 0.1))
     assert agent.sensors == ("depth", "semantic")
-    assert agent.act(obs_at(wall_depth(0.7))) == STOP
+    assert [agent.act(obs_at(wall_depth(0.7))) for _ in range(3)] == [TURN_LEFT, TURN_LEFT, STOP]  # 3 checks
     # a detection elsewhere (another object, 2 m away) does not confirm it
     agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts + np.array([2.0, 0, 0])))
     assert agent.act(obs_at(wall_depth(0.7))) != STOP
@@ -350,10 +350,23 @@ def test_a_target_failing_verification_is_rejected_for_the_next_candidate():
 
 def test_one_missed_detection_does_not_reject_a_true_target():
     pts = plane_points(-0.7)
-    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts, hits={2}))
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts, hits={2}), verify_min_checks=1)
     assert agent.act(obs_at(wall_depth(0.7))) != STOP  # missed once
     assert agent.act(obs_at(wall_depth(0.7))) == STOP  # found on the next view: one of two checks
     assert agent.episode_log()["events"][-1]["event"] == "stop"
+
+
+def test_one_lucky_detection_is_not_enough_to_stop():
+    # A detector that fires on a wrong object in one frame (a noise profile's wrong view): with one
+    # check needed the agent STOPs on it; with the default three it looks again and the check fails.
+    pts = plane_points(-0.7)
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts, hits={1}), verify_min_checks=1)
+    assert agent.act(obs_at(wall_depth(0.7))) == STOP
+    agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(pts, hits={1}))
+    actions = [agent.act(obs_at(wall_depth(0.7))) for _ in range(3)]
+    assert STOP not in actions
+    failed = [e["step"] for e in agent.episode_log()["events"] if e["event"] == "verify_failed"]
+    assert failed == [3]  # judged once, on the third look (1 of 3 checks)
 
 
 def test_a_target_out_of_view_stops_on_the_checks_made_while_it_was_seen():
