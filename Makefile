@@ -64,8 +64,10 @@ results-localize: setup
 # rest by DAgger imitation of the clearance-keeping geodesic expert on whole episodes (cached encoder
 # outputs); 3. continue with the expert stopping at 0.1 m; 4. continue on train_large (the 8 train
 # houses plus the 40 of `navbench generate policy-train`, bundled); 5. continue there with half the
-# learning rate and 1.5x the updates per iteration (no monitor episodes). Each stage is resumable: rerun the
-# same line with --resume after a kill (the DAgger buffer restarts empty).
+# learning rate and 1.5x the updates per iteration (no monitor episodes); 8. continue with the loss
+# weighted x3 on steps after a refused FORWARD and within 0.75 m of the goal; 9. continue with half that
+# learning rate again and a new rollout seed. (Stages 6 and 7 were experiments, not part of the recipe.)
+# Each stage is resumable: rerun the same line with --resume after a kill (the DAgger buffer restarts empty).
 train-pointnav: setup
 	$(BIN)/navbench train encoder --out runs/pointnav/encoder.pth --state-dir runs/pointnav/encoder_state
 	$(BIN)/navbench train pointnav --init runs/pointnav/encoder.pth --expert geodesic --iterations 14 \
@@ -79,7 +81,15 @@ train-pointnav: setup
 	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage4.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 16 --frames-per-iteration 8000 --lr 2.5e-4 \
 	  --epochs-per-iteration 24 --val-episodes 0 --out runs/pointnav/policy_stage5.pth --state-dir runs/pointnav/stage5_state
-	cp runs/pointnav/policy_stage5.pth policies/pointnav_navbench.pth
+	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage5.pth --train-split train_large --expert geodesic \
+	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 2.5e-4 \
+	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 \
+	  --out runs/pointnav/policy_stage8.pth --state-dir runs/pointnav/stage8_state
+	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage8.pth --train-split train_large --expert geodesic \
+	  --expert-success-distance 0.1 --beta0 0.1 --iterations 18 --frames-per-iteration 8000 --lr 1.25e-4 \
+	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --seed 9 \
+	  --out runs/pointnav/policy_stage9.pth --state-dir runs/pointnav/stage9_state
+	cp runs/pointnav/policy_stage9.pth policies/pointnav_navbench.pth
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
 results-pointnav: setup
