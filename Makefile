@@ -99,7 +99,7 @@ results-pointnav: setup
 # ObjectNav tables (the paper's Table 2 on our data), oracle perception: the frontier baseline, the
 # memory agent without re-ranking and the memory agent on every episode of the three OVON-style val
 # splits (LIMIT=N: the first N of each), and the memory agent with the default noise profile on
-# val_unseen. ~45 minutes on the 2 cores, most of it the frontier agent (~9 min per split).
+# val_unseen. ~40 minutes on the 2 cores, most of it the frontier agent (7-9 min per split).
 OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen
 LIMIT ?=
 LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
