@@ -321,7 +321,9 @@ class MemoryAgent:
                 self._event("stop", candidate=self.current, distance=dist)
                 return STOP
             unverified = True
-        if at_stop and verdict is False and self.detour is None:  # on a detour the agent is known to be on the wrong side
+        # A failed verdict counts towards rejection, except on a detour (the agent is known to be on the
+        # wrong side) and while the verdict is pending (too few checks yet).
+        if at_stop and verdict is False and self.detour is None:
             self.verify_fails += 1
             self._event("verify_failed", candidate=self.current, distance=dist)
             # The check also fails through a thin wall (points just behind it pass the depth test):
