@@ -311,8 +311,8 @@ class MemoryAgent:
                 self._end_detour("reached")
             elif confirmed_now or (seen_now and self.verify is None):
                 self._end_detour("target_in_view")
-        unverified = False
-        # The STOP test; when it passes, the agent either stops here or marks the target unverified.
+        # The STOP test. When it passes and so does the detector's verdict, the agent stops here; past
+        # this point at_stop means "inside the stop radius, target visible, verdict failed or pending".
         at_stop = dist < self.stop_radius() and (visible_ok or not cfg.visibility_stop)
         verdict = None
         if at_stop:
@@ -320,7 +320,6 @@ class MemoryAgent:
             if verdict:
                 self._event("stop", candidate=self.current, distance=dist)
                 return STOP
-            unverified = True
         # A failed verdict counts towards rejection, except on a detour (the agent is known to be on the
         # wrong side) and while the verdict is pending (too few checks yet).
         if at_stop and verdict is False and self.detour is None:
@@ -355,17 +354,17 @@ class MemoryAgent:
 
         action = int(self.policy.act(observations["depth"][None],
                                      pointgoal_polar(self._policy_goal(position), position, yaw)[None])[0])
-        if action == STOP and unverified:
-            action = TURN_LEFT  # look again from a new view before deciding
+        if action == STOP and at_stop:
+            action = TURN_LEFT  # unverified: look again from a new view before deciding
             self._event("stop_override", distance=dist, reason="unverified")
         elif action == STOP:
-            if self.overrides < cfg.max_stop_overrides and not at_stop:
+            if self.overrides < cfg.max_stop_overrides:
                 self.overrides += 1
                 self._event("stop_override", distance=dist)
                 action = MOVE_FORWARD
                 if self.detour is None and self.step - self.last_pass > cfg.visibility_memory:
                     self._start_detour(position, "stop_unseen")
-            elif not at_stop and self._refuted():
+            elif self._refuted():
                 action = TURN_LEFT
                 self._event("stop_override", distance=dist, reason="refuted")
         else:
