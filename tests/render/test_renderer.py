@@ -278,6 +278,20 @@ def test_bad_inputs_raise_value_errors(room, renderer):
         r.render(C, IDENTITY)
 
 
+def test_renderers_closed_in_turn_free_their_context_and_leave_later_ones_exact(room, front):
+    # close() frees the GL context itself (without pyrender's per-call gc.collect); a scene switch
+    # closes one renderer and opens the next, so later contexts must render exactly as the first.
+    for _ in range(3):
+        r = Renderer(room)
+        out = r.render(C, IDENTITY, rgb=True, depth=True, ids=True)
+        gl = r._gl
+        r.close()
+        assert gl._renderer is None and gl._platform is None
+        np.testing.assert_array_equal(out.depth, front.depth)
+        np.testing.assert_array_equal(out.rgb, front.rgb)
+        np.testing.assert_array_equal(out.ids, front.ids)
+
+
 def test_import_sets_osmesa_and_creates_no_context():
     code = textwrap.dedent(
         """
