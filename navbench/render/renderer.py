@@ -381,7 +381,7 @@ class Renderer:
             # call: in a process holding a policy and a replay buffer that takes ~0.2 s, paid on every
             # scene switch (a fifth of a DAgger iteration's collection time on 48 houses). The GL
             # buffers and context are freed here; the old scene's cyclic Python garbage is collected on
-            # every 16th close instead, which keeps RSS flat (benchmarks/scene_switch.py).
+            # every 16th close instead, which keeps RSS nearly flat (benchmarks/scene_switch.py).
             gl._platform.make_current()
             gl._renderer.delete()
             gl._platform.delete_context()
