@@ -343,6 +343,16 @@ class PointNavAgentPolicy:
         (or (N, 2)), an env whose goal moved more than ``reset_goal_dist`` since the last call
         restarts its recurrent state first.
         """
+        return self.act_and_encode(depth, pointgoal, goal_world)[0]
+
+    def act_and_encode(
+        self,
+        depth: np.ndarray | torch.Tensor,
+        pointgoal: np.ndarray | torch.Tensor,
+        goal_world: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, torch.Tensor]:
+        """:meth:`act`, also returning the visual encoder's output (N, C*h*w) for these frames: DAgger
+        collection with a frozen encoder stores it rather than encoding every frame a second time."""
         if goal_world is not None:
             self._track_goals(goal_world)
         x = prepare_depth(depth, self.policy.cfg.input_size)
@@ -352,10 +362,13 @@ class PointNavAgentPolicy:
                 f"expected a batch of {self.num_envs}, got depth {tuple(x.shape)} and pointgoal {tuple(goal.shape)}"
             )
         with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=self.config.bf16):
-            logits, _, hidden = self.policy(x, goal, self.prev_actions, self.masks, self.hidden)
+            # The two halves of PointNavResNetPolicy.forward, so the encoder output can be handed out.
+            visual = self.policy.net.encode_depth(x)
+            logits, _, hidden = self.policy.forward_features(visual[None], goal[None], self.prev_actions[None],
+                                                             self.masks[None], self.hidden)
         # Outside inference_mode these ops give normal tensors, which reset_hidden may edit in place.
-        actions = logits.float().argmax(dim=-1)
+        actions = logits[0].float().argmax(dim=-1)
         self.hidden = hidden.float().clone()
         self.prev_actions = actions.clone()
         self.masks[:] = True
-        return actions.numpy().astype(np.int64)
+        return actions.numpy().astype(np.int64), visual.float().clone()

@@ -11,15 +11,16 @@ Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the 
 PointNav split ``train_split`` (the 8 bundled train houses, or ``train_large`` with 40 more). The executed action is the oracle's with probability beta (1 in the first
 iteration, decaying) and the learner's otherwise, plus occasional random turns/moves so the data
 covers recovery from off-path states; every step is labelled with the oracle's action from the
-state actually reached (DAgger). Frames join an aggregated buffer (depth stored 2x2-pooled as
-uint8: the network average-pools 2x2 first, so this loses only quantisation) and the network is
+state actually reached (DAgger). Frames join an aggregated buffer and the network is
 trained with cross-entropy and inflection weighting (steps where the oracle changes its action,
 including STOP, weigh more) on whole episodes from their first step (default) or on short chunks
 that start from a zero recurrent state (``--truncated``). After every iteration it evaluates on
 bundled PointNav ``val`` episodes, logs to CSV and writes a resumable checkpoint.
 
-By default (``freeze_visual``) the visual encoder is not trained: frames are encoded once and the
-rest of the network trains on the cached encoder outputs, ~50x cheaper per update on 2 cores. Start
+By default (``freeze_visual``) the visual encoder is not trained: the buffer keeps the encoder output
+the rollout's own forward pass computed for each frame (fp16), and the rest of the network trains on
+those, ~50x cheaper per update on 2 cores. With a trainable encoder the buffer keeps the frames
+(depth 2x2-pooled as uint8: the network average-pools 2x2 first, so this loses only quantisation). Start
 from a checkpoint whose encoder was trained (``--init PATH``, e.g. ``navbench train encoder``'s output,
 see :mod:`navbench.policy.pretrain`). ``--train-encoder`` trains the whole network on short chunks,
 with an auxiliary free-space regression on the encoder output.
@@ -249,6 +250,9 @@ class Collector:
         self.envs, self.cfg, self.rng = envs, cfg, rng
         # The free-space target is only read by the auxiliary loss, which needs a trainable encoder.
         self.free_space = not cfg.freeze_visual and cfg.aux_free_space_weight > 0
+        # A frozen encoder's outputs ("feat", fp16) are stored as the rollout computed them; a trainable
+        # encoder needs the frames themselves ("depth", 2x2-pooled uint8).
+        self.frame_key = "feat" if cfg.freeze_visual else "depth"
         self.state: list[dict] = [self._start(env) for env in envs]
 
     def _start(self, env: PointNavEnv) -> dict:
@@ -258,13 +262,13 @@ class Collector:
                 "hit": False, "coll": 0, **self._empty()}
 
     def _empty(self) -> dict:
-        lists = {"depth": [], "goal": [], "prev": [], "mask": [], "label": [], "blocked": []}
+        lists = {self.frame_key: [], "goal": [], "prev": [], "mask": [], "label": [], "blocked": []}
         return {**lists, "free": []} if self.free_space else lists
 
     def _segment(self, s: dict) -> dict[str, np.ndarray]:
         labels = np.array(s["label"], np.int64)
         goal = np.stack(s["goal"]).astype(np.float32)
-        seg = {"depth": np.stack(s["depth"]), "goal": goal,
+        seg = {self.frame_key: np.stack(s[self.frame_key]), "goal": goal,
                "prev": np.array(s["prev"], np.int64), "mask": np.array(s["mask"], bool), "label": labels,
                "weight": inflection_weights(labels, self.cfg.inflection_weight)
                * np.where(s["blocked"], np.float32(self.cfg.collision_weight), np.float32(1.0))
@@ -283,16 +287,25 @@ class Collector:
             if s["new"]:
                 learner.reset(i)
         count = 0
+        # The learner runs when it acts (beta < 1) or when its encoder output is what gets stored: then
+        # the frame is encoded once, here, instead of again after collection.
+        run_learner = beta < 1.0 or cfg.freeze_visual
         while count < frames:
             obs = [s["obs"] for s in self.state]
-            learner_actions = (learner.act(np.stack([o["depth"] for o in obs]),
-                                           np.stack([o["pointgoal_with_gps_compass"] for o in obs]))
-                               if beta < 1.0 else np.zeros(n, np.int64))
+            if run_learner:
+                learner_actions, visual = learner.act_and_encode(
+                    np.stack([o["depth"] for o in obs]), np.stack([o["pointgoal_with_gps_compass"] for o in obs]))
+                visual = visual.to(torch.float16).numpy()
+            else:
+                learner_actions = np.zeros(n, np.int64)
             for i, env in enumerate(self.envs):
                 s = self.state[i]
                 s["follower"].observe(s["obs"]["depth"], env.agent_position, env.agent_yaw)
                 label = int(s["follower"].next_action(env.agent_position, env.agent_rotation))
-                s["depth"].append(pooled_uint8(s["obs"]["depth"]))
+                if cfg.freeze_visual:
+                    s["feat"].append(visual[i])
+                else:
+                    s["depth"].append(pooled_uint8(s["obs"]["depth"]))
                 s["goal"].append(s["obs"]["pointgoal_with_gps_compass"].copy())
                 s["prev"].append(s["last"])
                 s["mask"].append(s["steps"] > 0)
@@ -304,7 +317,7 @@ class Collector:
                 action = label if rng.random() < beta else int(learner_actions[i])
                 if action != STOP and rng.random() < cfg.random_action_prob:
                     action = int(rng.integers(1, 4))
-                if beta < 1.0:
+                if run_learner:
                     learner.prev_actions[i] = action  # the learner's memory must see the action taken
                 s["obs"], _, term, trunc, info = env.step(action)
                 s["hit"] = info["collisions"] > s["coll"]  # this FORWARD was blocked
@@ -415,16 +428,6 @@ def train_step(policy, opt, batch, cfg: TrainConfig, aux_head: torch.nn.Module |
     return loss.item(), acc.item()
 
 
-@torch.inference_mode()
-def encode_segments(policy: PointNavResNetPolicy, segments: list[dict[str, np.ndarray]], batch: int = 64) -> None:
-    """Replace each segment's pooled depth by the (frozen) visual encoder's output, stored as fp16."""
-    policy.eval()
-    for seg in segments:
-        d = torch.from_numpy(seg.pop("depth"))
-        feats = [policy.net.encode_depth(unpool(d[i:i + batch])) for i in range(0, len(d), batch)]
-        seg["feat"] = torch.cat(feats).to(torch.float16).numpy()
-
-
 def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = Path("runs/train_pointnav"),
           init: Path | None = None, log_every=print) -> dict[str, float]:
     torch.set_num_threads(cfg.threads)
@@ -471,8 +474,6 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
         t0 = time.time()
         eps, stats = collector.collect(learner, cfg.frames_per_iteration, beta)
-        if cfg.freeze_visual:
-            encode_segments(policy, eps)
         for e in eps:
             buffer.add(e)
         new_frames = sum(len(e["label"]) for e in eps)

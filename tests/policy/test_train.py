@@ -6,8 +6,8 @@ import numpy as np
 import torch
 
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
-from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, encode_segments, make_aux_head, make_envs,
-                                   train_step)
+from navbench.policy.net import prepare_depth
+from navbench.policy.train import Collector, EpisodeBuffer, TrainConfig, make_aux_head, make_envs, train_step
 
 
 def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
@@ -24,12 +24,13 @@ def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
 
 def test_oracle_rollouts_are_whole_labelled_episodes():
     cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=200)
-    _, segments, stats = _collect(cfg, frames=400)
+    policy, segments, stats = _collect(cfg, frames=400)
     assert segments, "at least one finished episode"
     for seg in segments:
         assert not seg["mask"][0] and seg["mask"][1:].all()  # starts at the episode's first step
         assert seg["prev"][0] == 0 and (seg["prev"][1:] == seg["label"][:-1]).all()  # beta=1: oracle acts
-        assert seg["depth"].dtype == np.uint8 and seg["depth"].shape[1:] == (112, 112)
+        assert "depth" not in seg and seg["feat"].dtype == np.float16  # the frozen encoder's outputs
+        assert seg["feat"].shape[1:] == (int(np.prod(policy.net.visual_encoder.output_shape)),)
         assert "free" not in seg  # the auxiliary target is only computed when the encoder trains
         assert seg["label"][-1] == 0 or len(seg["label"]) == cfg.max_episode_steps  # STOP or cut
     assert stats["rollout_success"] == 1.0  # the oracle reaches every goal it stops at
@@ -39,7 +40,6 @@ def test_a_few_updates_reduce_the_imitation_loss():
     cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3)
     policy, segments, _ = _collect(cfg, frames=90)
     policy.net.visual_encoder.requires_grad_(False)
-    encode_segments(policy, segments)
     buffer = EpisodeBuffer(10_000)
     for seg in segments:
         buffer.add(seg)
@@ -49,6 +49,27 @@ def test_a_few_updates_reduce_the_imitation_loss():
     policy.train()
     losses = [train_step(policy, opt, batch, cfg)[0] for _ in range(15)]
     assert losses[-1] < 0.7 * losses[0]
+
+
+def test_stored_features_are_the_encoder_output_and_acting_matches_the_full_forward_pass():
+    # Collection stores what act_and_encode hands out instead of encoding each frame again, so that
+    # must be the encoder's output on the frame, and the split forward pass must act as forward() does.
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig()).eval()
+    learner = PointNavAgentPolicy(policy, num_envs=3, config=InferenceConfig(channels_last=False))
+    rng = np.random.default_rng(0)
+    hidden, prev, masks = policy.initial_hidden(3), torch.zeros(3, dtype=torch.long), torch.zeros(3, dtype=torch.bool)
+    for _ in range(3):
+        depth = rng.random((3, 256, 256, 1), dtype=np.float32)
+        goal = rng.random((3, 2), dtype=np.float32) * [5, 6] - [0, 3]
+        actions, visual = learner.act_and_encode(depth, goal)
+        with torch.inference_mode():
+            x = prepare_depth(depth)
+            torch.testing.assert_close(visual, policy.net.encode_depth(x))
+            logits, _, hidden = policy(x, torch.from_numpy(goal), prev, masks, hidden)
+        np.testing.assert_array_equal(actions, logits.argmax(-1).numpy())
+        torch.testing.assert_close(learner.hidden, hidden)
+        prev, masks = torch.from_numpy(actions), torch.ones(3, dtype=torch.bool)
 
 
 def test_truncated_chunks_train_the_whole_network():
