@@ -371,4 +371,4 @@ class PointNavAgentPolicy:
         self.hidden = hidden.float().clone()
         self.prev_actions = actions.clone()
         self.masks[:] = True
-        return actions.numpy().astype(np.int64), visual.float().clone()
+        return actions.numpy().astype(np.int64), visual.float()  # an inference tensor: read it, or copy it

@@ -5,8 +5,8 @@ import dataclasses
 import numpy as np
 import torch
 
-from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
-from navbench.policy.net import prepare_depth
+from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
+                                 prepare_depth)
 from navbench.policy.train import Collector, EpisodeBuffer, TrainConfig, make_aux_head, make_envs, train_step
 
 
