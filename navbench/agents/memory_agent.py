@@ -32,13 +32,15 @@ to the nearest with the PointNav policy. Each step it:
    detector's recent checks refute becomes a turn to look again);
 6. when stuck (< ``stuck_progress`` m in ``stuck_window`` steps) or oscillating, switches to the
    next nearest candidate (at most ``max_switches`` times); with none left, it recovers instead: a
-   fresh policy memory, a 90 deg turn towards the more open side and two steps forward.
+   fresh policy memory, a 90 deg turn towards the more open side and two steps forward; stuck again
+   where the last recovery started, it backs out the way it came instead (``back_out``).
 
 Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -55,7 +57,7 @@ from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import project, world_to_camera
 from navbench.localize.grouping import nearest_distances
 from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
-from navbench.scene.pose import quat_from_yaw
+from navbench.scene.pose import quat_from_yaw, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -86,6 +88,13 @@ class MemoryAgentConfig:
     # recovery_turns=0 turns it off (the issue's agent as written: keep driving to the last candidate).
     recovery_turns: int = 3
     recovery_forward: int = 2
+    # A recovery that started within stuck_progress of the previous one's start did not free the agent:
+    # the open side of the view is not where the body is free (wedged at a corner whose obstacle is
+    # beside the camera), and the same state gives the same turn again, so the loop lasts the episode
+    # (val_seen episode 0 with the stage-13 policy: 16 recoveries from one spot, 480 steps). The way
+    # the agent came is known free: it turns to face opposite the heading of its last forward step that
+    # moved it and steps forward recovery_forward times.
+    back_out: bool = True
     # Verification on arrival: every frame that sees the target from within near_radius is segmented
     # for the goal text by the same perception backend (the frontier agent's live detector); a check
     # passes when the detection lies within verify_radius of the target's cloud. STOP needs a majority
@@ -186,6 +195,8 @@ class MemoryAgent:
         self.positions: list[np.ndarray] = []
         self.turns: list[int] = []
         self.recovery: list[int] = []  # queued actions of a recovery manoeuvre
+        self.recovered_at: np.ndarray | None = None  # where the last recovery started
+        self.move_yaw: float | None = None  # heading of the last step that moved the agent
         self.verify_fails = 0  # failed arrival checks on the current target
         self.detour: np.ndarray | None = None  # the policy's goal while detouring (view_detour)
         self.detours_used: list[np.ndarray] = []  # view positions already detoured to, current target
@@ -269,6 +280,9 @@ class MemoryAgent:
         cfg = self.config
         self.step += 1
         position, yaw = self._pose(observations)
+        if self.positions and xz_dist(position, self.positions[-1]) > 0.05:
+            d = position - self.positions[-1]
+            self.move_yaw = math.atan2(-d[0], -d[2])  # the agent faces -z at yaw 0
         self.positions.append(position)
         if self.goal is None:
             self._event("no_candidates")
@@ -349,7 +363,7 @@ class MemoryAgent:
             if self.switches < cfg.max_switches and self.current + 1 < len(self.candidates):
                 self._switch(position)
             elif cfg.recovery_turns > 0:
-                self._start_recovery(depth)
+                self._start_recovery(depth, position, yaw)
                 return self.recovery.pop(0)
 
         action = int(self.policy.act(observations["depth"][None],
@@ -458,13 +472,23 @@ class MemoryAgent:
         tree = cKDTree(cloud[:: max(1, len(cloud) // 500)])
         return bool(nearest_distances(found[:: max(1, len(found) // 500)], tree, r).min() < r)
 
-    def _start_recovery(self, depth: np.ndarray) -> None:
+    def _start_recovery(self, depth: np.ndarray, position: np.ndarray, yaw: float) -> None:
+        cfg = self.config
+        again = self.recovered_at is not None and xz_dist(position, self.recovered_at) < cfg.stuck_progress
+        self.recovered_at = position
+        self.turns.clear()
+        self.policy.reset_hidden()
+        if cfg.back_out and again and self.move_yaw is not None:
+            # Turns are exact multiples of the turn angle, so the reverse heading is reachable exactly.
+            n = round(wrap_angle(self.move_yaw + math.pi - yaw) / math.radians(self.env_config.turn_angle_deg))
+            turn = TURN_LEFT if n > 0 else TURN_RIGHT  # TURN_LEFT raises the yaw
+            self.recovery = [turn] * abs(n) + [MOVE_FORWARD] * cfg.recovery_forward
+            self._event("recover", turn="back", turns=n)
+            return
         third = depth.shape[1] // 3
         left, right = float(depth[:, :third].mean()), float(depth[:, -third:].mean())
         turn = TURN_LEFT if left >= right else TURN_RIGHT
-        self.recovery = [turn] * self.config.recovery_turns + [MOVE_FORWARD] * self.config.recovery_forward
-        self.turns.clear()
-        self.policy.reset_hidden()
+        self.recovery = [turn] * cfg.recovery_turns + [MOVE_FORWARD] * cfg.recovery_forward
         self._event("recover", turn="left" if turn == TURN_LEFT else "right")
 
     def _switch(self, position: np.ndarray, reason: str = "stuck") -> None:

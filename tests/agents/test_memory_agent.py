@@ -293,6 +293,26 @@ def test_recovery_when_stuck_with_no_candidate_left():
     assert not any(e["event"] == "recover" for e in agent.episode_log()["events"])
 
 
+def test_stuck_again_where_the_last_recovery_started_backs_out_the_way_it_came():
+    def run(**cfg):
+        agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, **cfg)
+        # one step to the right (+x, heading -90 deg), then pinned there whatever the agent does
+        actions = [agent.act(obs_at(open_on_the_right()))]
+        actions += [agent.act(obs_at(open_on_the_right(), right=0.25)) for _ in range(65)]
+        return agent, actions
+
+    agent, actions = run()
+    assert actions[30:35] == [TURN_RIGHT] * 3 + [MOVE_FORWARD] * 2  # first time: towards the open side
+    assert actions[35:60] == [TURN_LEFT] * 25
+    # stuck again on the same spot: face +90 deg (back along the last move) and step forward
+    assert actions[60:65] == [TURN_LEFT] * 3 + [MOVE_FORWARD] * 2
+    recover = [e for e in agent.episode_log()["events"] if e["event"] == "recover"]
+    assert recover == [{"step": 31, "event": "recover", "turn": "right"},
+                       {"step": 61, "event": "recover", "turn": "back", "turns": 3}]
+    _, actions = run(back_out=False)  # the ablation repeats the open-side turn
+    assert actions[60:65] == [TURN_RIGHT] * 3 + [MOVE_FORWARD] * 2
+
+
 def test_stop_still_wins_during_recovery():
     agent, _ = make_agent([cand(plane_points(-0.7))], action=TURN_LEFT)
     agent.recovery = [TURN_RIGHT, MOVE_FORWARD]
