@@ -57,7 +57,7 @@ from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import project, world_to_camera
 from navbench.localize.grouping import nearest_distances
 from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
-from navbench.scene.pose import quat_from_yaw, wrap_angle
+from navbench.scene.pose import quat_from_yaw, wrap_angle, yaw_towards
 
 
 @dataclass(frozen=True)
@@ -281,8 +281,7 @@ class MemoryAgent:
         self.step += 1
         position, yaw = self._pose(observations)
         if self.positions and xz_dist(position, self.positions[-1]) > 0.05:
-            d = position - self.positions[-1]
-            self.move_yaw = math.atan2(-d[0], -d[2])  # the agent faces -z at yaw 0
+            self.move_yaw = yaw_towards(self.positions[-1], position)
         self.positions.append(position)
         if self.goal is None:
             self._event("no_candidates")
