@@ -78,6 +78,12 @@ class TrainConfig:
     batch_chunks: int = 16  # sequences (episodes or chunks) per update
     epochs_per_iteration: float = 16.0  # gradient steps = this x new frames / frames per update
     lr: float = 5e-4
+    # "constant", or "cosine": the rate of iteration i falls from lr to lr_min along half a cosine over the
+    # run's iterations. The staged recipe lowered the rate by hand from stage to stage (5e-4 ... 1.56e-5,
+    # each drop paid on val: policies/README.md), restarting the buffer and optimizer each time; a
+    # schedule gets the same descent in one run, whose aggregated buffer keeps every iteration's data.
+    lr_schedule: str = "constant"
+    lr_min: float = 1e-5
     weight_decay: float = 0.0
     inflection_weight: float = 3.0
     # Loss weight of steps right after a blocked FORWARD. The shipped stage-5 policy's commonest val
@@ -209,6 +215,16 @@ def silence_prev_action(policy: PointNavResNetPolicy) -> None:
     with torch.no_grad():
         emb.weight.zero_()
     emb.requires_grad_(False)
+
+
+def iteration_lr(cfg: TrainConfig, it: int) -> float:
+    """Learning rate of iteration ``it`` (0-based) under ``cfg.lr_schedule``."""
+    if cfg.lr_schedule == "constant":
+        return cfg.lr
+    if cfg.lr_schedule == "cosine":
+        frac = it / max(1, cfg.iterations - 1)
+        return cfg.lr_min + 0.5 * (cfg.lr - cfg.lr_min) * (1.0 + np.cos(np.pi * frac))
+    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
 
 
 def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
@@ -470,6 +486,9 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     last: dict[str, float] = {}
     for it in range(start_it, cfg.iterations):
         beta = max(cfg.beta_min, cfg.beta0 * cfg.beta_decay ** it)
+        lr = iteration_lr(cfg, it)
+        for group in opt.param_groups:
+            group["lr"] = lr
         policy.eval()
         learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
         t0 = time.time()
@@ -493,7 +512,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         policy.eval()
         val = (evaluate(policy, cfg.val_episodes, cfg.success_distance, cfg.val_max_steps) if cfg.val_episodes > 0
                else {"val_sr": float("nan"), "val_spl": float("nan")})
-        last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "loss": float(np.mean(losses)),
+        last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}", "loss": float(np.mean(losses)),
                 "acc": float(np.mean(accs)), **stats, **val, "collect_s": t_collect, "train_s": t_train,
                 "updates": n_updates, "buffer_frames": buffer.frames, "wall_s": time.time() - t_start}
         log_every(log_row(log_path, last, digits=3))

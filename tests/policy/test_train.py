@@ -3,11 +3,13 @@
 import dataclasses
 
 import numpy as np
+import pytest
 import torch
 
 from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
                                  prepare_depth)
-from navbench.policy.train import Collector, EpisodeBuffer, TrainConfig, make_aux_head, make_envs, train_step
+from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, iteration_lr, make_aux_head, make_envs,
+                                   train_step)
 
 
 def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
@@ -192,3 +194,14 @@ def test_steps_near_the_goal_weigh_endgame_weight():
     weights = np.concatenate([seg["weight"] for seg in segments])
     assert near.any(), "the expert must reach a goal for this test to mean anything"
     assert np.array_equal(weights, np.where(near, 4.0, 1.0).astype(np.float32))
+
+
+def test_cosine_schedule_runs_from_lr_to_lr_min_and_constant_stays():
+    cfg = TrainConfig(iterations=5, lr=4e-4, lr_min=2e-5, lr_schedule="cosine")
+    rates = [iteration_lr(cfg, i) for i in range(cfg.iterations)]
+    assert rates[0] == pytest.approx(4e-4) and rates[-1] == pytest.approx(2e-5)
+    assert rates[2] == pytest.approx(0.5 * (4e-4 + 2e-5))  # half way down the cosine
+    assert all(a > b for a, b in zip(rates, rates[1:]))
+    assert iteration_lr(dataclasses.replace(cfg, lr_schedule="constant"), 3) == 4e-4
+    with pytest.raises(ValueError, match="linear"):
+        iteration_lr(dataclasses.replace(cfg, lr_schedule="linear"), 0)
