@@ -363,6 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--beta-min", type=float, help="floor of the oracle share (default 0.1; 0 = pure learner rollouts)")
     tr.add_argument("--random-action-prob", type=float, help="share of random non-STOP actions in rollouts (default 0.08)")
     tr.add_argument("--max-episode-steps", type=int)
+    tr.add_argument("--buffer-frames", type=int, help="aggregated DAgger buffer cap in frames, oldest episodes "
+                                                      "dropped first (default 250000)")
     tr.add_argument("--train-split", help="PointNav split to roll out in (default train; train_large adds the "
                                           "40 houses of `navbench generate policy-train`)")
     tr.add_argument("--chunk-len", type=int)

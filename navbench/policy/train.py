@@ -529,9 +529,14 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     return last
 
 
-def main_args(args) -> int:
+def config_from_args(args) -> TrainConfig:
+    """The CLI's options over TrainConfig's defaults (an option left unset keeps the default)."""
     fields = TrainConfig.__dataclass_fields__
-    cfg = TrainConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
+    return TrainConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
+
+
+def main_args(args) -> int:
+    cfg = config_from_args(args)
     result = train(cfg, Path(args.out), resume=args.resume, state_dir=Path(args.state_dir),
                    init=Path(args.init) if args.init else None)
     print(json.dumps(result))

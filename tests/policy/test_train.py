@@ -155,6 +155,20 @@ def test_whole_episode_batches_group_similar_lengths():
         == {7, 50, 52, 200}
 
 
+def test_buffer_drops_its_oldest_episodes_beyond_the_cap_set_on_the_command_line():
+    from navbench.cli import build_parser
+    from navbench.policy.train import config_from_args
+
+    args = build_parser().parse_args(["train", "pointnav", "--buffer-frames", "100", "--lr", "1e-4"])
+    cfg = config_from_args(args)
+    assert (cfg.buffer_frames, cfg.lr, cfg.iterations) == (100, 1e-4, TrainConfig().iterations)
+    buffer = EpisodeBuffer(cfg.buffer_frames)
+    for i, L in enumerate((40, 30, 50, 20)):
+        buffer.add({"label": np.full(L, i, np.int64)})
+    # 40 + 30 + 50 = 120 > 100 drops the first; + 20 = 100 keeps the rest
+    assert [int(e["label"][0]) for e in buffer.episodes] == [1, 2, 3] and buffer.frames == 100
+
+
 def test_learner_freezes_what_the_config_says():
     from navbench.policy.train import build_learner
 
