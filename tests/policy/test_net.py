@@ -252,3 +252,13 @@ def test_prepare_depth_area_averages() -> None:
     assert out[0, 200, 200, 0].item() == pytest.approx(0.75)
     with pytest.raises(ValueError, match="depth must be"):
         prepare_depth(np.zeros((1, 4, 4, 3)))
+
+
+def test_encode_depth_reads_each_pixel_where_the_encoder_expects_it(policy: PointNavResNetPolicy) -> None:
+    # encode_depth builds its NCHW view without a permute (speed); the result must be the encoder's on
+    # the frame itself, and a non-square frame shows that height and width were not swapped.
+    depth = torch.rand(3, 64, 96, 1, generator=torch.Generator().manual_seed(0))
+    with torch.inference_mode():
+        expected = policy.net.visual_encoder(depth.permute(0, 3, 1, 2).contiguous()).flatten(1)
+        got = policy.net.encode_depth(depth)
+    assert got.shape == expected.shape and torch.allclose(got, expected, atol=1e-5)
