@@ -35,6 +35,13 @@ def make_oracle(cfg):
     return OracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(()))
 
 
+def make_optimistic(cfg):
+    from navbench.agents.oracle import OptimisticOracleAgent
+    if cfg.task != "pointnav":
+        raise ValueError("agent 'optimistic' plans to a single goal point: use it with --task pointnav")
+    return OptimisticOracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(("depth",)))
+
+
 def make_random(cfg):
     from navbench.agents.random_agent import RandomAgent
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
@@ -98,7 +105,7 @@ def make_frontier(cfg):
                          FrontierAgentConfig(), env_cfg)
 
 
-AGENTS = {"oracle": make_oracle, "random": make_random, "pointnav": make_pointnav, "memory": make_memory,
+AGENTS = {"oracle": make_oracle, "optimistic": make_optimistic, "random": make_random, "pointnav": make_pointnav, "memory": make_memory,
           "frontier": make_frontier}
 
 
@@ -111,7 +118,7 @@ def prebuild_memories(cfg) -> None:
     from navbench.eval.runner import select_episodes
 
     pcfg = _perception_config(cfg)
-    scenes = dict.fromkeys(e.scene_id for e in select_episodes(load_dataset(cfg.episodes), cfg.limit))
+    scenes = dict.fromkeys(e.scene_id for e in select_episodes(load_dataset(cfg.episodes), cfg.limit, cfg.per_scene))
     for scene_id in scenes:
         m = scene_memory(resolve_scene_path(scene_id, Path(cfg.scene_dir)), pcfg)
         st = m.stats
@@ -151,7 +158,7 @@ def cmd_run(args) -> int:
         task=task, split=split, agent=args.agent, episodes=str(episodes),
         scene_dir=str(args.scene_dir or SCENES_DIR),
         success_distance=args.success_distance if args.success_distance is not None else default_sd,
-        seed=args.seed, limit=args.limit, workers=args.workers,
+        seed=args.seed, limit=args.limit, per_scene=args.per_scene, workers=args.workers,
         # batched policy inference: default 8 episodes per worker for the pointnav agent
         envs_per_worker=args.envs_per_worker or (8 if args.agent == "pointnav" else 1),
         agent_options=_agent_options(args),
@@ -294,6 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--episodes", help="a Habitat-format episode file (.json/.json.gz) instead of a bundled split")
     r.add_argument("--scene-dir", help="where episode scene_id paths are resolved (default: bundled envs/)")
     r.add_argument("--limit", type=int, help="first N episodes only")
+    r.add_argument("--per-scene", type=int, help="first K episodes of each scene only (before --limit)")
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--out", help="run directory (default runs/AGENT_TASK_SPLIT)")
     r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")

@@ -1,6 +1,14 @@
 """``oracle``: follows the geodesic shortest path to the nearest goal and stops inside the success
 distance, like Habitat's ShortestPathFollower. Its SR/SPL are the ceiling a benchmark split allows;
-if they are low, the geodesics, view points or motion model are wrong."""
+if they are low, the geodesics, view points or motion model are wrong.
+
+``optimistic``: the same follower planning on the map its own depth frames have shown it (unseen
+cells count as free; :mod:`navbench.scene.optimistic`). It knows where the goal is and what it has
+seen, which is what a PointNav policy can know, so its SR/SPL are the ceiling for a learner that
+imitates well: the distance between the two oracles is what knowing the map is worth.
+
+    navbench run --task pointnav --split val --agent optimistic
+"""
 
 from __future__ import annotations
 
@@ -15,6 +23,7 @@ from navbench.episodes.types import Episode
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.navigability import NavGridConfig
+from navbench.scene.optimistic import OptimisticFollower
 from navbench.scene.pose import quat_from_yaw
 
 
@@ -41,4 +50,21 @@ class OracleAgent:
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
         position, yaw = self._pose(observations)
+        return int(self._follower.next_action(position, quat_from_yaw(yaw)))
+
+
+class OptimisticOracleAgent(OracleAgent):
+    sensors: tuple[str, ...] = ("depth",)  # what it has seen is the map it plans on
+
+    def reset(self, episode: Episode) -> None:
+        super().reset(episode)
+        c = self.env_config
+        grid = self._follower.navgrid
+        self._follower = OptimisticFollower(grid, episode.goal_positions(), self.success_distance, c.hfov_deg,
+                                            c.min_depth, c.max_depth, forward_step=c.forward_step,
+                                            turn_angle_deg=c.turn_angle_deg)
+
+    def act(self, observations: dict[str, np.ndarray]) -> int:
+        position, yaw = self._pose(observations)
+        self._follower.observe(observations["depth"], position, yaw)
         return int(self._follower.next_action(position, quat_from_yaw(yaw)))

@@ -54,6 +54,9 @@ class RunConfig:
     success_distance: float
     seed: int = 0
     limit: int | None = None
+    # The first per_scene episodes of each scene (file order) before limit applies: a small run that
+    # still covers every scene of a split whose file lists its episodes scene by scene.
+    per_scene: int | None = None
     workers: int = 1
     env: dict[str, Any] = field(default_factory=dict)  # EnvConfig overrides
     agent_options: dict[str, Any] = field(default_factory=dict)  # e.g. {"checkpoint": ...}
@@ -77,9 +80,19 @@ AgentFactory = Callable[[RunConfig], Agent]
 
 
 # ----------------------------------------------------------------------------------------- episodes
-def select_episodes(dataset: EpisodeDataset, limit: int | None) -> list[Episode]:
-    """The first ``limit`` episodes in file order (Habitat's convention for partial evaluation)."""
-    return dataset.episodes[:limit] if limit is not None else list(dataset.episodes)
+def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int | None = None) -> list[Episode]:
+    """The first ``limit`` episodes in file order (Habitat's convention for partial evaluation), after
+    keeping only the first ``per_scene`` episodes of each scene when that is set."""
+    episodes = list(dataset.episodes)
+    if per_scene is not None:
+        seen: dict[str, int] = {}
+        kept = []
+        for e in episodes:
+            seen[e.scene_id] = seen.get(e.scene_id, 0) + 1
+            if seen[e.scene_id] <= per_scene:
+                kept.append(e)
+        episodes = kept
+    return episodes[:limit] if limit is not None else episodes
 
 
 def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) -> NavEnv:
@@ -286,7 +299,7 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
             fh.write(json.dumps(r) + "\n")
 
     dataset = load_dataset(cfg.episodes)
-    episodes = select_episodes(dataset, cfg.limit)
+    episodes = select_episodes(dataset, cfg.limit, cfg.per_scene)
     done = {(r["scene_id"], r["episode_id"]) for r in records}
     todo = [(e.scene_id, e.episode_id) for e in episodes if (e.scene_id, e.episode_id) not in done]
     todo.sort()  # group by scene so each worker loads a scene once

@@ -130,6 +130,21 @@ def test_cli_run_and_table(pointnav_file, tmp_path, capsys):
     assert first.loc[0, "SoftSPL"] == pytest.approx(100 * sum(recs[i]["soft_spl"] for i in ids) / 2)
 
 
+def test_per_scene_keeps_the_first_k_episodes_of_each_scene_before_limit():
+    from navbench.episodes.types import EpisodeDataset
+    from navbench.eval.runner import select_episodes
+
+    class E:  # select_episodes reads scene_id only
+        def __init__(self, scene, i):
+            self.scene_id, self.episode_id = scene, i
+
+    eps = [E(s, i) for i, s in enumerate("aaabbcaac")]
+    ds = EpisodeDataset(episodes=eps)
+    pick = lambda *a: [e.episode_id for e in select_episodes(ds, *a)]
+    assert pick(None, 2) == [0, 1, 3, 4, 5, 8]
+    assert pick(4, 2) == [0, 1, 3, 4] and pick(3) == [0, 1, 2] and pick(None) == list(range(9))
+
+
 @pytest.mark.parametrize("argv,needle", [
     (["run", "--agent", "nobody", "--split", "val_unseen"], "unknown agent 'nobody'"),
     (["run", "--split", "val_nowhere"], "unknown objectnav split 'val_nowhere'"),
