@@ -105,8 +105,8 @@ def make_frontier(cfg):
                          FrontierAgentConfig(), env_cfg)
 
 
-AGENTS = {"oracle": make_oracle, "optimistic": make_optimistic, "random": make_random, "pointnav": make_pointnav, "memory": make_memory,
-          "frontier": make_frontier}
+AGENTS = {"oracle": make_oracle, "optimistic": make_optimistic, "random": make_random, "pointnav": make_pointnav,
+          "memory": make_memory, "frontier": make_frontier}
 
 
 def prebuild_memories(cfg) -> None:

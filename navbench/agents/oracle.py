@@ -39,12 +39,15 @@ class OracleAgent:
         self._pose = PoseTracker()
         self._grids: dict[Path, object] = {}
 
-    def reset(self, episode: Episode) -> None:
+    def _navgrid(self, episode: Episode):
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if path not in self._grids:
             self._grids = {path: load_scene_and_navgrid(path, self.nav_config)[1]}  # keep one scene
+        return self._grids[path]
+
+    def reset(self, episode: Episode) -> None:
         self._pose.reset(episode)
-        self._follower = GreedyFollower(self._grids[path], episode.goal_positions(), self.success_distance,
+        self._follower = GreedyFollower(self._navgrid(episode), episode.goal_positions(), self.success_distance,
                                         forward_step=self.env_config.forward_step,
                                         turn_angle_deg=self.env_config.turn_angle_deg)
 
@@ -57,11 +60,10 @@ class OptimisticOracleAgent(OracleAgent):
     sensors: tuple[str, ...] = ("depth",)  # what it has seen is the map it plans on
 
     def reset(self, episode: Episode) -> None:
-        super().reset(episode)
+        self._pose.reset(episode)
         c = self.env_config
-        grid = self._follower.navgrid
-        self._follower = OptimisticFollower(grid, episode.goal_positions(), self.success_distance, c.hfov_deg,
-                                            c.min_depth, c.max_depth, forward_step=c.forward_step,
+        self._follower = OptimisticFollower(self._navgrid(episode), episode.goal_positions(), self.success_distance,
+                                            c.hfov_deg, c.min_depth, c.max_depth, forward_step=c.forward_step,
                                             turn_angle_deg=c.turn_angle_deg)
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
