@@ -4,13 +4,14 @@ import json
 
 import pytest
 
-from navbench.cli import make_memory, make_oracle, make_pointnav
+from navbench.cli import make_memory, make_optimistic, make_oracle, make_pointnav
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import RESULTS_DIR
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("run_name,factory", [("pointnav_val", make_pointnav), ("oracle_val_unseen", make_oracle),
+                                              ("optimistic_pointnav_val", make_optimistic),
                                               ("memory_val_unseen", make_memory)])
 def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path):
     ref_dir = RESULTS_DIR / "runs" / run_name
