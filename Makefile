@@ -91,7 +91,8 @@ train-pointnav: setup
 	  --out runs/pointnav/policy_stage9.pth --state-dir runs/pointnav/stage9_state
 	cp runs/pointnav/policy_stage9.pth policies/pointnav_navbench.pth
 
-# The shipped PointNav checkpoint on bundled PointNav val, next to the oracle.
+# The shipped PointNav checkpoint on bundled PointNav val, next to the two oracles (the geodesic one's run
+# comes from results-oracle; the optimistic one plans on the map it has seen, the ceiling for a learner).
 results-pointnav: setup
 	$(BIN)/navbench run --task pointnav --split val --agent optimistic --out results/runs/optimistic_pointnav_val -q
 	$(BIN)/navbench run --task pointnav --split val --agent pointnav --out results/runs/pointnav_val -q

@@ -135,8 +135,9 @@ class PointNavNet(nn.Module):
         """(B, H, W, 1) depth -> (B, C*h*w) flattened visual encoder output (before ``visual_fc``)."""
         # (B, H, W, 1) -> (B, 1, H, W) with NCHW strides. A permute gives the same memory but NHWC strides,
         # and avg_pool2d then takes its channels_last kernel, ~2.5x slower for one channel on an AVX2-only
-        # CPU (2.3 vs 0.9 ms at batch 8); the result is bit-identical.
-        return self.visual_encoder(depth[..., 0].unsqueeze(1)).flatten(1)
+        # CPU (2.3 vs 0.9 ms at batch 8); the result is bit-identical. squeeze(-1), not [..., 0]: a frame
+        # with more than one channel must still fail here rather than lose its other channels.
+        return self.visual_encoder(depth.squeeze(-1).unsqueeze(1)).flatten(1)
 
     def core(self, visual: torch.Tensor, pointgoal: torch.Tensor, prev_actions: torch.Tensor,
              masks: torch.Tensor, hidden: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -262,3 +262,5 @@ def test_encode_depth_reads_each_pixel_where_the_encoder_expects_it(policy: Poin
         expected = policy.net.visual_encoder(depth.permute(0, 3, 1, 2).contiguous()).flatten(1)
         got = policy.net.encode_depth(depth)
     assert got.shape == expected.shape and torch.allclose(got, expected, atol=1e-5)
+    with pytest.raises(RuntimeError), torch.inference_mode():  # a 3-channel frame is refused, not cut to one
+        policy.net.encode_depth(torch.rand(3, 64, 96, 3))
