@@ -383,6 +383,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--lr-min", type=float, help="the cosine schedule's last rate (default 1e-5)")
     tr.add_argument("--collision-weight", type=float, help="loss weight of steps after a blocked FORWARD (default 1)")
     tr.add_argument("--endgame-weight", type=float, help="loss weight of steps within 0.75 m of the goal (default 1)")
+    tr.add_argument("--turnaround-weight", type=float,
+                    help="loss weight of steps where the expert still has 3 or more turns to make (default 1)")
     tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
     tr.add_argument("--seed", type=int)
     tr.add_argument("--updates", type=int, help="encoder: gradient updates")

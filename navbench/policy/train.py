@@ -98,6 +98,14 @@ class TrainConfig:
     # these steps are a few percent of the buffer. 1 = off.
     endgame_weight: float = 1.0
     endgame_radius: float = 0.75
+    # Loss weight of steps where the expert's plan still needs turnaround_turns or more turns (>= 90
+    # degrees at 30-degree turns). Session 15 traced the shipped file's pinned val failures: at a wall
+    # between it and the goal the expert turns one way for several steps (in 12 of 14 such episodes a
+    # history-only planner, the optimistic follower, takes the expert's action on 88-100% of the steps),
+    # while the policy turns back towards the goal after one or two turns and bumps into the wall
+    # again. 1 = off.
+    turnaround_weight: float = 1.0
+    turnaround_turns: int = 3
     # Feed the previous action to the LSTM (habitat's prev_action_embedding). Cloned policies that see
     # their previous action can learn to repeat it (expert actions come in long runs: the "copycat"
     # failure of behaviour cloning), but without it a policy cannot tell that its last FORWARD was
@@ -278,7 +286,7 @@ class Collector:
                 "hit": False, "coll": 0, **self._empty()}
 
     def _empty(self) -> dict:
-        lists = {self.frame_key: [], "goal": [], "prev": [], "mask": [], "label": [], "blocked": []}
+        lists = {self.frame_key: [], "goal": [], "prev": [], "mask": [], "label": [], "blocked": [], "turns": []}
         return {**lists, "free": []} if self.free_space else lists
 
     def _segment(self, s: dict) -> dict[str, np.ndarray]:
@@ -289,6 +297,8 @@ class Collector:
                "weight": inflection_weights(labels, self.cfg.inflection_weight)
                * np.where(s["blocked"], np.float32(self.cfg.collision_weight), np.float32(1.0))
                * np.where(goal[:, 0] < self.cfg.endgame_radius, np.float32(self.cfg.endgame_weight),
+                          np.float32(1.0))
+               * np.where(np.array(s["turns"]) >= self.cfg.turnaround_turns, np.float32(self.cfg.turnaround_weight),
                           np.float32(1.0))}
         if self.free_space:
             seg["free"] = np.stack(s["free"])
@@ -327,6 +337,7 @@ class Collector:
                 s["mask"].append(s["steps"] > 0)
                 s["label"].append(label)
                 s["blocked"].append(s["hit"])
+                s["turns"].append(s["follower"].turns_ahead)
                 if self.free_space:
                     s["free"].append(free_distances(env.navgrid, env.agent_position, env.agent_yaw,
                                                      cfg.free_space_headings_deg, cfg.free_space_range))

@@ -57,6 +57,9 @@ class GreedyFollower:
         self._plan_xz: tuple[float, float] | None = None
         self._plan_yaw = 0.0
         self._yaw0 = 0.0  # heading the current plan's offsets are relative to
+        # Turns between the heading at the last next_action and the heading its plan takes (0 after a
+        # FORWARD or STOP): training weighs the steps of a long turn (policies/README.md, session 15).
+        self.turns_ahead = 0
 
     @property
     def steer(self):
@@ -83,12 +86,14 @@ class GreedyFollower:
         yaw = yaw_from_quat(rotation_xyzw)
         x, z = float(p[0]), float(p[2])
         d = self.field._distance_xz(x, z)
+        self.turns_ahead = 0
         if d < self.success_distance or d == math.inf:
             return STOP
         if self._plan_xz is None or abs(self._plan_xz[0] - x) > 1e-9 or abs(self._plan_xz[1] - z) > 1e-9:
             self._plan_yaw = self._plan(x, z, yaw, d)
             self._plan_xz = (x, z)
         k = round(wrap_angle(self._plan_yaw - yaw) / self.turn)
+        self.turns_ahead = abs(k)
         if k == 0:
             self._plan_xz = None  # the agent moves: plan afresh at the next position
             return MOVE_FORWARD

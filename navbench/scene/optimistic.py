@@ -131,5 +131,6 @@ class OptimisticFollower(GreedyFollower):
     def next_action(self, position, rotation_xyzw) -> int:
         p = np.asarray(position, float)
         if self.true_field.distance(p) < self.success_distance:
+            self.turns_ahead = 0
             return 0  # STOP
         return super().next_action(position, rotation_xyzw)

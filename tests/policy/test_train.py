@@ -210,6 +210,26 @@ def test_steps_near_the_goal_weigh_endgame_weight():
     assert np.array_equal(weights, np.where(near, 4.0, 1.0).astype(np.float32))
 
 
+def test_steps_of_a_long_expert_turn_weigh_turnaround_weight():
+    # Expert-driven episodes start at random headings, so some begin with a turn of 3 or more steps. A
+    # step weighs turnaround_weight exactly when the expert's plan still had >= 3 turns to go: it is a
+    # turn, and the expert (driving, no random actions) turns the same way again at the next step.
+    cfg = TrainConfig(num_envs=2, max_episode_steps=120, random_action_prob=0.0, turnaround_weight=4.0,
+                      inflection_weight=1.0)
+    _, segments, _ = _collect(cfg, frames=480)
+    weighted = 0
+    for seg in segments:
+        assert set(np.unique(seg["weight"])) <= {1.0, 4.0}
+        for t in np.flatnonzero(seg["weight"] == 4.0):
+            assert seg["label"][t] in (2, 3)
+            assert seg["label"][t + 1] == seg["label"][t]
+            weighted += 1
+    assert weighted > 0, "some episode must start facing away from its path for this test to mean anything"
+    unweighted = _collect(TrainConfig(num_envs=2, max_episode_steps=120, random_action_prob=0.0,
+                                      inflection_weight=1.0), frames=480)[1]
+    assert all((seg["weight"] == 1.0).all() for seg in unweighted)
+
+
 def test_cosine_schedule_runs_from_lr_to_lr_min_and_constant_stays():
     cfg = TrainConfig(iterations=5, lr=4e-4, lr_min=2e-5, lr_schedule="cosine")
     rates = [iteration_lr(cfg, i) for i in range(cfg.iterations)]

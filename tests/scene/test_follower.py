@@ -124,6 +124,23 @@ def test_first_turn_is_towards_the_goal(wall_grid):
     assert follower.next_action(P(2.5, 2.0), quat_from_yaw(math.pi / 2)) == MOVE_FORWARD
 
 
+def test_turns_ahead_counts_the_turns_left_to_the_planned_heading(wall_grid):
+    # Goal straight along -x: facing -x no turn, facing -z a quarter turn (3 x 30 deg), facing +x half
+    # a turn (6); the count falls by one per executed turn and is 0 after a FORWARD or STOP.
+    goal, at = P(1.0, 2.0), P(2.5, 2.0)
+    follower = GreedyFollower(wall_grid, goal, 0.2)
+    assert follower.next_action(at, quat_from_yaw(math.pi / 2)) == MOVE_FORWARD and follower.turns_ahead == 0
+    assert follower.next_action(at, quat_from_yaw(0.0)) == TURN_LEFT and follower.turns_ahead == 3
+    follower = GreedyFollower(wall_grid, goal, 0.2)
+    yaw, counts = -math.pi / 2, []
+    for _ in range(7):
+        action = follower.next_action(at, quat_from_yaw(yaw))
+        counts.append(follower.turns_ahead)
+        yaw += math.radians(30) if action == TURN_LEFT else -math.radians(30) if action == TURN_RIGHT else 0.0
+    assert counts == [6, 5, 4, 3, 2, 1, 0]
+    assert follower.next_action(P(1.05, 2.0), quat_from_yaw(0.0)) == STOP and follower.turns_ahead == 0
+
+
 def test_follower_stops_inside_success_distance_and_when_unreachable(wall_grid):
     goal = P(4.5, 1.5)
     assert GreedyFollower(wall_grid, goal, 0.2).next_action(P(4.6, 1.5), quat_from_yaw(1.0)) == STOP
