@@ -8,7 +8,9 @@ such episode of the records (PointNav val), the checkpoint drives it again at ba
 training expert (``GreedyFollower``, 0.1 m STOP, 0.15 m clearance) labels every state. Printed per
 episode: blocked FORWARDs, the policy's mean P(FORWARD) on the step right after one, its agreement with
 the expert (all steps / steps after a blocked FORWARD), the shortest period the last 36 actions repeat
-with (0: none up to 8), and the last 40 actions of both (S F L R).
+with (0: none up to 8), how often the optimistic follower (shortest path over what the frames have
+shown, unseen cells free), fed the same frames, takes the expert's and the policy's action, and the
+last 40 actions of all three (S F L R).
 """
 
 import json
