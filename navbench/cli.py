@@ -3,7 +3,7 @@
     navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes|policy-train [--seed 0]
-    navbench train encoder|pointnav [--out PATH] [--resume]
+    navbench train encoder|pointnav|ppo [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
     navbench bench [--json]
@@ -242,6 +242,10 @@ def cmd_train(args) -> int:
         from navbench.policy.pretrain import main_args
         args.out = args.out or "runs/pointnav/encoder.pth"
         args.state_dir = args.state_dir or "runs/pointnav/encoder_state"
+    elif args.what == "ppo":
+        from navbench.policy.ppo import main_args
+        args.out = args.out or "runs/pointnav/policy_ppo.pth"
+        args.state_dir = args.state_dir or "runs/pointnav/ppo_state"
     else:
         from navbench.policy.train import main_args
         args.out = args.out or "policies/pointnav_navbench.pth"
@@ -346,11 +350,12 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)
 
-    tr = sub.add_parser("train", help="pre-train the PointNav depth encoder (encoder) or train the policy "
-                                      "by DAgger imitation of a shortest-path expert (pointnav)")
-    tr.add_argument("what", choices=("encoder", "pointnav"))
-    tr.add_argument("--out", help="checkpoint (default runs/pointnav/encoder.pth | policies/pointnav_navbench.pth)")
-    tr.add_argument("--state-dir", help="resumable training state (default runs/pointnav/encoder_state | "
+    tr = sub.add_parser("train", help="pre-train the PointNav depth encoder (encoder), train the policy "
+                                      "by DAgger imitation of a shortest-path expert (pointnav) or fine-tune "
+                                      "it with PPO on the PointNav reward (ppo)")
+    tr.add_argument("what", choices=("encoder", "pointnav", "ppo"))
+    tr.add_argument("--out", help="checkpoint (default runs/pointnav/encoder.pth | policies/pointnav_navbench.pth | runs/pointnav/policy_ppo.pth)")
+    tr.add_argument("--state-dir", help="resumable training state (default runs/pointnav/encoder_state | runs/pointnav/ppo_state | "
                                         "runs/train_pointnav)")
     tr.add_argument("--resume", action="store_true")
     tr.add_argument("--iterations", type=int)
@@ -387,7 +392,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="loss weight of steps where the expert still has 3 or more turns to make (default 1)")
     tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
     tr.add_argument("--seed", type=int)
-    tr.add_argument("--updates", type=int, help="encoder: gradient updates")
+    tr.add_argument("--updates", type=int, help="encoder: gradient updates; ppo: PPO updates (rollouts)")
+    tr.add_argument("--rollout-steps", type=int, help="ppo: steps per env and update (default 128)")
+    tr.add_argument("--critic-warmup", type=int, help="ppo: first updates that train only the value head (default 30)")
+    tr.add_argument("--entropy-coef", type=float, help="ppo: entropy bonus (default 1e-3)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
     tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)

@@ -1,0 +1,257 @@
+"""Fine-tune a trained PointNav policy with PPO on habitat-lab's PointNav reward.
+
+    navbench train ppo --init policies/pointnav_navbench.pth --train-split train_large \
+        --out runs/pointnav/policy_ppo.pth --state-dir runs/pointnav/ppo_state    # add --resume
+
+DAgger (:mod:`navbench.policy.train`) imitates the expert one step at a time, and its policies fail
+closed-loop: pinned against a wall between them and the goal, they turn, turn back towards the goal and
+bump again (policies/README.md, session 15). PPO optimises the return of whole rollouts, where such a
+loop costs reward every step. The reward is habitat-lab's PointNav default: the decrease of the
+geodesic distance to the goal, minus 0.01 a step, plus 2.5 on a successful STOP. Actions are sampled
+from the policy (habitat-baselines does the same in training); evaluation stays argmax.
+
+The visual encoder stays frozen (as in DAgger): the rollout keeps each frame's encoder output, and the
+updates train the LSTM, the goal and action embeddings and the two heads on those, which is what makes
+updates cheap on 2 cores. Each update collects ``rollout_steps`` steps in each of ``num_envs`` envs,
+then runs ``ppo_epochs`` epochs of clipped PPO over ``num_minibatches`` groups of envs, each a whole
+``rollout_steps`` sequence from the recurrent state it started with (habitat-baselines' recurrent
+generator). Imitation trains no critic, so the first ``critic_warmup`` updates train only the value
+head, with the actor fixed (the warm-up PIRLNav uses for RL fine-tuning of a cloned policy): an
+untrained critic's advantages would otherwise push the policy at random.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
+from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
+from navbench.policy.progress import log_row
+from navbench.policy.train import make_envs
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    train_split: str = "train_large"
+    num_envs: int = 8
+    rollout_steps: int = 128  # per env and update (habitat-baselines' num_steps)
+    updates: int = 300
+    lr: float = 2.5e-5  # fine-tuning: a tenth of habitat-baselines' from-scratch 2.5e-4
+    # The value head starts untrained and must fit returns of up to ~10 within the warm-up: at the
+    # actor's rate 80 Adam steps would move it by ~0.002 a weight.
+    critic_lr: float = 1e-3
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip: float = 0.2
+    ppo_epochs: int = 2
+    num_minibatches: int = 2  # groups of envs per epoch
+    value_coef: float = 0.5
+    entropy_coef: float = 1e-3  # the cloned policy already explores by sampling; keep it from flattening
+    max_grad_norm: float = 0.2
+    critic_warmup: int = 30  # first updates train the value head only
+    slack_reward: float = -0.01
+    success_reward: float = 2.5
+    seed: int = 0
+    threads: int = 2
+    save_every: int = 5  # updates between checkpoints (each writes ~120 MB of resumable state)
+
+
+def step_reward(d_before: float, d_after: float, success: bool, cfg: PPOConfig) -> float:
+    """habitat-lab's PointNav reward for one step: progress in geodesic distance, slack, success bonus."""
+    return (d_before - d_after) + cfg.slack_reward + (cfg.success_reward if success else 0.0)
+
+
+def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: np.ndarray,
+        gamma: float, lam: float) -> np.ndarray:
+    """Generalised advantage estimates (T, N); ``dones[t]`` marks that step t ended its episode (no bootstrap)."""
+    adv = np.zeros_like(rewards)
+    running = np.zeros(rewards.shape[1], np.float32)
+    for t in reversed(range(len(rewards))):
+        next_value = last_value if t == len(rewards) - 1 else values[t + 1]
+        live = 1.0 - dones[t]
+        delta = rewards[t] + gamma * next_value * live - values[t]
+        running = delta + gamma * lam * live * running
+        adv[t] = running
+    return adv
+
+
+class Rollout:
+    """Steps ``envs`` with actions sampled from the policy and keeps what a PPO update needs."""
+
+    def __init__(self, envs, cfg: PPOConfig, policy: PointNavResNetPolicy, generator: torch.Generator):
+        self.envs, self.cfg, self.policy, self.gen = envs, cfg, policy, generator
+        n = len(envs)
+        self.obs = [env.reset()[0] for env in envs]
+        self.dist = np.array([env.distance_to_goal() for env in envs])
+        self.hidden = policy.initial_hidden(n)
+        self.prev = torch.zeros(n, dtype=torch.long)
+        self.mask = torch.zeros(n, dtype=torch.bool)
+        self.finished: list[dict] = []  # per-episode success / spl since the last read
+
+    def _step_policy(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        depth = prepare_depth(np.stack([o["depth"] for o in self.obs]), self.policy.cfg.input_size)
+        goal = torch.as_tensor(np.stack([o["pointgoal_with_gps_compass"] for o in self.obs]), dtype=torch.float32)
+        with torch.inference_mode():
+            feat = self.policy.net.encode_depth(depth)
+            logits, value, hidden = self.policy.forward_features(feat[None], goal[None], self.prev[None],
+                                                                 self.mask[None], self.hidden)
+        return feat.clone(), goal, logits[0].clone(), value[0].clone(), hidden.clone()
+
+    def collect(self) -> dict[str, torch.Tensor]:
+        T, n = self.cfg.rollout_steps, len(self.envs)
+        keys = ("feat", "goal", "prev", "mask", "action", "logp", "value")
+        buf: dict[str, list] = {k: [] for k in keys}
+        rewards, dones = np.zeros((T, n), np.float32), np.zeros((T, n), np.float32)
+        hidden0 = self.hidden.clone()
+        for t in range(T):
+            feat, goal, logits, value, hidden = self._step_policy()
+            dist = torch.distributions.Categorical(logits=logits)
+            action = torch.multinomial(dist.probs, 1, generator=self.gen)[:, 0]
+            for k, v in zip(keys, (feat, goal, self.prev.clone(), self.mask.clone(), action, dist.log_prob(action), value)):
+                buf[k].append(v)
+            self.hidden, self.prev, self.mask = hidden, action.clone(), torch.ones(n, dtype=torch.bool)
+            for i, env in enumerate(self.envs):
+                self.obs[i], _, term, trunc, info = env.step(int(action[i]))
+                d = info["distance_to_goal"]
+                rewards[t, i] = step_reward(self.dist[i], d, bool(term and info["success"]), self.cfg)
+                self.dist[i] = d
+                if term or trunc:
+                    dones[t, i] = 1.0
+                    self.finished.append({"success": info["success"], "spl": info["spl"]})
+                    self.obs[i], _ = env.reset()
+                    self.dist[i] = env.distance_to_goal()
+                    self.hidden[i] = 0.0
+                    self.prev[i] = 0
+                    self.mask[i] = False
+        last_value = self._step_policy()[3].numpy()
+        out = {k: torch.stack(v) for k, v in buf.items()}
+        adv = gae(rewards, out["value"].numpy(), dones, last_value, self.cfg.gamma, self.cfg.gae_lambda)
+        out["adv"] = torch.from_numpy(adv)
+        out["ret"] = out["adv"] + out["value"]
+        out["hidden0"] = hidden0
+        out["reward"] = torch.from_numpy(rewards)
+        return out
+
+
+def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: dict[str, torch.Tensor],
+               cfg: PPOConfig, actor: bool, rng: np.random.Generator) -> dict[str, float]:
+    """Clipped PPO epochs over env groups; with ``actor`` False only the value loss is applied."""
+    n = data["action"].shape[1]
+    adv = data["adv"]
+    adv = (adv - adv.mean()) / (adv.std() + 1e-5)
+    stats: dict[str, list[float]] = {"policy_loss": [], "value_loss": [], "entropy": [], "approx_kl": [], "clip_frac": []}
+    params = [p for p in policy.parameters() if p.requires_grad]
+    for _ in range(cfg.ppo_epochs):
+        for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
+            idx = torch.as_tensor(idx)
+            logits, value, _ = policy.forward_features(data["feat"][:, idx], data["goal"][:, idx], data["prev"][:, idx],
+                                                       data["mask"][:, idx], data["hidden0"][idx])
+            logp_all = F.log_softmax(logits, -1)
+            logp = logp_all.gather(-1, data["action"][:, idx, None])[..., 0]
+            ratio = torch.exp(logp - data["logp"][:, idx])
+            a = adv[:, idx]
+            policy_loss = -torch.min(ratio * a, ratio.clamp(1 - cfg.clip, 1 + cfg.clip) * a).mean()
+            value_loss = 0.5 * (data["ret"][:, idx] - value).pow(2).mean()
+            entropy = -(logp_all.exp() * logp_all).sum(-1).mean()
+            loss = cfg.value_coef * value_loss
+            if actor:
+                loss = loss + policy_loss - cfg.entropy_coef * entropy
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            if not actor:  # the warm-up trains the critic alone: nothing else may move
+                for name, p in policy.named_parameters():
+                    if not name.startswith("critic.") and p.grad is not None:
+                        p.grad = None
+            torch.nn.utils.clip_grad_norm_(params, cfg.max_grad_norm)
+            opt.step()
+            with torch.no_grad():
+                stats["policy_loss"].append(policy_loss.item())
+                stats["value_loss"].append(value_loss.item())
+                stats["entropy"].append(entropy.item())
+                stats["approx_kl"].append((data["logp"][:, idx] - logp).mean().item())
+                stats["clip_frac"].append(((ratio - 1).abs() > cfg.clip).float().mean().item())
+    return {k: float(np.mean(v)) for k, v in stats.items()}
+
+
+def train_ppo(cfg: PPOConfig, out: Path, init: Path, resume: bool = False,
+              state_dir: Path = Path("runs/pointnav/ppo_state"), log_every=print) -> dict[str, float]:
+    torch.set_num_threads(cfg.threads)
+    torch.manual_seed(cfg.seed)
+    out, state_dir = Path(out), Path(state_dir)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    state_dir.mkdir(parents=True, exist_ok=True)
+    state_path = state_dir / "ppo_state.pt"
+    log_path = out.with_suffix(".log.csv")
+
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    policy.net.visual_encoder.requires_grad_(False)
+    # Adam's state must not accumulate on a frozen actor during the warm-up: Adam moves a parameter
+    # whose gradient is zero by its momentum, so the actor's gradients are set to None instead.
+    critic = list(policy.critic.parameters())
+    rest = [p for n, p in policy.named_parameters() if p.requires_grad and not n.startswith("critic.")]
+    opt = torch.optim.Adam([{"params": rest, "lr": cfg.lr}, {"params": critic, "lr": cfg.critic_lr}], eps=1e-5)
+    start, frames, wall0 = 0, 0, 0.0
+    if resume and state_path.is_file():
+        st = torch.load(state_path, weights_only=False)
+        policy.load_state_dict(st["policy"])
+        opt.load_state_dict(st["optimizer"])
+        start, frames, wall0 = st["update"], st["frames"], st["wall_s"]
+        log_every(f"resumed at update {start} ({frames} frames, {wall0:.0f} s)")
+    else:
+        policy.load_state_dict(load_checkpoint(init).state_dict())
+        log_every(f"initialised from {init}")
+        if log_path.exists():
+            log_path.unlink()
+    policy.eval()  # no dropout or batch statistics anywhere; eval() only marks inference
+    rng = np.random.default_rng([cfg.seed, start])
+    gen = torch.Generator().manual_seed(int(rng.integers(2**62)))
+    envs = make_envs(cfg.num_envs, cfg.train_split, cfg.seed * 7919 + start)
+    rollout = Rollout(envs, cfg, policy, gen)
+    t_start = time.time() - wall0
+    last: dict[str, float] = {}
+    window: list[dict] = []
+    for u in range(start, cfg.updates):
+        t0 = time.time()
+        data = rollout.collect()
+        t_collect = time.time() - t0
+        t0 = time.time()
+        stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng)
+        window = (window + rollout.finished)[-100:]
+        rollout.finished = []
+        frames += int(data["action"].numel())
+        last = {"update": u + 1, "frames": frames, "actor": int(u >= cfg.critic_warmup),
+                "reward_per_step": float(data["reward"].mean()),
+                "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
+                "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan"),
+                "episodes": len(window), **stats, "collect_s": t_collect, "train_s": time.time() - t0,
+                "wall_s": time.time() - t_start}
+        log_every(log_row(log_path, last, digits=4))
+        if (u + 1) % cfg.save_every == 0 or u + 1 == cfg.updates:
+            save_checkpoint(out, policy, {"ppo_config": dataclasses.asdict(cfg), "init": str(init), "frames": frames,
+                                          "wall_s": last["wall_s"], "update": u + 1})
+            tmp = state_path.with_suffix(".tmp")
+            torch.save({"policy": policy.state_dict(), "optimizer": opt.state_dict(), "update": u + 1,
+                        "frames": frames, "wall_s": last["wall_s"]}, tmp)
+            tmp.replace(state_path)
+    for e in envs:
+        e.close()
+    return last
+
+
+def main_args(args) -> int:
+    fields = PPOConfig.__dataclass_fields__
+    cfg = PPOConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
+    if not args.init and not args.resume:
+        raise SystemExit("navbench train ppo: --init PATH (the policy to fine-tune) is required")
+    result = train_ppo(cfg, Path(args.out), Path(args.init) if args.init else None, resume=args.resume,
+                       state_dir=Path(args.state_dir))
+    print(json.dumps(result))
+    return 0

@@ -1,0 +1,55 @@
+"""PPO fine-tuning: habitat's PointNav reward, GAE, the critic warm-up and resumable runs."""
+
+import numpy as np
+import pytest
+import torch
+
+from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
+from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
+from navbench.policy.ppo import PPOConfig, gae, step_reward, train_ppo
+
+
+def test_reward_is_progress_plus_slack_plus_the_success_bonus():
+    cfg = PPOConfig()
+    assert step_reward(3.0, 2.75, False, cfg) == pytest.approx(0.25 - 0.01)
+    assert step_reward(3.0, 3.0, False, cfg) == pytest.approx(-0.01)  # blocked or turning
+    assert step_reward(0.15, 0.15, True, cfg) == pytest.approx(2.5 - 0.01)
+
+
+def test_gae_bootstraps_within_an_episode_and_not_across_its_end():
+    gamma, lam = 0.9, 0.5
+    rewards = np.array([[1.0], [2.0], [0.5]], np.float32)
+    values = np.array([[0.5], [1.0], [2.0]], np.float32)
+    dones = np.array([[0.0], [1.0], [0.0]], np.float32)  # the episode ends at step 1; step 2 starts another
+    adv = gae(rewards, values, dones, np.array([4.0], np.float32), gamma, lam)
+    d2 = 0.5 + gamma * 4.0 - 2.0  # bootstraps from the value after the rollout
+    d1 = 2.0 - 1.0  # terminal: no bootstrap from step 2, which belongs to the next episode
+    d0 = 1.0 + gamma * 1.0 - 0.5
+    np.testing.assert_allclose(adv[:, 0], [d0 + gamma * lam * d1, d1, d2], rtol=1e-6)
+
+
+def _params(policy):
+    return {n: p.detach().clone() for n, p in policy.named_parameters()}
+
+
+def test_warmup_trains_only_the_critic_then_the_actor_moves_and_runs_resume(tmp_path):
+    torch.manual_seed(0)
+    init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {}, fp16=False)
+    before = _params(load_checkpoint(init))
+    cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=8, updates=1, critic_warmup=1, save_every=1)
+    out, state = tmp_path / "ppo.pth", tmp_path / "state"
+    first = train_ppo(cfg, out, init, state_dir=state, log_every=lambda _: None)
+    assert first["update"] == 1 and first["frames"] == 16 and first["actor"] == 0
+    after = _params(load_checkpoint(out))  # fp16 as stored; the unchanged weights came from fp32 ones
+    moved = {n for n in before if not torch.allclose(before[n], after[n], atol=1e-3)}
+    assert moved and all(n.startswith("critic.") for n in moved)
+
+    cfg2 = PPOConfig(train_split="train", num_envs=2, rollout_steps=8, updates=2, critic_warmup=1, save_every=1,
+                    lr=1e-3)
+    second = train_ppo(cfg2, out, init, resume=True, state_dir=state, log_every=lambda _: None)
+    assert second["update"] == 2 and second["frames"] == 32 and second["actor"] == 1
+    final = _params(load_checkpoint(out))
+    assert any(not torch.allclose(after[n], final[n], atol=1e-4)
+               for n in final if n.startswith(("action_distribution.", "net.state_encoder.")))
+    assert all(torch.equal(after[n], final[n]) for n in final if n.startswith("net.visual_encoder."))
+    assert len((tmp_path / "ppo.log.csv").read_text().strip().splitlines()) == 3  # header + two updates
