@@ -59,14 +59,23 @@ class PPOConfig:
     critic_warmup: int = 30  # first updates train the value head only
     slack_reward: float = -0.01
     success_reward: float = 2.5
+    # Penalty per metre walked that did not bring the agent closer to the goal (0 = habitat's reward).
+    # Habitat's reward counts steps, SPL counts metres: 250 updates with it raised val SR 86.5 -> 94.5
+    # but left SPL at 74.9, the successful paths 1.49x the geodesic distance instead of 1.21x (fewer
+    # turns in place, more metres on curves). Summed over an episode this term is -weight x (path
+    # length - geodesic distance), SPL's own loss.
+    waste_weight: float = 0.0
     seed: int = 0
     threads: int = 2
     save_every: int = 5  # updates between checkpoints (each writes ~120 MB of resumable state)
 
 
-def step_reward(d_before: float, d_after: float, success: bool, cfg: PPOConfig) -> float:
-    """habitat-lab's PointNav reward for one step: progress in geodesic distance, slack, success bonus."""
-    return (d_before - d_after) + cfg.slack_reward + (cfg.success_reward if success else 0.0)
+def step_reward(d_before: float, d_after: float, moved: float, success: bool, cfg: PPOConfig) -> float:
+    """habitat-lab's PointNav reward for one step (progress in geodesic distance, slack, success
+    bonus), less ``waste_weight`` x the metres ``moved`` beyond that progress."""
+    progress = d_before - d_after
+    return (progress + cfg.slack_reward + (cfg.success_reward if success else 0.0)
+            - cfg.waste_weight * max(0.0, moved - progress))
 
 
 def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: np.ndarray,
@@ -91,6 +100,7 @@ class Rollout:
         n = len(envs)
         self.obs = [env.reset()[0] for env in envs]
         self.dist = np.array([env.distance_to_goal() for env in envs])
+        self.walked = np.zeros(n)  # path length so far
         self.hidden = policy.initial_hidden(n)
         self.prev = torch.zeros(n, dtype=torch.long)
         self.mask = torch.zeros(n, dtype=torch.bool)
@@ -120,14 +130,15 @@ class Rollout:
             self.hidden, self.prev, self.mask = hidden, action.clone(), torch.ones(n, dtype=torch.bool)
             for i, env in enumerate(self.envs):
                 self.obs[i], _, term, trunc, info = env.step(int(action[i]))
-                d = info["distance_to_goal"]
-                rewards[t, i] = step_reward(self.dist[i], d, bool(term and info["success"]), self.cfg)
-                self.dist[i] = d
+                d, walked = info["distance_to_goal"], info["path_length"]
+                rewards[t, i] = step_reward(self.dist[i], d, walked - self.walked[i], bool(term and info["success"]),
+                                            self.cfg)
+                self.dist[i], self.walked[i] = d, walked
                 if term or trunc:
                     dones[t, i] = 1.0
                     self.finished.append({"success": info["success"], "spl": info["spl"]})
                     self.obs[i], _ = env.reset()
-                    self.dist[i] = env.distance_to_goal()
+                    self.dist[i], self.walked[i] = env.distance_to_goal(), 0.0
                     self.hidden[i] = 0.0
                     self.prev[i] = 0
                     self.mask[i] = False

@@ -11,9 +11,17 @@ from navbench.policy.ppo import PPOConfig, gae, step_reward, train_ppo
 
 def test_reward_is_progress_plus_slack_plus_the_success_bonus():
     cfg = PPOConfig()
-    assert step_reward(3.0, 2.75, False, cfg) == pytest.approx(0.25 - 0.01)
-    assert step_reward(3.0, 3.0, False, cfg) == pytest.approx(-0.01)  # blocked or turning
-    assert step_reward(0.15, 0.15, True, cfg) == pytest.approx(2.5 - 0.01)
+    assert step_reward(3.0, 2.75, 0.25, False, cfg) == pytest.approx(0.25 - 0.01)
+    assert step_reward(3.0, 3.0, 0.0, False, cfg) == pytest.approx(-0.01)  # blocked or turning
+    assert step_reward(3.0, 3.1, 0.25, False, cfg) == pytest.approx(-0.1 - 0.01)  # habitat: no path term
+    assert step_reward(0.15, 0.15, 0.0, True, cfg) == pytest.approx(2.5 - 0.01)
+
+
+def test_waste_weight_charges_the_metres_that_made_no_progress():
+    cfg = PPOConfig(waste_weight=2.0)
+    assert step_reward(3.0, 2.75, 0.25, False, cfg) == pytest.approx(0.25 - 0.01)  # straight at the goal
+    assert step_reward(3.0, 2.9, 0.25, False, cfg) == pytest.approx(0.1 - 0.01 - 2.0 * 0.15)  # sideways
+    assert step_reward(3.0, 3.0, 0.0, False, cfg) == pytest.approx(-0.01)  # turns cost only the slack
 
 
 def test_gae_bootstraps_within_an_episode_and_not_across_its_end():
