@@ -354,9 +354,10 @@ def build_parser() -> argparse.ArgumentParser:
                                       "by DAgger imitation of a shortest-path expert (pointnav) or fine-tune "
                                       "it with PPO on the PointNav reward (ppo)")
     tr.add_argument("what", choices=("encoder", "pointnav", "ppo"))
-    tr.add_argument("--out", help="checkpoint (default runs/pointnav/encoder.pth | policies/pointnav_navbench.pth | runs/pointnav/policy_ppo.pth)")
-    tr.add_argument("--state-dir", help="resumable training state (default runs/pointnav/encoder_state | runs/pointnav/ppo_state | "
-                                        "runs/train_pointnav)")
+    tr.add_argument("--out", help="checkpoint (default runs/pointnav/encoder.pth | policies/pointnav_navbench.pth | "
+                                  "runs/pointnav/policy_ppo.pth)")
+    tr.add_argument("--state-dir", help="resumable training state (default runs/pointnav/encoder_state | "
+                                        "runs/train_pointnav | runs/pointnav/ppo_state)")
     tr.add_argument("--resume", action="store_true")
     tr.add_argument("--iterations", type=int)
     tr.add_argument("--frames-per-iteration", type=int)

@@ -106,7 +106,8 @@ class Rollout:
         self.mask = torch.zeros(n, dtype=torch.bool)
         self.finished: list[dict] = []  # per-episode success / spl since the last read
 
-    def _step_policy(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _step_policy(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Encoder output, point goal, logits, value and next recurrent state for the current observations."""
         depth = prepare_depth(np.stack([o["depth"] for o in self.obs]), self.policy.cfg.input_size)
         goal = torch.as_tensor(np.stack([o["pointgoal_with_gps_compass"] for o in self.obs]), dtype=torch.float32)
         with torch.inference_mode():
@@ -125,7 +126,8 @@ class Rollout:
             feat, goal, logits, value, hidden = self._step_policy()
             dist = torch.distributions.Categorical(logits=logits)
             action = torch.multinomial(dist.probs, 1, generator=self.gen)[:, 0]
-            for k, v in zip(keys, (feat, goal, self.prev.clone(), self.mask.clone(), action, dist.log_prob(action), value)):
+            step = (feat, goal, self.prev.clone(), self.mask.clone(), action, dist.log_prob(action), value)
+            for k, v in zip(keys, step):
                 buf[k].append(v)
             self.hidden, self.prev, self.mask = hidden, action.clone(), torch.ones(n, dtype=torch.bool)
             for i, env in enumerate(self.envs):
@@ -163,8 +165,8 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     for _ in range(cfg.ppo_epochs):
         for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
             idx = torch.as_tensor(idx)
-            logits, value, _ = policy.forward_features(data["feat"][:, idx], data["goal"][:, idx], data["prev"][:, idx],
-                                                       data["mask"][:, idx], data["hidden0"][idx])
+            logits, value, _ = policy.forward_features(data["feat"][:, idx], data["goal"][:, idx],
+                                                       data["prev"][:, idx], data["mask"][:, idx], data["hidden0"][idx])
             logp_all = F.log_softmax(logits, -1)
             logp = logp_all.gather(-1, data["action"][:, idx, None])[..., 0]
             ratio = torch.exp(logp - data["logp"][:, idx])
@@ -192,7 +194,7 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     return {k: float(np.mean(v)) for k, v in stats.items()}
 
 
-def train_ppo(cfg: PPOConfig, out: Path, init: Path, resume: bool = False,
+def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False,
               state_dir: Path = Path("runs/pointnav/ppo_state"), log_every=print) -> dict[str, float]:
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
@@ -216,6 +218,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path, resume: bool = False,
         opt.load_state_dict(st["optimizer"])
         start, frames, wall0 = st["update"], st["frames"], st["wall_s"]
         log_every(f"resumed at update {start} ({frames} frames, {wall0:.0f} s)")
+    elif init is None:
+        raise ValueError(f"no resumable state in {state_dir}; --init PATH names the policy to fine-tune")
     else:
         policy.load_state_dict(load_checkpoint(init).state_dict())
         log_every(f"initialised from {init}")
@@ -260,8 +264,6 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path, resume: bool = False,
 def main_args(args) -> int:
     fields = PPOConfig.__dataclass_fields__
     cfg = PPOConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
-    if not args.init and not args.resume:
-        raise SystemExit("navbench train ppo: --init PATH (the policy to fine-tune) is required")
     result = train_ppo(cfg, Path(args.out), Path(args.init) if args.init else None, resume=args.resume,
                        state_dir=Path(args.state_dir))
     print(json.dumps(result))

@@ -61,3 +61,9 @@ def test_warmup_trains_only_the_critic_then_the_actor_moves_and_runs_resume(tmp_
                for n in final if n.startswith(("action_distribution.", "net.state_encoder.")))
     assert all(torch.equal(after[n], final[n]) for n in final if n.startswith("net.visual_encoder."))
     assert len((tmp_path / "ppo.log.csv").read_text().strip().splitlines()) == 3  # header + two updates
+
+
+def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
+    with pytest.raises(ValueError, match="--init"):
+        train_ppo(PPOConfig(), tmp_path / "ppo.pth", None, resume=True, state_dir=tmp_path / "none",
+                  log_every=lambda _: None)
