@@ -53,6 +53,14 @@ def _json_scalar(value: object) -> object:
     raise TypeError(f"{type(value).__name__} value {value!r} is not JSON-like")
 
 
+def save_train_state(path: Path, state: dict[str, Any]) -> None:
+    """Write a resumable training state (weights, optimizer, counters) so that a run killed mid-write
+    leaves the previous state whole: the file is written beside ``path`` and then moved over it."""
+    tmp = path.with_suffix(".tmp")
+    torch.save(state, tmp)
+    tmp.replace(path)
+
+
 def save_checkpoint(
     path: str | Path, policy: PointNavResNetPolicy, config: Mapping[str, Any], fp16: bool = True
 ) -> Path:

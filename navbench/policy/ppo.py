@@ -32,7 +32,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
+from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_train_state
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.progress import log_row
 from navbench.policy.train import make_envs
@@ -252,10 +252,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
         if (u + 1) % cfg.save_every == 0 or u + 1 == cfg.updates:
             save_checkpoint(out, policy, {"ppo_config": dataclasses.asdict(cfg), "init": str(init), "frames": frames,
                                           "wall_s": last["wall_s"], "update": u + 1})
-            tmp = state_path.with_suffix(".tmp")
-            torch.save({"policy": policy.state_dict(), "optimizer": opt.state_dict(), "update": u + 1,
-                        "frames": frames, "wall_s": last["wall_s"]}, tmp)
-            tmp.replace(state_path)
+            save_train_state(state_path, {"policy": policy.state_dict(), "optimizer": opt.state_dict(),
+                                          "update": u + 1, "frames": frames, "wall_s": last["wall_s"]})
     for e in envs:
         e.close()
     return last

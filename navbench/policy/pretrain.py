@@ -37,7 +37,7 @@ import torch.nn.functional as F
 from navbench.env.config import EnvConfig
 from navbench.env.sensors import normalize_depth
 from navbench.paths import SCENES_DIR
-from navbench.policy.checkpoint import save_checkpoint
+from navbench.policy.checkpoint import save_checkpoint, save_train_state
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.progress import log_row
 from navbench.render.renderer import CameraConfig, Renderer
@@ -257,10 +257,9 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
             save_checkpoint(out, policy, {"pretrain_config": dataclasses.asdict(cfg), "update": done,
                                           "frames": n, "wall_s": time.time() - t_start,
                                           **{k: v for k, v in last.items() if k.startswith("val_")}})
-            tmp = state_path.with_suffix(".tmp")
-            torch.save({"policy": policy.state_dict(), "head": head.state_dict(), "optimizer": opt.state_dict(),
-                        "scheduler": sched.state_dict(), "update": done, "wall_s": time.time() - t_start}, tmp)
-            tmp.replace(state_path)
+            save_train_state(state_path, {"policy": policy.state_dict(), "head": head.state_dict(),
+                                          "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
+                                          "update": done, "wall_s": time.time() - t_start})
     return last
 
 

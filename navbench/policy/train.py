@@ -42,7 +42,7 @@ from navbench.env.config import EnvConfig, STOP
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
 from navbench.paths import split_file
-from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
+from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_train_state
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.pretrain import free_distances
 from navbench.policy.progress import log_row
@@ -530,11 +530,10 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         meta = {"train_config": dataclasses.asdict(cfg), "frames": frames_total, "wall_s": last["wall_s"],
                 "iteration": it + 1, "val_sr": val["val_sr"], "val_spl": val["val_spl"]}
         save_checkpoint(out, policy, meta)
-        tmp = state_path.with_suffix(".tmp")
-        torch.save({"policy": policy.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
-                    "aux_head": aux_head.state_dict() if aux_head is not None else None,
-                    "frames": frames_total, "wall_s": last["wall_s"]}, tmp)
-        tmp.replace(state_path)
+        save_train_state(state_path, {"policy": policy.state_dict(), "optimizer": opt.state_dict(),
+                                      "iteration": it + 1,
+                                      "aux_head": aux_head.state_dict() if aux_head is not None else None,
+                                      "frames": frames_total, "wall_s": last["wall_s"]})
     for e in envs:
         e.close()
     return last
