@@ -399,6 +399,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--entropy-coef", type=float, help="ppo: entropy bonus (default 1e-3)")
     tr.add_argument("--waste-weight", type=float,
                     help="ppo: penalty per metre walked beyond the progress made (default 0: habitat's reward)")
+    tr.add_argument("--success-spl", action="store_true", default=None,
+                    help="ppo: scale the success bonus by the episode's SPL (default: a flat 2.5)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
     tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)

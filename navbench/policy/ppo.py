@@ -65,17 +65,22 @@ class PPOConfig:
     # turns in place, more metres on curves). Summed over an episode this term is -weight x (path
     # length - geodesic distance), SPL's own loss.
     waste_weight: float = 0.0
+    # Scale the success bonus by the episode's SPL (geodesic / max(path, geodesic)): the bonus then pays
+    # what SPL pays, so a shorter successful path earns more, while a failure still forfeits all of it.
+    success_spl: bool = False
     seed: int = 0
     threads: int = 2
     save_every: int = 5  # updates between checkpoints (each writes ~120 MB of resumable state)
 
 
-def step_reward(d_before: float, d_after: float, moved: float, success: bool, cfg: PPOConfig) -> float:
+def step_reward(d_before: float, d_after: float, moved: float, success: bool, cfg: PPOConfig,
+                spl: float = 1.0) -> float:
     """habitat-lab's PointNav reward for one step (progress in geodesic distance, slack, success
-    bonus), less ``waste_weight`` x the metres ``moved`` beyond that progress."""
+    bonus, times the episode's ``spl`` with ``success_spl``), less ``waste_weight`` x the metres
+    ``moved`` beyond that progress."""
     progress = d_before - d_after
-    return (progress + cfg.slack_reward + (cfg.success_reward if success else 0.0)
-            - cfg.waste_weight * max(0.0, moved - progress))
+    bonus = cfg.success_reward * (spl if cfg.success_spl else 1.0) if success else 0.0
+    return progress + cfg.slack_reward + bonus - cfg.waste_weight * max(0.0, moved - progress)
 
 
 def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: np.ndarray,
@@ -134,7 +139,7 @@ class Rollout:
                 self.obs[i], _, term, trunc, info = env.step(int(action[i]))
                 d, walked = info["distance_to_goal"], info["path_length"]
                 rewards[t, i] = step_reward(self.dist[i], d, walked - self.walked[i], bool(term and info["success"]),
-                                            self.cfg)
+                                            self.cfg, info["spl"])
                 self.dist[i], self.walked[i] = d, walked
                 if term or trunc:
                     dones[t, i] = 1.0

@@ -24,6 +24,13 @@ def test_waste_weight_charges_the_metres_that_made_no_progress():
     assert step_reward(3.0, 3.0, 0.0, False, cfg) == pytest.approx(-0.01)  # turns cost only the slack
 
 
+def test_success_spl_scales_only_the_success_bonus_by_the_episode_spl():
+    cfg = PPOConfig(success_spl=True)
+    assert step_reward(0.15, 0.15, 0.0, True, cfg, spl=0.6) == pytest.approx(2.5 * 0.6 - 0.01)
+    assert step_reward(3.0, 2.75, 0.25, False, cfg, spl=0.0) == pytest.approx(0.25 - 0.01)  # no bonus to scale
+    assert step_reward(0.15, 0.15, 0.0, True, PPOConfig(), spl=0.6) == pytest.approx(2.5 - 0.01)  # off by default
+
+
 def test_gae_bootstraps_within_an_episode_and_not_across_its_end():
     gamma, lam = 0.9, 0.5
     rewards = np.array([[1.0], [2.0], [0.5]], np.float32)
