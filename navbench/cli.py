@@ -371,7 +371,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--no-prev-action", dest="prev_action", action="store_false", default=None,
                     help="zero and freeze the previous-action embedding (against copycat policies)")
     tr.add_argument("--expert-margin", type=float, help="extra clearance (m) the geodesic expert keeps")
-    tr.add_argument("--expert-success-distance", type=float, help="where the expert says STOP (default 0.2 m)")
+    tr.add_argument("--expert-success-distance", type=float, help="where the expert says STOP (default 0.2 m; ppo --bc-weight: 0.1 m)")
     tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default geodesic)")
     tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
     tr.add_argument("--beta-min", type=float, help="floor of the oracle share (default 0.1; 0 = pure learner rollouts)")
@@ -401,6 +401,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="ppo: penalty per metre walked beyond the progress made (default 0: habitat's reward)")
     tr.add_argument("--success-spl", action="store_true", default=None,
                     help="ppo: scale the success bonus by the episode's SPL (default: a flat 2.5)")
+    tr.add_argument("--bc-weight", type=float,
+                    help="ppo: weight of a cross-entropy term to the geodesic expert's actions (default 0: off)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
     tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)

@@ -8,7 +8,9 @@ closed-loop: pinned against a wall between them and the goal, they turn, turn ba
 bump again (policies/README.md, session 15). PPO optimises the return of whole rollouts, where such a
 loop costs reward every step. The reward is habitat-lab's PointNav default: the decrease of the
 geodesic distance to the goal, minus 0.01 a step, plus 2.5 on a successful STOP. Actions are sampled
-from the policy (habitat-baselines does the same in training); evaluation stays argmax.
+from the policy (habitat-baselines does the same in training); evaluation stays argmax. With
+``--bc-weight`` the geodesic expert labels every step of the rollouts and a cross-entropy term to its
+actions joins the PPO loss (as Kickstarting keeps a teacher's term during RL).
 
 The visual encoder stays frozen (as in DAgger): the rollout keeps each frame's encoder output, and the
 updates train the LSTM, the goal and action embeddings and the two heads on those, which is what makes
@@ -36,6 +38,7 @@ from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_tr
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.progress import log_row
 from navbench.policy.train import make_envs
+from navbench.scene.follower import GreedyFollower
 
 
 @dataclass(frozen=True)
@@ -68,6 +71,13 @@ class PPOConfig:
     # Scale the success bonus by the episode's SPL (geodesic / max(path, geodesic)): the bonus then pays
     # what SPL pays, so a shorter successful path earns more, while a failure still forfeits all of it.
     success_spl: bool = False
+    # Weight of an imitation term on PPO's own rollouts: cross-entropy to the geodesic expert's action at
+    # every step the learner visited (DAgger's labels, kept during RL as Kickstarting keeps its teacher's).
+    # PPO alone learns to leave the pinned spots DAgger cannot, but on habitat's step-counting reward it
+    # also trades turns in place for longer curves; the expert's labels pull the rest towards its paths.
+    bc_weight: float = 0.0
+    expert_success_distance: float = 0.1  # the shipped policy's DAgger expert (policies/README.md)
+    expert_margin: float = 0.15
     seed: int = 0
     threads: int = 2
     save_every: int = 5  # updates between checkpoints (each writes ~120 MB of resumable state)
@@ -110,6 +120,11 @@ class Rollout:
         self.prev = torch.zeros(n, dtype=torch.long)
         self.mask = torch.zeros(n, dtype=torch.bool)
         self.finished: list[dict] = []  # per-episode success / spl since the last read
+        self.experts = [self._expert(env) for env in envs] if cfg.bc_weight > 0 else None
+
+    def _expert(self, env) -> GreedyFollower:
+        return GreedyFollower(env.navgrid, env.goal_points, self.cfg.expert_success_distance,
+                              clearance_margin=self.cfg.expert_margin)
 
     def _step_policy(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Encoder output, point goal, logits, value and next recurrent state for the current observations."""
@@ -134,6 +149,9 @@ class Rollout:
             step = (feat, goal, self.prev.clone(), self.mask.clone(), action, dist.log_prob(action), value)
             for k, v in zip(keys, step):
                 buf[k].append(v)
+            if self.experts is not None:  # labelled where the learner is, before it moves
+                buf.setdefault("label", []).append(torch.tensor(
+                    [ex.next_action(env.agent_position, env.agent_rotation) for ex, env in zip(self.experts, self.envs)]))
             self.hidden, self.prev, self.mask = hidden, action.clone(), torch.ones(n, dtype=torch.bool)
             for i, env in enumerate(self.envs):
                 self.obs[i], _, term, trunc, info = env.step(int(action[i]))
@@ -149,6 +167,8 @@ class Rollout:
                     self.hidden[i] = 0.0
                     self.prev[i] = 0
                     self.mask[i] = False
+                    if self.experts is not None:
+                        self.experts[i] = self._expert(env)
         last_value = self._step_policy()[3].numpy()
         out = {k: torch.stack(v) for k, v in buf.items()}
         adv = gae(rewards, out["value"].numpy(), dones, last_value, self.cfg.gamma, self.cfg.gae_lambda)
@@ -166,6 +186,8 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     adv = data["adv"]
     adv = (adv - adv.mean()) / (adv.std() + 1e-5)
     stats: dict[str, list[float]] = {"policy_loss": [], "value_loss": [], "entropy": [], "approx_kl": [], "clip_frac": []}
+    if cfg.bc_weight > 0:
+        stats["bc_loss"] = []
     params = [p for p in policy.parameters() if p.requires_grad]
     for _ in range(cfg.ppo_epochs):
         for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
@@ -182,6 +204,10 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
             loss = cfg.value_coef * value_loss
             if actor:
                 loss = loss + policy_loss - cfg.entropy_coef * entropy
+            if cfg.bc_weight > 0:
+                bc_loss = F.cross_entropy(logits.reshape(-1, logits.shape[-1]), data["label"][:, idx].reshape(-1))
+                if actor:
+                    loss = loss + cfg.bc_weight * bc_loss
             opt.zero_grad(set_to_none=True)
             loss.backward()
             if not actor:  # the warm-up trains the critic alone: nothing else may move
@@ -196,6 +222,8 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
                 stats["entropy"].append(entropy.item())
                 stats["approx_kl"].append((data["logp"][:, idx] - logp).mean().item())
                 stats["clip_frac"].append(((ratio - 1).abs() > cfg.clip).float().mean().item())
+                if cfg.bc_weight > 0:
+                    stats["bc_loss"].append(bc_loss.item())
     return {k: float(np.mean(v)) for k, v in stats.items()}
 
 

@@ -74,3 +74,30 @@ def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
     with pytest.raises(ValueError, match="--init"):
         train_ppo(PPOConfig(), tmp_path / "ppo.pth", None, resume=True, state_dir=tmp_path / "none",
                   log_every=lambda _: None)
+
+
+def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_towards_it():
+    from navbench.policy.ppo import Rollout, ppo_update
+    from navbench.policy.train import make_envs
+
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    policy.net.visual_encoder.requires_grad_(False)
+    envs = make_envs(2, "train", 5)
+    try:
+        off = Rollout(envs, PPOConfig(num_envs=2, rollout_steps=4), policy, torch.Generator().manual_seed(0)).collect()
+        assert "label" not in off
+        cfg = PPOConfig(num_envs=2, rollout_steps=8, bc_weight=1.0, lr=1e-3, ppo_epochs=1, num_minibatches=1)
+        data = Rollout(envs, cfg, policy, torch.Generator().manual_seed(0)).collect()
+    finally:
+        for e in envs:
+            e.close()
+    assert data["label"].shape == data["action"].shape and int(data["label"].max()) <= 3
+    data["adv"].zero_()  # no advantage: only the imitation term can move the actor
+    opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=1e-3)
+    first = ppo_update(policy, opt, data, cfg, actor=True, rng=np.random.default_rng(0))["bc_loss"]
+    for _ in range(10):
+        last = ppo_update(policy, opt, data, cfg, actor=True, rng=np.random.default_rng(0))["bc_loss"]
+    assert last < 0.8 * first  # 1.39 (uniform over 4 actions) -> 0.98 here
+    assert "bc_loss" not in ppo_update(policy, opt, data, PPOConfig(num_minibatches=1), actor=True,
+                                       rng=np.random.default_rng(0))
