@@ -66,7 +66,9 @@ results-localize: setup
 # houses plus the 40 of `navbench generate policy-train`, bundled); 5. continue there with half the
 # learning rate and 1.5x the updates per iteration (no monitor episodes); 8. continue with the loss
 # weighted x3 on steps after a refused FORWARD and within 0.75 m of the goal; 9. continue with half that
-# learning rate again and a new rollout seed. (Stages 6 and 7 were experiments, not part of the recipe.)
+# learning rate again and a new rollout seed; 15. PPO on habitat's reward with a cross-entropy term to the
+# geodesic expert's actions on its own rollouts (encoder frozen). (Stages 6, 7 and 10-14 were experiments,
+# not part of the recipe.)
 # Each stage is resumable: rerun the same line with --resume after a kill (the DAgger buffer restarts empty).
 train-pointnav: setup
 	$(BIN)/navbench train encoder --out runs/pointnav/encoder.pth --state-dir runs/pointnav/encoder_state
@@ -89,7 +91,9 @@ train-pointnav: setup
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 18 --frames-per-iteration 8000 --lr 1.25e-4 \
 	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --seed 9 \
 	  --out runs/pointnav/policy_stage9.pth --state-dir runs/pointnav/stage9_state
-	cp runs/pointnav/policy_stage9.pth policies/pointnav_navbench.pth
+	$(BIN)/navbench train ppo --init runs/pointnav/policy_stage9.pth --train-split train_large --updates 250 \
+	  --bc-weight 0.1 --seed 35 --out runs/pointnav/policy_stage15.pth --state-dir runs/pointnav/stage15_state
+	cp runs/pointnav/policy_stage15.pth policies/pointnav_navbench.pth
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the two oracles (the geodesic one's run
 # comes from results-oracle; the optimistic one plans on the map it has seen, the ceiling for a learner).
