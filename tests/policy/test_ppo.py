@@ -1,4 +1,4 @@
-"""PPO fine-tuning: habitat's PointNav reward, GAE, the critic warm-up and resumable runs."""
+"""PPO fine-tuning: habitat's PointNav reward, GAE, the critic warm-up, resumable runs and the expert term."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,8 @@ import torch
 
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
-from navbench.policy.ppo import PPOConfig, gae, step_reward, train_ppo
+from navbench.policy.ppo import PPOConfig, Rollout, gae, ppo_update, step_reward, train_ppo
+from navbench.policy.train import make_envs
 
 
 def test_reward_is_progress_plus_slack_plus_the_success_bonus():
@@ -77,9 +78,6 @@ def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
 
 
 def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_towards_it():
-    from navbench.policy.ppo import Rollout, ppo_update
-    from navbench.policy.train import make_envs
-
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(PolicyNetConfig())
     policy.net.visual_encoder.requires_grad_(False)
