@@ -94,7 +94,9 @@ def make_memory(cfg):
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
     env_cfg = cfg.env_config(("depth",))
     verify = LiveDetector(cfg.scene_dir, pcfg, env_cfg) if o.get("verify", True) else None
-    return MemoryAgent(SceneLocalizer(cfg.scene_dir, pcfg), _step_policy(cfg), agent_cfg, env_cfg, verify=verify)
+    localizer = SceneLocalizer(cfg.scene_dir, pcfg)
+    route = localizer.route_lengths if o.get("route", True) else None
+    return MemoryAgent(localizer, _step_policy(cfg), agent_cfg, env_cfg, verify=verify, route=route)
 
 
 def make_frontier(cfg):
@@ -188,7 +190,7 @@ def _agent_options(args) -> dict:
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
                     goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
                     verify=not args.no_verify, recovery=not args.no_recovery, standoff=not args.no_standoff,
-                    detour=not args.no_detour,
+                    detour=not args.no_detour, route=not args.no_route,
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
@@ -204,7 +206,8 @@ def _label(args, cfg) -> str:
                                       ("noverify", not o.get("verify", True)),
                                       ("norecover", not o.get("recovery", True)),
                                       ("nostandoff", not o.get("standoff", True)),
-                                      ("nodetour", not o.get("detour", True)), ("allframes", o["all_frames"]))
+                                      ("nodetour", not o.get("detour", True)), ("noroute", not o.get("route", True)),
+                                      ("allframes", o["all_frames"]))
                   if on]
         if o["noise"] != "none":
             parts.append(f"noise_{o['noise']}")
@@ -325,6 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="memory agent: the policy drives to the target point itself, not to a point short of it")
     m.add_argument("--no-detour", action="store_true",
                    help="memory agent: no detour to a keyframe's view of a target hidden behind a wall")
+    m.add_argument("--no-route", action="store_true",
+                   help="memory agent: order candidates by straight-line distance, not by route over the keyframe poses")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")

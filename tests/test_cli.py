@@ -14,9 +14,10 @@ def _options(*flags):
 
 def test_memory_ablation_flags_are_recorded_and_labelled():
     _, opts, label = _options()
-    assert opts["standoff"] and opts["recovery"] and opts["verify"] and label == "memory"
-    _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none", "--no-detour")
+    assert opts["standoff"] and opts["recovery"] and opts["verify"] and opts["route"] and label == "memory"
+    _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none", "--no-detour", "--no-route")
     assert not opts["standoff"] and not opts["recovery"] and not opts["rerank"] and not opts["detour"]
-    assert label == "memory-norerank-norecover-nostandoff-nodetour"
+    assert not opts["route"]
+    assert label == "memory-norerank-norecover-nostandoff-nodetour-noroute"
     assert MemoryAgentConfig().goal_standoff > 0  # on by default; the flag turns it off
     assert MemoryAgentConfig().view_detour

@@ -2,7 +2,9 @@
 
 At reset the agent asks the localiser (over the scene's cached keyframe memory; no map is built)
 for goal candidates for the episode's goal text, sorts them by distance from the start, and drives
-to the nearest with the PointNav policy. Each step it:
+to the nearest with the PointNav policy. The distance is the route length over the memory's keyframe
+poses where there is one (``route``: :class:`~navbench.localize.route.KeyframeRoutes`, the way the
+pre-scan walked), else the straight line (xz). Each step it:
 
 1. recovers its world pose from the episode's start pose plus GPS+compass (as Habitat agents do);
 2. projects up to ``max_projected_points`` of the target's fused cloud into the current depth image;
@@ -31,8 +33,8 @@ to the nearest with the PointNav policy. Each step it:
    MOVE_FORWARD (at most ``max_stop_overrides`` times in a row; after that, a STOP on a target the
    detector's recent checks refute becomes a turn to look again);
 6. when stuck (< ``stuck_progress`` m in ``stuck_window`` steps) or oscillating, switches to the
-   next nearest candidate (at most ``max_switches`` times); with none left, it recovers instead: a
-   fresh policy memory, a 90 deg turn towards the more open side and two steps forward; stuck again
+   next nearest candidate from where it is (at most ``max_switches`` times); with none left, it
+   recovers instead: a fresh policy memory, a 90 deg turn towards the more open side and two steps forward; stuck again
    where the last recovery started, it backs out the way it came instead (``back_out``).
 
 Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
@@ -41,7 +43,7 @@ Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -165,12 +167,16 @@ class Detector(Protocol):
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray: ...
 
 
+# (position, candidates) -> route length to each candidate, inf where unknown (SceneLocalizer.route_lengths)
+RouteLengths = Callable[[np.ndarray, Sequence[GoalCandidate]], np.ndarray]
+
+
 class MemoryAgent:
     def __init__(self, localize: Callable[[Episode], list[GoalCandidate]], policy: StepPolicy,
                  config: MemoryAgentConfig = MemoryAgentConfig(), env_config: EnvConfig = EnvConfig(),
-                 verify: Detector | None = None):
+                 verify: Detector | None = None, route: RouteLengths | None = None):
         self.localize, self.policy, self.config, self.env_config = localize, policy, config, env_config
-        self.verify = verify
+        self.verify, self.route = verify, route
         # The policy and the visibility test read depth only; the detector adds the image it segments.
         self.sensors: tuple[str, ...] = ("depth",) + (tuple(verify.sensors) if verify is not None else ())
         cam = CameraConfig(width=env_config.width, height=env_config.height, hfov_deg=env_config.hfov_deg)
@@ -183,7 +189,8 @@ class MemoryAgent:
         self._pose.reset(episode)
         start = np.asarray(episode.start_position, np.float64)
         cands = self.localize(episode)
-        self.candidates = sorted(cands, key=lambda c: xz_dist(c.centre, start))
+        order, route = self._nearest_first(cands, start)
+        self.candidates = [cands[j] for j in order]
         rng = np.random.default_rng(0)  # deterministic subsample of each cloud
         self._clouds = [c.points[rng.permutation(len(c.points))[:self.config.max_projected_points]]
                         if len(c.points) > self.config.max_projected_points else c.points for c in self.candidates]
@@ -203,11 +210,23 @@ class MemoryAgent:
         self.checks: list[tuple[int, bool]] = []  # (step, detector confirmed) on the current target
         self.rejected: set[int] = set()  # id() of candidates that failed verification
         self.log: dict[str, Any] = {"candidates": [[round(float(v), 3) for v in c.centre] for c in self.candidates],
+                                    "routes": [log_value(route[j]) if np.isfinite(route[j]) else None for j in order],
                                     "events": [], **getattr(self.localize, "last", {})}
         self.goal = self._initial_goal(start) if self.candidates else None
         if self.verify is not None:
             self.verify.reset(episode)
         self.policy.reset()
+
+    def _nearest_first(self, cands: Sequence[GoalCandidate],
+                       position: np.ndarray) -> tuple[list[int], np.ndarray]:
+        """Indices of ``cands`` nearest first from ``position`` and the route lengths: by route length,
+        then (no route, inf) the straight line. A straight line through a wall can be a long walk (the desk
+        behind the bedroom wall); the pre-scan's walk is a path that exists."""
+        xz = [xz_dist(c.centre, position) for c in cands]
+        route = np.full(len(cands), np.inf)
+        if self.route is not None and len(cands) > 1:
+            route = np.asarray(self.route(position, cands), np.float64)
+        return sorted(range(len(cands)), key=lambda j: (float(route[j]), xz[j])), route
 
     def _initial_goal(self, position: np.ndarray) -> np.ndarray:
         cloud = self._clouds[self.current]
@@ -492,9 +511,9 @@ class MemoryAgent:
 
     def _switch(self, position: np.ndarray, reason: str = "stuck") -> None:
         """Next nearest remaining candidate (from here), fresh policy memory and history."""
-        remaining = list(range(self.current + 1, len(self.candidates)))
+        untried = list(range(self.current + 1, len(self.candidates)))
         # Re-sort the untried candidates by distance from where the agent now is.
-        remaining.sort(key=lambda j: xz_dist(self.candidates[j].centre, position))
+        remaining = [untried[k] for k in self._nearest_first([self.candidates[j] for j in untried], position)[0]]
         nxt = remaining[0]
         order = list(range(self.current + 1)) + remaining
         self.candidates = [self.candidates[j] for j in order]

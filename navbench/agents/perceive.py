@@ -9,6 +9,7 @@ as the split names it (a synonym or an unseen category name), never a hidden cat
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from navbench.localize.benchmark import PERCEPTION, ModelDirs
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import GeometryConfig, backproject, keep_view
 from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality
+from navbench.localize.route import KeyframeRoutes
 from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
 from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
 from navbench.scene.asset import load_scene
@@ -67,6 +69,7 @@ class SceneLocalizer:
             self.memory = load_or_build_memory(path, self.cfg.memory_root, self.cfg.prescan, stack.encoder)
             self._localizer = Localizer.from_perception(
                 self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
+            self.routes = KeyframeRoutes(self.memory.store, self.memory.config.camera_height)
             self._path = path
         t0 = time.perf_counter()
         candidates = self._localizer.localize(Query("object", text=episode.object_category))
@@ -75,6 +78,11 @@ class SceneLocalizer:
                      "memory_frames": st.frames, "memory_bytes": st.bytes,
                      "memory_build_s": round(st.build_seconds, 3)}
         return candidates
+
+    def route_lengths(self, position: np.ndarray, candidates: Sequence[GoalCandidate]) -> np.ndarray:
+        """Route lengths (m) from ``position`` to ``candidates`` over the memory of the scene last
+        localised in (:class:`~navbench.localize.route.KeyframeRoutes`); ``inf`` where there is none."""
+        return self.routes.lengths(position, candidates)
 
 
 class LiveDetector:

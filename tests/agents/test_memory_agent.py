@@ -508,3 +508,43 @@ def test_after_the_overrides_a_stop_on_a_refuted_target_becomes_a_look_around():
     # no checks at all (nothing to refute it): the bound holds and the STOP goes through
     agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(np.zeros((0, 3))), action=STOP)
     assert [agent.act(obs_at(hidden)) for _ in range(6)][5] == STOP
+
+
+def test_candidates_are_ordered_by_route_length_then_straight_line():
+    near_line = cand(plane_points(-2.0))  # nearest in a straight line, a long route (behind a wall)
+    near_route = cand(plane_points(-4.0))
+    no_route = cand(plane_points(-3.0))  # route unknown (inf): after the routed ones, by straight line
+    routes = {id(near_line): 12.0, id(near_route): 4.5, id(no_route): np.inf}
+    calls = []
+
+    def route(position, cands):
+        calls.append(np.asarray(position).copy())
+        return np.array([routes[id(c)] for c in cands])
+
+    agent = MemoryAgent(lambda ep: [near_line, no_route, near_route], ScriptedPolicy(MOVE_FORWARD),
+                        MemoryAgentConfig(), ENV, route=route)
+    agent.reset(EPISODE)
+    assert [id(c) for c in agent.candidates] == [id(near_route), id(near_line), id(no_route)]
+    assert agent.episode_log()["routes"] == [4.5, 12.0, None]
+    np.testing.assert_allclose(calls[0], EPISODE.start_position)
+    # Without a route the straight line decides, as before.
+    agent, _ = make_agent([near_line, no_route, near_route])
+    assert [id(c) for c in agent.candidates] == [id(near_line), id(no_route), id(near_route)]
+
+
+def test_a_switch_reorders_the_untried_candidates_by_route_from_where_the_agent_is():
+    a, b, c = (cand(plane_points(-2.0 - k)) for k in range(3))
+    from_start = {id(a): 1.0, id(b): 2.0, id(c): 3.0}
+    from_elsewhere = {id(a): 9.0, id(b): 8.0, id(c): 1.0}
+
+    def route(position, cands):
+        table = from_start if np.allclose(position, 0.0) else from_elsewhere
+        return np.array([table[id(x)] for x in cands])
+
+    agent = MemoryAgent(lambda ep: [a, b, c], ScriptedPolicy(TURN_LEFT), MemoryAgentConfig(), ENV, route=route)
+    agent.reset(EPISODE)
+    assert agent.candidates[0] is a
+    empty = wall_depth(0.5)
+    for _ in range(40):  # stuck turning in place, 1 m to the right of the start
+        agent.act(obs_at(empty, right=1.0))
+    assert agent.switches == 1 and agent.candidates[agent.current] is c

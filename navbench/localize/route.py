@@ -1,0 +1,130 @@
+"""Route lengths over the keyframe memory: how far a goal candidate is along where the pre-scan walked.
+
+The memory agent drives to its goal candidates nearest first. In a house the straight line is a poor
+"nearest": a desk just behind the bedroom wall is near in a straight line and a long walk round by the
+door. The memory knows where the camera went, and that is free space: the keyframes are posed along one
+continuous walk through every room, so consecutive keyframes (less than ``max_step`` apart: no gap in
+the walk) and any two keyframes within ``link_radius`` of each other are joined. ``link_radius`` is
+below the 0.36 m that two camera positions on either side of a wall are at least apart (twice the
+agent's radius), so no link crosses a wall.
+
+A point (the agent's floor position) enters this graph at the keyframes that saw it: its camera-height
+point projects into the keyframe's image within ``max_sight`` with nothing nearer in the stored depth
+(a line of sight, so the straight leg there is free at camera height), and at keyframes within
+``link_radius``. For the same reason two keyframes one of which sees the other's camera are joined
+(a straight segment instead of the walk's way round through room centres). A candidate is left at
+its supporting keyframes (:attr:`GoalCandidate.keyframe_ids`, which saw it). The route length is the
+shortest entry leg + walk + exit leg, all measured in xz.
+
+Only stored poses and depths are used: nothing reads the simulator's navigability or the episode's
+goals. A point no keyframe saw, or a candidate in a part of the graph the point's entries do not reach,
+gets ``inf`` (callers fall back to the straight line).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from navbench.localize.fusion import GoalCandidate
+from navbench.localize.geometry import project, world_to_camera
+from navbench.memory.store import KeyframeStore
+
+
+@dataclass(frozen=True)
+class RouteConfig:
+    link_radius: float = 0.35  # m (xz): keyframes this close are joined (module docstring)
+    max_step: float = 0.6  # m (xz): consecutive keyframes farther apart are a gap in the walk, not joined
+    max_sight: float = 6.0  # m: a keyframe sees a point only this far along its optical axis
+    depth_tolerance: float = 0.2  # m: the stored depth may be this much nearer than the point
+
+
+class KeyframeRoutes:
+    """Route lengths from a point to goal candidates over a keyframe store's pose graph."""
+
+    def __init__(self, store: KeyframeStore, camera_height: float, config: RouteConfig = RouteConfig()):
+        self.store, self.camera_height, self.config = store, float(camera_height), config
+        poses = store.poses()
+        n = len(poses)
+        self._positions = poses[:, :3, 3] if n else np.zeros((0, 3))
+        self._xz = self._positions[:, [0, 2]]
+        self._world_to_cam = np.stack([world_to_camera(p) for p in poses]) if n else np.zeros((0, 4, 4))
+        self._depth: dict[int, np.ndarray] = {}  # keyframe -> stored depth, loaded when first needed
+        self._graph: tuple[np.ndarray, np.ndarray] | None = None  # (edges, weights), built when first needed
+
+    def _visible(self, i: int, points: np.ndarray) -> np.ndarray:
+        """Which of ``points`` (M, 3) keyframe ``i`` has a line of sight to, within ``max_sight``."""
+        cfg, intr = self.config, self.store.intrinsics(i)
+        uv, z, in_view = project(points, intr.K, self._world_to_cam[i], intr.width, intr.height)
+        ok = in_view & (z <= cfg.max_sight)
+        if not ok.any():
+            return ok
+        depth = self._depth.get(i)
+        if depth is None:
+            depth = self._depth[i] = self.store.depth(i).astype(np.float16)
+        u = np.clip(np.rint(uv[ok, 0]).astype(int), 0, depth.shape[1] - 1)
+        v = np.clip(np.rint(uv[ok, 1]).astype(int), 0, depth.shape[0] - 1)
+        d = depth[v, u].astype(np.float64)
+        ok[ok] = (d == 0.0) | (d >= z[ok] - cfg.depth_tolerance)  # 0: no surface hit along the ray
+        return ok
+
+    def sees(self, point: np.ndarray) -> np.ndarray:
+        """Indices of the keyframes with a line of sight to ``point`` (world, any height) within ``max_sight``."""
+        T = self._world_to_cam
+        z = -(T[:, 2, :3] @ np.asarray(point, np.float64) + T[:, 2, 3])  # depth along each optical axis
+        near = np.flatnonzero((z > 0) & (z <= self.config.max_sight))
+        return np.asarray([i for i in near if self._visible(int(i), np.asarray(point, np.float64)[None])[0]],
+                          dtype=np.int64)
+
+    def graph(self) -> tuple[np.ndarray, np.ndarray]:
+        """The pose graph's undirected edges (E, 2) and their xz lengths (E,): consecutive keyframes,
+        keyframes within ``link_radius``, and keyframes one of which sees the other's camera."""
+        if self._graph is None:
+            n, cfg = len(self._xz), self.config
+            pairs = cKDTree(self._xz).query_pairs(cfg.link_radius, output_type="ndarray").reshape(-1, 2) \
+                if n else np.zeros((0, 2), np.int64)
+            step = np.stack([np.arange(n - 1), np.arange(1, n)], axis=1) if n > 1 else np.zeros((0, 2), np.int64)
+            step = step[np.linalg.norm(self._xz[step[:, 0]] - self._xz[step[:, 1]], axis=1) <= cfg.max_step]
+            # The walk alone makes long detours of short trips (it goes room centre to room centre);
+            # a line of sight between two cameras is a straight free segment at camera height.
+            sight = [np.stack([np.full(len(js), i), js], axis=1)
+                     for i in range(n) if len(js := np.flatnonzero(self._visible(i, self._positions)))]
+            edges = np.concatenate([pairs, step, *sight]).astype(np.int64)
+            edges = edges[edges[:, 0] != edges[:, 1]]
+            # Joined keyframes at one place (a look-around) get a tiny positive weight: csgraph drops
+            # explicit zeros as non-edges.
+            w = np.maximum(np.linalg.norm(self._xz[edges[:, 0]] - self._xz[edges[:, 1]], axis=1), 1e-6)
+            self._graph = edges, w
+        return self._graph
+
+    def lengths(self, position: np.ndarray, candidates: Sequence[GoalCandidate]) -> np.ndarray:
+        """Route length (m) from floor point ``position`` to each candidate; ``inf`` where there is none."""
+        out = np.full(len(candidates), np.inf)
+        n = len(self._xz)
+        if n == 0 or not len(candidates):
+            return out
+        position = np.asarray(position, np.float64)
+        eye = position + np.array([0.0, self.camera_height, 0.0])
+        near = np.flatnonzero(np.linalg.norm(self._xz - position[[0, 2]], axis=1) <= self.config.link_radius)
+        entries = np.union1d(self.sees(eye), near).astype(np.int64)
+        if not len(entries):
+            return out
+        edges, weights = self.graph()
+        # One extra node (n) for the query point, joined to its entries by the straight legs.
+        legs = np.maximum(np.linalg.norm(self._xz[entries] - position[[0, 2]], axis=1), 1e-6)
+        rows = np.concatenate([edges[:, 0], np.full(len(entries), n)])
+        cols = np.concatenate([edges[:, 1], entries])
+        graph = coo_matrix((np.concatenate([weights, legs]), (rows, cols)), shape=(n + 1, n + 1)).tocsr()
+        dist = dijkstra(graph, directed=False, indices=n)
+        for j, c in enumerate(candidates):
+            ids = np.asarray(c.keyframe_ids, dtype=np.int64)
+            ids = ids[(ids >= 0) & (ids < n)]
+            if len(ids):
+                exit_legs = np.linalg.norm(self._xz[ids] - np.asarray(c.centre, np.float64)[[0, 2]], axis=1)
+                out[j] = float(np.min(dist[ids] + exit_legs))
+        return out
