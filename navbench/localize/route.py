@@ -94,8 +94,9 @@ class KeyframeRoutes:
             # a line of sight between two cameras is a straight free segment at camera height.
             sight = [np.stack([np.full(len(js), i), js], axis=1)
                      for i in range(n) if len(js := np.flatnonzero(self._visible(i, self._positions)))]
-            edges = np.concatenate([pairs, step, *sight]).astype(np.int64)
-            edges = edges[edges[:, 0] != edges[:, 1]]
+            edges = np.sort(np.concatenate([pairs, step, *sight]).astype(np.int64), axis=1)
+            # Each pair once: a sparse matrix built from repeated (i, j) entries sums their weights.
+            edges = np.unique(edges[edges[:, 0] != edges[:, 1]], axis=0)
             # Joined keyframes at one place (a look-around) get a tiny positive weight: csgraph drops
             # explicit zeros as non-edges.
             w = np.maximum(np.linalg.norm(self._xz[edges[:, 0]] - self._xz[edges[:, 1]], axis=1), 1e-6)

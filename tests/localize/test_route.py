@@ -114,3 +114,11 @@ def test_a_real_prescan_walk_is_one_connected_route_never_shorter_than_the_strai
     straight = np.linalg.norm(np.stack([c.centre for c in cands])[:, [0, 2]] - start[[0, 2]], axis=1)
     assert np.all(np.isfinite(lengths))
     assert np.all(lengths >= straight - 1e-6)
+
+
+def test_a_pair_joined_several_ways_counts_its_length_once():
+    # Consecutive on the walk and within link_radius (two reasons to join), neither seeing the other.
+    r = KeyframeRoutes(FakeStore([pose_at(0.0, 0.0, 0.0), pose_at(0.3, 0.0, 0.0)]), camera_height=EYE)
+    edges, weights = r.graph()
+    assert edges.tolist() == [[0, 1]] and weights == pytest.approx([0.3])
+    assert r.lengths(np.array([0.0, 0.0, 0.0]), [candidate([0.3, 0.5, -1.0], 1)]) == pytest.approx([1.3])
