@@ -16,6 +16,7 @@ import argparse
 
 import numpy as np
 
+from navbench.agents.memory_agent import nearest_first
 from navbench.agents.perceive import SceneLocalizer
 from navbench.episodes.io import load_dataset
 from navbench.paths import EPISODES_DIR, SCENES_DIR
@@ -42,11 +43,8 @@ def main() -> None:
             grid, start = grids[ep.scene_id], np.asarray(ep.start_position, np.float64)
             geo = np.array([grid.geodesic_distance(start, grid.snap_point(c.centre, max_dist=1.5)[None])
                             for c in cands])
-            route = localizer.route_lengths(start, cands)
-            straight = np.array([np.hypot(*(c.centre - start)[[0, 2]]) for c in cands])
-            # the agent's order: route length, then (no route) the straight line
-            first = {"route": min(range(len(cands)), key=lambda j: (route[j], straight[j])),
-                     "straight": int(np.argmin(straight))}
+            first = {"route": nearest_first(cands, start, localizer.route_lengths)[0][0],
+                     "straight": nearest_first(cands, start, None)[0][0]}  # the agent's two orders
             for k, j in first.items():
                 excess[k].append(geo[j] - geo.min())
     n = len(excess["route"])

@@ -34,8 +34,9 @@ pre-scan walked), else the straight line (xz). Each step it:
    detector's recent checks refute becomes a turn to look again);
 6. when stuck (< ``stuck_progress`` m in ``stuck_window`` steps) or oscillating, switches to the
    next nearest candidate from where it is (at most ``max_switches`` times); with none left, it
-   recovers instead: a fresh policy memory, a 90 deg turn towards the more open side and two steps forward; stuck again
-   where the last recovery started, it backs out the way it came instead (``back_out``).
+   recovers instead: a fresh policy memory, a 90 deg turn towards the more open side and two steps
+   forward; stuck again where the last recovery started, it backs out the way it came instead
+   (``back_out``).
 
 Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
 """
@@ -171,6 +172,18 @@ class Detector(Protocol):
 RouteLengths = Callable[[np.ndarray, Sequence[GoalCandidate]], np.ndarray]
 
 
+def nearest_first(cands: Sequence[GoalCandidate], position: np.ndarray,
+                  route: RouteLengths | None) -> tuple[list[int], np.ndarray]:
+    """Indices of ``cands`` nearest first from ``position``, and their route lengths: by route length,
+    then (no route, inf) the straight line (xz). A straight line through a wall can be a long walk (the
+    desk behind the bedroom wall); the pre-scan's walk is a path that exists."""
+    route_m = np.full(len(cands), np.inf)
+    if route is not None and len(cands) > 1:
+        route_m = np.asarray(route(position, cands), np.float64)
+    straight = [xz_dist(c.centre, position) for c in cands]
+    return sorted(range(len(cands)), key=lambda j: (float(route_m[j]), straight[j])), route_m
+
+
 class MemoryAgent:
     def __init__(self, localize: Callable[[Episode], list[GoalCandidate]], policy: StepPolicy,
                  config: MemoryAgentConfig = MemoryAgentConfig(), env_config: EnvConfig = EnvConfig(),
@@ -189,7 +202,7 @@ class MemoryAgent:
         self._pose.reset(episode)
         start = np.asarray(episode.start_position, np.float64)
         cands = self.localize(episode)
-        order, route = self._nearest_first(cands, start)
+        order, route = nearest_first(cands, start, self.route)
         self.candidates = [cands[j] for j in order]
         rng = np.random.default_rng(0)  # deterministic subsample of each cloud
         self._clouds = [c.points[rng.permutation(len(c.points))[:self.config.max_projected_points]]
@@ -216,17 +229,6 @@ class MemoryAgent:
         if self.verify is not None:
             self.verify.reset(episode)
         self.policy.reset()
-
-    def _nearest_first(self, cands: Sequence[GoalCandidate],
-                       position: np.ndarray) -> tuple[list[int], np.ndarray]:
-        """Indices of ``cands`` nearest first from ``position`` and the route lengths: by route length,
-        then (no route, inf) the straight line. A straight line through a wall can be a long walk (the desk
-        behind the bedroom wall); the pre-scan's walk is a path that exists."""
-        xz = [xz_dist(c.centre, position) for c in cands]
-        route = np.full(len(cands), np.inf)
-        if self.route is not None and len(cands) > 1:
-            route = np.asarray(self.route(position, cands), np.float64)
-        return sorted(range(len(cands)), key=lambda j: (float(route[j]), xz[j])), route
 
     def _initial_goal(self, position: np.ndarray) -> np.ndarray:
         cloud = self._clouds[self.current]
@@ -513,7 +515,7 @@ class MemoryAgent:
         """Next nearest remaining candidate (from here), fresh policy memory and history."""
         untried = list(range(self.current + 1, len(self.candidates)))
         # Re-sort the untried candidates by distance from where the agent now is.
-        remaining = [untried[k] for k in self._nearest_first([self.candidates[j] for j in untried], position)[0]]
+        remaining = [untried[k] for k in nearest_first([self.candidates[j] for j in untried], position, self.route)[0]]
         nxt = remaining[0]
         order = list(range(self.current + 1)) + remaining
         self.candidates = [self.candidates[j] for j in order]

@@ -75,11 +75,10 @@ class KeyframeRoutes:
 
     def sees(self, point: np.ndarray) -> np.ndarray:
         """Indices of the keyframes with a line of sight to ``point`` (world, any height) within ``max_sight``."""
-        T = self._world_to_cam
-        z = -(T[:, 2, :3] @ np.asarray(point, np.float64) + T[:, 2, 3])  # depth along each optical axis
+        T, p = self._world_to_cam, np.asarray(point, np.float64).reshape(1, 3)
+        z = -(T[:, 2, :3] @ p[0] + T[:, 2, 3])  # depth along each optical axis
         near = np.flatnonzero((z > 0) & (z <= self.config.max_sight))
-        return np.asarray([i for i in near if self._visible(int(i), np.asarray(point, np.float64)[None])[0]],
-                          dtype=np.int64)
+        return np.asarray([i for i in near if self._visible(int(i), p)[0]], dtype=np.int64)
 
     def graph(self) -> tuple[np.ndarray, np.ndarray]:
         """The pose graph's undirected edges (E, 2) and their xz lengths (E,): consecutive keyframes,
