@@ -408,6 +408,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="ppo: scale the success bonus by the episode's SPL (default: a flat 2.5)")
     tr.add_argument("--bc-weight", type=float,
                     help="ppo: weight of a cross-entropy term to the geodesic expert's actions (default 0: off)")
+    tr.add_argument("--replay-failures", type=float,
+                    help="ppo: probability that a finished episode is followed by a replay of an earlier failed one "
+                         "(default 0: off)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
     tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)

@@ -76,6 +76,14 @@ class PPOConfig:
     # PPO alone learns to leave the pinned spots DAgger cannot, but on habitat's step-counting reward it
     # also trades turns in place for longer curves; the expert's labels pull the rest towards its paths.
     bc_weight: float = 0.0
+    # Probability that an episode ending in a rollout is followed by a replay of an earlier failed one
+    # (drawn at random from the last ``replay_buffer`` failures, each replayed once) instead of a fresh
+    # draw: the cloned policy already succeeds on ~92% of train episodes, so most rollout steps teach it
+    # little, while its failures (wedged in a slit between furniture and a wall, turning in place at a
+    # dead end) recur on val. Prioritised level replay (Jiang et al., 2021) in its simplest form.
+    # 0 = off. The buffer restarts empty on --resume.
+    replay_failures: float = 0.0
+    replay_buffer: int = 64
     expert_success_distance: float = 0.1  # the shipped policy's DAgger expert (policies/README.md)
     expert_margin: float = 0.15
     seed: int = 0
@@ -110,8 +118,12 @@ def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: 
 class Rollout:
     """Steps ``envs`` with actions sampled from the policy and keeps what a PPO update needs."""
 
-    def __init__(self, envs, cfg: PPOConfig, policy: PointNavResNetPolicy, generator: torch.Generator):
+    def __init__(self, envs, cfg: PPOConfig, policy: PointNavResNetPolicy, generator: torch.Generator,
+                 rng: np.random.Generator | None = None):
         self.envs, self.cfg, self.policy, self.gen = envs, cfg, policy, generator
+        self.rng = rng if rng is not None else np.random.default_rng(cfg.seed)
+        self.failed: list = []  # episodes that ended without success, oldest first (replay_failures)
+        self.replaying = [False] * len(envs)  # whether each env's current episode is a replay
         n = len(envs)
         self.obs = [env.reset()[0] for env in envs]
         self.dist = np.array([env.distance_to_goal() for env in envs])
@@ -125,6 +137,18 @@ class Rollout:
     def _expert(self, env) -> GreedyFollower:
         return GreedyFollower(env.navgrid, env.goal_points, self.cfg.expert_success_distance,
                               clearance_margin=self.cfg.expert_margin)
+
+    def _next_episode(self, env, success: bool) -> tuple[dict, bool]:
+        """Reset ``env`` after an episode: (first observation, whether it is a replay). A replay of an
+        earlier failure with probability ``replay_failures`` (config comment), else the env's own draw."""
+        cfg = self.cfg
+        if cfg.replay_failures > 0:
+            if not success:
+                self.failed = (self.failed + [env.episode])[-cfg.replay_buffer:]
+            if self.failed and self.rng.random() < cfg.replay_failures:
+                episode = self.failed.pop(int(self.rng.integers(len(self.failed))))
+                return env.reset(options={"episode": episode})[0], True
+        return env.reset()[0], False
 
     def _step_policy(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Encoder output, point goal, logits, value and next recurrent state for the current observations."""
@@ -161,8 +185,9 @@ class Rollout:
                 self.dist[i], self.walked[i] = d, walked
                 if term or trunc:
                     dones[t, i] = 1.0
-                    self.finished.append({"success": info["success"], "spl": info["spl"]})
-                    self.obs[i], _ = env.reset()
+                    self.finished.append({"success": info["success"], "spl": info["spl"],
+                                          "replay": self.replaying[i]})
+                    self.obs[i], self.replaying[i] = self._next_episode(env, bool(info["success"]))
                     self.dist[i], self.walked[i] = env.distance_to_goal(), 0.0
                     self.hidden[i] = 0.0
                     self.prev[i] = 0
@@ -262,24 +287,27 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
     rng = np.random.default_rng([cfg.seed, start])
     gen = torch.Generator().manual_seed(int(rng.integers(2**62)))
     envs = make_envs(cfg.num_envs, cfg.train_split, cfg.seed * 7919 + start)
-    rollout = Rollout(envs, cfg, policy, gen)
+    rollout = Rollout(envs, cfg, policy, gen, np.random.default_rng([cfg.seed, start, 1]))
     t_start = time.time() - wall0
     last: dict[str, float] = {}
     window: list[dict] = []
+    replayed = 0  # replayed episodes finished in this process (the count restarts on --resume)
     for u in range(start, cfg.updates):
         t0 = time.time()
         data = rollout.collect()
         t_collect = time.time() - t0
         t0 = time.time()
         stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng)
-        window = (window + rollout.finished)[-100:]
+        # success figures over fresh draws only: replays are failures picked on purpose
+        window = (window + [e for e in rollout.finished if not e["replay"]])[-100:]
+        replayed += sum(e["replay"] for e in rollout.finished)
         rollout.finished = []
         frames += int(data["action"].numel())
         last = {"update": u + 1, "frames": frames, "actor": int(u >= cfg.critic_warmup),
                 "reward_per_step": float(data["reward"].mean()),
                 "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
                 "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan"),
-                "episodes": len(window), **stats, "collect_s": t_collect, "train_s": time.time() - t0,
+                "episodes": len(window), "replayed": replayed, **stats, "collect_s": t_collect, "train_s": time.time() - t0,
                 "wall_s": time.time() - t_start}
         log_every(log_row(log_path, last, digits=4))
         if (u + 1) % cfg.save_every == 0 or u + 1 == cfg.updates:

@@ -99,3 +99,42 @@ def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_toward
     assert last < 0.8 * first  # 1.39 (uniform over 4 actions) -> 0.98 here
     assert "bc_loss" not in ppo_update(policy, opt, data, PPOConfig(num_minibatches=1), actor=True,
                                        rng=np.random.default_rng(0))
+
+
+class _Episodes:
+    """A stand-in env for the replay logic: fresh draws are numbered, a replay resets to the one given."""
+
+    def __init__(self):
+        self.draws, self.episode = 0, None
+
+    def reset(self, options=None):
+        if options and "episode" in options:
+            self.episode = options["episode"]
+        else:
+            self.draws += 1
+            self.episode = f"fresh{self.draws}"
+        return {"episode": self.episode}, {}
+
+
+def test_replay_failures_brings_back_failed_episodes_once_each_and_never_successes():
+    env = _Episodes()
+    env.reset()
+    always = Rollout.__new__(Rollout)  # only the replay bookkeeping is exercised: no policy, no rendering
+    always.cfg, always.rng, always.failed = PPOConfig(replay_failures=1.0, replay_buffer=2), np.random.default_rng(0), []
+    obs, replay = always._next_episode(env, success=True)  # nothing failed yet: a fresh draw
+    assert (obs["episode"], replay) == ("fresh2", False)
+    obs, replay = always._next_episode(env, success=False)  # fresh2 failed: replayed at once
+    assert (obs["episode"], replay) == ("fresh2", True) and always.failed == []
+    obs, replay = always._next_episode(env, success=True)  # the replay succeeded: not queued again
+    assert (obs["episode"], replay) == ("fresh3", False)
+
+    queued = Rollout.__new__(Rollout)  # queues failures but (practically) never replays them
+    queued.cfg, queued.rng, queued.failed = PPOConfig(replay_failures=1e-12, replay_buffer=2), np.random.default_rng(0), []
+    for _ in range(3):  # three failures into a buffer of two: the oldest is dropped
+        queued._next_episode(env, success=False)
+    assert queued.failed == ["fresh3", "fresh4", "fresh5"][1:]
+
+    never = Rollout.__new__(Rollout)
+    never.cfg, never.rng, never.failed = PPOConfig(), np.random.default_rng(0), []
+    assert [never._next_episode(env, success=False)[1] for _ in range(5)] == [False] * 5
+    assert never.failed == [] and env.episode == "fresh11"
