@@ -307,8 +307,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
                 "reward_per_step": float(data["reward"].mean()),
                 "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
                 "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan"),
-                "episodes": len(window), "replayed": replayed, **stats, "collect_s": t_collect, "train_s": time.time() - t0,
-                "wall_s": time.time() - t_start}
+                "episodes": len(window), **({"replayed": replayed} if cfg.replay_failures > 0 else {}), **stats,
+                "collect_s": t_collect, "train_s": time.time() - t0, "wall_s": time.time() - t_start}
         log_every(log_row(log_path, last, digits=4))
         if (u + 1) % cfg.save_every == 0 or u + 1 == cfg.updates:
             save_checkpoint(out, policy, {"ppo_config": dataclasses.asdict(cfg), "init": str(init), "frames": frames,

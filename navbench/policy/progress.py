@@ -7,10 +7,18 @@ from pathlib import Path
 
 
 def log_row(path: Path, row: dict, digits: int = 4) -> str:
-    """Append ``row`` to the CSV at ``path`` (header on first write); return it as ``key=value`` text."""
-    write_header = not path.exists()
+    """Append ``row`` to the CSV at ``path`` (header on first write); return it as ``key=value`` text.
+
+    A resumed run appends under the header already in the file, so its columns stay aligned even if this
+    version logs other keys: a key the file has no column for goes to the echo only, a missing one is blank.
+    """
+    write_header = not path.exists() or path.stat().st_size == 0
+    fields = list(row)
+    if not write_header:
+        with open(path, newline="") as f:
+            fields = next(csv.reader(f), fields)
     with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(row))
+        w = csv.DictWriter(f, fieldnames=fields, restval="", extrasaction="ignore")
         if write_header:
             w.writeheader()
         w.writerow({k: (round(v, digits + 1) if isinstance(v, float) else v) for k, v in row.items()})
