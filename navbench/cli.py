@@ -88,7 +88,8 @@ def make_memory(cfg):
                                   visibility_stop=o.get("visibility_stop", True),
                                   recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0,
                                   goal_standoff=MemoryAgentConfig.goal_standoff if o.get("standoff", True) else 0.0,
-                                  view_detour=o.get("detour", True))
+                                  view_detour=o.get("detour", True),
+                                  recovery_probes=MemoryAgentConfig.recovery_probes if o.get("probe", True) else 0)
     pcfg = _perception_config(cfg)
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
@@ -190,7 +191,7 @@ def _agent_options(args) -> dict:
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
                     goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
                     verify=not args.no_verify, recovery=not args.no_recovery, standoff=not args.no_standoff,
-                    detour=not args.no_detour, route=not args.no_route,
+                    detour=not args.no_detour, route=not args.no_route, probe=not args.no_probe,
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
@@ -207,6 +208,7 @@ def _label(args, cfg) -> str:
                                       ("norecover", not o.get("recovery", True)),
                                       ("nostandoff", not o.get("standoff", True)),
                                       ("nodetour", not o.get("detour", True)), ("noroute", not o.get("route", True)),
+                                      ("noprobe", not o.get("probe", True)),
                                       ("allframes", o["all_frames"]))
                   if on]
         if o["noise"] != "none":
@@ -330,6 +332,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="memory agent: no detour to a keyframe's view of a target hidden behind a wall")
     m.add_argument("--no-route", action="store_true",
                    help="memory agent: order candidates by straight-line distance, not by route over the keyframe poses")
+    m.add_argument("--no-probe", action="store_true",
+                   help="memory agent: a recovery whose first step is refused does not turn on to try other headings")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")

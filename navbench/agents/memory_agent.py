@@ -36,7 +36,8 @@ pre-scan walked), else the straight line (xz). Each step it:
    next nearest candidate from where it is (at most ``max_switches`` times); with none left, it
    recovers instead: a fresh policy memory, a 90 deg turn towards the more open side and two steps
    forward; stuck again where the last recovery started, it backs out the way it came instead
-   (``back_out``).
+   (``back_out``); a refused first step turns on by 30 deg and tries again until one moves
+   (``recovery_probes``).
 
 Every decision is appended to ``episode_log()`` and lands in ``episodes.jsonl``.
 """
@@ -98,6 +99,15 @@ class MemoryAgentConfig:
     # the agent came is known free: it turns to face opposite the heading of its last forward step that
     # moved it and steps forward recovery_forward times.
     back_out: bool = True
+    # A recovery whose first FORWARD is refused (moves < probe_min_move) turns once more the same way and
+    # tries again, up to recovery_probes times (11: the full circle of 30 deg headings), then steps forward
+    # the rest of recovery_forward on the heading that moved. Starts wedged beside furniture or in a slit
+    # between furniture and a wall fail most (benchmarks/start_clearance.py: 25% of val_unseen starts within
+    # 0.1 m of an obstacle, 6% of the others): no sliding, so only a few headings move at all (val_unseen
+    # episode 59: only the reverse one), and a fixed 90 deg turn kept landing on refused ones until the step
+    # limit. The agent reads only its own GPS to tell a refused step. 0 = the fixed manoeuvre.
+    recovery_probes: int = 11
+    probe_min_move: float = 0.1
     # Verification on arrival: every frame that sees the target from within near_radius is segmented
     # for the goal text by the same perception backend (the frontier agent's live detector); a check
     # passes when the detection lies within verify_radius of the target's cloud. STOP needs a majority
@@ -215,6 +225,9 @@ class MemoryAgent:
         self.positions: list[np.ndarray] = []
         self.turns: list[int] = []
         self.recovery: list[int] = []  # queued actions of a recovery manoeuvre
+        self.recovery_turn = TURN_LEFT  # the manoeuvre's turn, repeated while its FORWARD is refused
+        self.probes_left = 0  # further headings the current recovery may try (recovery_probes)
+        self.probe_pending = False  # the last action was the recovery's first FORWARD: check it moved
         self.recovered_at: np.ndarray | None = None  # where the last recovery started
         self.move_yaw: float | None = None  # heading of the last step that moved the agent
         self.verify_fails = 0  # failed arrival checks on the current target
@@ -377,8 +390,19 @@ class MemoryAgent:
                     self._event("opportunistic_stop", candidate=j)
                     return STOP
 
+        if self.probe_pending:
+            self.probe_pending = False
+            if xz_dist(position, self.positions[-2]) < cfg.probe_min_move and self.probes_left > 0:
+                self.probes_left -= 1  # refused: the next heading round, forward again
+                self.recovery = [self.recovery_turn, MOVE_FORWARD] + self.recovery
+                self._event("recover_probe", left=self.probes_left)
+            else:
+                self.probes_left = 0  # moved (or out of tries): the rest of the manoeuvre as queued
         if self.recovery:
-            return self.recovery.pop(0)
+            action = self.recovery.pop(0)
+            if action == MOVE_FORWARD and self.probes_left > 0:
+                self.probe_pending = True  # judged on the next call, from the GPS
+            return action
         if self._stuck_or_oscillating():
             if self.switches < cfg.max_switches and self.current + 1 < len(self.candidates):
                 self._switch(position)
@@ -503,12 +527,14 @@ class MemoryAgent:
             n = round(wrap_angle(self.move_yaw + math.pi - yaw) / math.radians(self.env_config.turn_angle_deg))
             turn = TURN_LEFT if n > 0 else TURN_RIGHT  # TURN_LEFT raises the yaw
             self.recovery = [turn] * abs(n) + [MOVE_FORWARD] * cfg.recovery_forward
+            self.recovery_turn, self.probes_left = turn, cfg.recovery_probes
             self._event("recover", turn="back", turns=n)
             return
         third = depth.shape[1] // 3
         left, right = float(depth[:, :third].mean()), float(depth[:, -third:].mean())
         turn = TURN_LEFT if left >= right else TURN_RIGHT
         self.recovery = [turn] * cfg.recovery_turns + [MOVE_FORWARD] * cfg.recovery_forward
+        self.recovery_turn, self.probes_left = turn, cfg.recovery_probes
         self._event("recover", turn="left" if turn == TURN_LEFT else "right")
 
     def _switch(self, position: np.ndarray, reason: str = "stuck") -> None:

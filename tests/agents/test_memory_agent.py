@@ -277,7 +277,8 @@ def open_on_the_right():
 
 
 def test_recovery_when_stuck_with_no_candidate_left():
-    agent, policy = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT)
+    # the fixed manoeuvre (the agent is pinned: with probing on, its refused step would turn on)
+    agent, policy = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=0)
     actions = [agent.act(obs_at(open_on_the_right())) for _ in range(37)]
     # stuck at step 31 (no progress, no candidate to switch to): turn 90 deg towards the open side,
     # two steps forward, with fresh policy memory; then the policy drives again
@@ -295,7 +296,7 @@ def test_recovery_when_stuck_with_no_candidate_left():
 
 def test_stuck_again_where_the_last_recovery_started_backs_out_the_way_it_came():
     def run(**cfg):
-        agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, **cfg)
+        agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=0, **cfg)
         # one step to the right (+x, heading -90 deg), then pinned there whatever the agent does
         actions = [agent.act(obs_at(open_on_the_right()))]
         actions += [agent.act(obs_at(open_on_the_right(), right=0.25)) for _ in range(65)]
@@ -311,6 +312,44 @@ def test_stuck_again_where_the_last_recovery_started_backs_out_the_way_it_came()
                        {"step": 61, "event": "recover", "turn": "back", "turns": 3}]
     _, actions = run(back_out=False)  # the ablation repeats the open-side turn
     assert actions[60:65] == [TURN_RIGHT] * 3 + [MOVE_FORWARD] * 2
+
+
+def drive(agent, steps, free_after_right_turns):
+    """Step ``agent`` with a scripted body: a FORWARD moves 0.25 m only once the agent has turned right
+    at least ``free_after_right_turns`` times in all (the one free heading), otherwise it is refused."""
+    right, moved, actions = 0, 0.0, []
+    obs = obs_at(open_on_the_right())
+    for _ in range(steps):
+        a = agent.act(obs)
+        actions.append(a)
+        right += a == TURN_RIGHT
+        if a == MOVE_FORWARD and right >= free_after_right_turns:
+            moved += 0.25
+        obs = obs_at(open_on_the_right(), right=moved)
+    return actions
+
+
+def test_a_refused_recovery_step_turns_on_until_a_heading_moves():
+    agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT)
+    actions = drive(agent, 40, free_after_right_turns=5)
+    assert actions[:30] == [TURN_LEFT] * 30  # the policy turns in place: stuck at step 31
+    # 90 deg towards the open side, FORWARD refused; 30 deg more, refused; 30 deg more, it moves: the
+    # rest of the manoeuvre's two FORWARDs follows on that heading, then the policy drives again
+    R, F = TURN_RIGHT, MOVE_FORWARD
+    assert actions[30:39] == [R, R, R, F, R, F, R, F, F]
+    assert actions[39] == TURN_LEFT
+    probes = [e for e in agent.episode_log()["events"] if e["event"] == "recover_probe"]
+    assert [e["left"] for e in probes] == [10, 9]
+
+
+def test_probing_is_bounded_and_the_ablation_keeps_the_fixed_manoeuvre():
+    R, F = TURN_RIGHT, MOVE_FORWARD
+    agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=2)
+    actions = drive(agent, 41, free_after_right_turns=99)  # nothing ever moves
+    assert actions[30:39] == [R, R, R, F, R, F, R, F, F] and actions[39:] == [TURN_LEFT] * 2
+    agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=0)
+    actions = drive(agent, 37, free_after_right_turns=99)
+    assert actions[30:35] == [R, R, R, F, F] and actions[35:] == [TURN_LEFT] * 2
 
 
 def test_stop_still_wins_during_recovery():
