@@ -102,10 +102,11 @@ class MemoryAgentConfig:
     # A recovery whose first FORWARD is refused (moves < probe_min_move) turns once more the same way and
     # tries again, up to recovery_probes times (11: the full circle of 30 deg headings), then steps forward
     # the rest of recovery_forward on the heading that moved. Starts wedged beside furniture or in a slit
-    # between furniture and a wall fail most (benchmarks/start_clearance.py: 25% of val_unseen starts within
-    # 0.1 m of an obstacle, 6% of the others): no sliding, so only a few headings move at all (val_unseen
-    # episode 59: only the reverse one), and a fixed 90 deg turn kept landing on refused ones until the step
-    # limit. The agent reads only its own GPS to tell a refused step. 0 = the fixed manoeuvre.
+    # between furniture and a wall fail most (benchmarks/start_clearance.py: 25% of the val_unseen starts
+    # within 0.1 m of the navigable area's edge, 6% of the others): no sliding, so only a few headings move
+    # at all (val_unseen episode 59: only the reverse one), and a fixed 90 deg turn kept landing on refused
+    # ones until the step limit. The agent reads only its own GPS to tell a refused step. 0 = the fixed
+    # manoeuvre.
     recovery_probes: int = 11
     probe_min_move: float = 0.1
     # Verification on arrival: every frame that sees the target from within near_radius is segmented

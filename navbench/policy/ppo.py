@@ -77,11 +77,11 @@ class PPOConfig:
     # also trades turns in place for longer curves; the expert's labels pull the rest towards its paths.
     bc_weight: float = 0.0
     # Probability that an episode ending in a rollout is followed by a replay of an earlier failed one
-    # (drawn at random from the last ``replay_buffer`` failures, each replayed once) instead of a fresh
-    # draw: the cloned policy already succeeds on ~92% of train episodes, so most rollout steps teach it
-    # little, while its failures (wedged in a slit between furniture and a wall, turning in place at a
-    # dead end) recur on val. Prioritised level replay (Jiang et al., 2021) in its simplest form.
-    # 0 = off. The buffer restarts empty on --resume.
+    # (drawn at random from the last ``replay_buffer`` failures; a replay leaves the buffer and comes back
+    # only if it fails again) instead of a fresh draw: the cloned policy already succeeds on ~92% of train
+    # episodes, so most rollout steps teach it little, while its failures (wedged in a slit between
+    # furniture and a wall, turning in place at a dead end) recur on val. Prioritised level replay (Jiang
+    # et al., 2021) in its simplest form. 0 = off. The buffer restarts empty on --resume.
     replay_failures: float = 0.0
     replay_buffer: int = 64
     expert_success_distance: float = 0.1  # the shipped policy's DAgger expert (policies/README.md)
