@@ -25,15 +25,13 @@ from navbench.episodes.io import load_dataset
 from navbench.eval.runner import read_records
 from navbench.paths import SCENES_DIR, split_file
 from navbench.scene.cache import load_scene_and_navgrid
-from navbench.scene.navigability import NavGridConfig
 
 BINS = (0.0, 0.1, 0.2, np.inf)  # metres of clearance: <= 0.1, (0.1, 0.2], > 0.2
 
 
 def start_clearances(episodes_file: str, scene_dir: Path) -> dict[str, float]:
     """Episode id -> clearance (m) of its start on the scene's navigability grid."""
-    env = EnvConfig()
-    cfg = NavGridConfig(agent_height=env.agent_height, agent_radius=env.agent_radius)
+    cfg = EnvConfig().nav_grid_config()  # the grid the env moves the agent on
     grids: dict[str, tuple] = {}
     out = {}
     for ep in load_dataset(episodes_file).episodes:

@@ -22,7 +22,6 @@ from navbench.env.config import EnvConfig
 from navbench.episodes.types import Episode
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.follower import GreedyFollower
-from navbench.scene.navigability import NavGridConfig
 from navbench.scene.optimistic import OptimisticFollower
 from navbench.scene.pose import quat_from_yaw
 
@@ -34,8 +33,7 @@ class OracleAgent:
         self.scene_dir = Path(scene_dir)
         self.success_distance = success_distance
         self.env_config = env_config
-        self.nav_config = NavGridConfig(agent_height=env_config.agent_height, agent_radius=env_config.agent_radius,
-                                        max_climb=env_config.max_climb, cell_size=env_config.cell_size)
+        self.nav_config = env_config.nav_grid_config()
         self._pose = PoseTracker()
         self._grids: dict[Path, object] = {}
 

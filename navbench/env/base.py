@@ -22,7 +22,7 @@ from navbench.paths import SCENES_DIR
 from navbench.render.renderer import CameraConfig, Renderer
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid
-from navbench.scene.navigability import NavGrid, NavGridConfig
+from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat
 
 
@@ -49,8 +49,7 @@ class NavEnv(gym.Env):
         self.scene_dir = Path(scene_dir) if scene_dir is not None else SCENES_DIR
         self.success_distance = (self.config.success_distance if self.config.success_distance is not None
                                  else SUCCESS_DISTANCE[self.task])
-        self.nav_config = NavGridConfig(agent_height=self.config.agent_height, agent_radius=self.config.agent_radius,
-                                        max_climb=self.config.max_climb, cell_size=self.config.cell_size)
+        self.nav_config = self.config.nav_grid_config()
         self.camera = CameraConfig(width=self.config.width, height=self.config.height, hfov_deg=self.config.hfov_deg)
         self.action_space = spaces.Discrete(4)
         self.observation_space = spaces.Dict(self._observation_spaces())

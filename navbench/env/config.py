@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from navbench.scene.navigability import NavGridConfig
 
 # Habitat's action ids.
 STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
@@ -40,3 +44,10 @@ class EnvConfig:
     # infrastructure
     cell_size: float = 0.05
     gl_platform: str = "osmesa"  # or "egl"
+
+    def nav_grid_config(self) -> "NavGridConfig":
+        """The navigability grid this body moves on: its height, radius and climb, at ``cell_size``."""
+        # imported here: this module is read by the CLI at start-up, the grid's module pulls trimesh and cv2
+        from navbench.scene.navigability import NavGridConfig
+        return NavGridConfig(agent_height=self.agent_height, agent_radius=self.agent_radius,
+                             max_climb=self.max_climb, cell_size=self.cell_size)

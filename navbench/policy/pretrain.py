@@ -42,7 +42,7 @@ from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.progress import log_row
 from navbench.render.renderer import CameraConfig, Renderer
 from navbench.scene.cache import load_scene_and_navgrid
-from navbench.scene.navigability import NavGrid, NavGridConfig
+from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
 
 
@@ -103,8 +103,7 @@ def generate(cfg: PretrainConfig, env_cfg: EnvConfig = EnvConfig(rgb=False)) -> 
     """Render frames at random poses in the bundled train houses with their targets (seeded)."""
     rng = np.random.default_rng(cfg.seed)
     fwd, right = patch_offsets(cfg.patch_cells, cfg.patch_cell_size)
-    nav_cfg = NavGridConfig(agent_height=env_cfg.agent_height, agent_radius=env_cfg.agent_radius,
-                            max_climb=env_cfg.max_climb, cell_size=env_cfg.cell_size)
+    nav_cfg = env_cfg.nav_grid_config()
     camera = CameraConfig(width=env_cfg.width, height=env_cfg.height, hfov_deg=env_cfg.hfov_deg)
     depth, free, patch = [], [], []
     for scene in sorted((SCENES_DIR / "houses" / "train").glob("*.glb")):
