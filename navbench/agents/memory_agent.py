@@ -228,7 +228,9 @@ class MemoryAgent:
         self.recovery: list[int] = []  # queued actions of a recovery manoeuvre
         self.recovery_turn = TURN_LEFT  # the manoeuvre's turn, repeated while its FORWARD is refused
         self.probes_left = 0  # further headings the current recovery may try (recovery_probes)
-        self.probe_pending = False  # the last action was the recovery's first FORWARD: check it moved
+        # where the recovery's probing FORWARD was taken from (None: no probe to judge). Kept apart from
+        # positions, which a candidate switch clears.
+        self.probe_from: np.ndarray | None = None
         self.recovered_at: np.ndarray | None = None  # where the last recovery started
         self.move_yaw: float | None = None  # heading of the last step that moved the agent
         self.verify_fails = 0  # failed arrival checks on the current target
@@ -391,9 +393,10 @@ class MemoryAgent:
                     self._event("opportunistic_stop", candidate=j)
                     return STOP
 
-        if self.probe_pending:
-            self.probe_pending = False
-            if xz_dist(position, self.positions[-2]) < cfg.probe_min_move and self.probes_left > 0:
+        if self.probe_from is not None:
+            moved = xz_dist(position, self.probe_from)
+            self.probe_from = None
+            if moved < cfg.probe_min_move and self.probes_left > 0:
                 self.probes_left -= 1  # refused: the next heading round, forward again
                 self.recovery = [self.recovery_turn, MOVE_FORWARD] + self.recovery
                 self._event("recover_probe", left=self.probes_left)
@@ -402,7 +405,7 @@ class MemoryAgent:
         if self.recovery:
             action = self.recovery.pop(0)
             if action == MOVE_FORWARD and self.probes_left > 0:
-                self.probe_pending = True  # judged on the next call, from the GPS
+                self.probe_from = position  # judged on the next call, from the GPS
             return action
         if self._stuck_or_oscillating():
             if self.switches < cfg.max_switches and self.current + 1 < len(self.candidates):

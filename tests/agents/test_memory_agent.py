@@ -352,6 +352,15 @@ def test_probing_is_bounded_and_the_ablation_keeps_the_fixed_manoeuvre():
     assert actions[30:35] == [R, R, R, F, F] and actions[35:] == [TURN_LEFT] * 2
 
 
+def test_a_probe_is_judged_even_after_a_candidate_switch_cleared_the_position_history():
+    agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT)
+    agent.recovery, agent.recovery_turn, agent.probes_left = [MOVE_FORWARD], TURN_RIGHT, 3
+    assert agent.act(obs_at(open_on_the_right())) == MOVE_FORWARD  # the probe
+    agent.positions.clear()  # as _switch does, e.g. on a rejected target earlier in the next call
+    assert agent.act(obs_at(open_on_the_right())) == TURN_RIGHT  # refused: the next heading
+    assert agent.act(obs_at(open_on_the_right())) == MOVE_FORWARD
+
+
 def test_stop_still_wins_during_recovery():
     agent, _ = make_agent([cand(plane_points(-0.7))], action=TURN_LEFT)
     agent.recovery = [TURN_RIGHT, MOVE_FORWARD]
