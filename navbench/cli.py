@@ -49,7 +49,8 @@ def make_random(cfg):
 
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
-    return PointNavAgent(cfg.agent_options.get("checkpoint"), num_envs=max(1, cfg.envs_per_worker))
+    return PointNavAgent(cfg.agent_options.get("checkpoint"), num_envs=max(1, cfg.envs_per_worker),
+                         sample=cfg.agent_options.get("sample_actions", False), seed=cfg.seed)
 
 
 def scan_config(keyframe_res: str, all_frames: bool):
@@ -186,6 +187,8 @@ def cmd_run(args) -> int:
 def _agent_options(args) -> dict:
     """Everything that changes an agent's behaviour, recorded in the run's config.json."""
     opts = {"checkpoint": args.checkpoint}
+    if args.agent == "pointnav" and args.sample_actions:  # recorded only when on: argmax runs keep their config
+        opts["sample_actions"] = True
     if args.agent in ("memory", "frontier"):
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
@@ -217,6 +220,8 @@ def _label(args, cfg) -> str:
             parts.append(o["keyframe_res"])
         if o["perception"] != "oracle":
             parts.append(o["perception"])
+    if o.get("sample_actions"):
+        parts.append("sampled")
     return "-".join(parts)
 
 
@@ -316,6 +321,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")
     r.add_argument("--success-distance", type=float)
     r.add_argument("--checkpoint", help="PointNav policy checkpoint in habitat's layout (default: the shipped one)")
+    r.add_argument("--sample-actions", action="store_true",
+                   help="pointnav agent: sample actions from the policy (habitat-baselines' evaluation; seeded "
+                        "by --seed and the episode) instead of taking the argmax")
     m = r.add_argument_group("memory / frontier agents (perception and ablations)")
     m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
     m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")
@@ -410,6 +418,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="ppo: penalty per metre walked beyond the progress made (default 0: habitat's reward)")
     tr.add_argument("--success-spl", action="store_true", default=None,
                     help="ppo: scale the success bonus by the episode's SPL (default: a flat 2.5)")
+    tr.add_argument("--collision-penalty", type=float,
+                    help="ppo: reward penalty per refused MOVE_FORWARD (default 0: habitat's reward)")
     tr.add_argument("--bc-weight", type=float,
                     help="ppo: weight of a cross-entropy term to the geodesic expert's actions (default 0: off)")
     tr.add_argument("--replay-failures", type=float,

@@ -22,3 +22,12 @@ def test_memory_ablation_flags_are_recorded_and_labelled():
     assert label == "memory-norerank-norecover-nostandoff-nodetour-noroute-noprobe"
     assert MemoryAgentConfig().goal_standoff > 0  # on by default; the flag turns it off
     assert MemoryAgentConfig().view_detour
+
+
+def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions"])
+    opts = _agent_options(args)
+    assert opts["sample_actions"] and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav-sampled"
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav"])
+    opts = _agent_options(args)  # argmax runs keep the config.json they had before the flag existed
+    assert "sample_actions" not in opts and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav"

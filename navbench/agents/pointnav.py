@@ -1,11 +1,15 @@
 """``pointnav``: the learned PointNav policy (habitat's PointNavResNetPolicy layout) as a benchmark agent.
 
 Uses the shipped checkpoint ``policies/pointnav_navbench.pth`` unless another file in habitat's layout
-is given (``navbench run --task pointnav --agent pointnav --checkpoint PATH``). Deterministic (argmax).
+is given (``navbench run --task pointnav --agent pointnav --checkpoint PATH``). Actions are the argmax,
+or with ``--sample-actions`` drawn from the policy's distribution as habitat-baselines' evaluator draws
+them, from a generator seeded by the run's seed and the episode, so a run is reproducible either way.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -26,9 +30,10 @@ class PointNavAgent:
     sensors: tuple[str, ...] = ("depth",)
 
     def __init__(self, checkpoint: str | Path | None = None, config: InferenceConfig = InferenceConfig(),
-                 num_envs: int = 1):
+                 num_envs: int = 1, sample: bool = False, seed: int = 0):
         self.checkpoint = Path(checkpoint) if checkpoint else DEFAULT_CHECKPOINT
-        self.num_envs = num_envs
+        self.num_envs, self.seed = num_envs, seed
+        config = dataclasses.replace(config, sample=sample or config.sample)
         self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=num_envs, config=config)
 
     def reset(self, episode: Episode) -> None:
@@ -40,7 +45,8 @@ class PointNavAgent:
         return int(self.act_batch([observations])[0])
 
     def reset_env(self, i: int, episode: Episode) -> None:
-        self.policy.reset(i)
+        # seeded by the episode, not by the slot or the order episodes arrive in
+        self.policy.reset(i, seed=[self.seed, zlib.crc32(f"{episode.scene_id}:{episode.episode_id}".encode())])
 
     def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray:
         return self.policy.act(np.stack([o["depth"] for o in observations]),

@@ -286,10 +286,15 @@ class InferenceConfig:
     reset_goal_dist: float = 0.1  # m; a goal that moves farther than this restarts the recurrent state
     bf16: bool = False  # torch.autocast(cpu, bfloat16) around the forward pass
     channels_last: bool = True  # NHWC memory layout for the convolutions (converts the policy in place)
+    # Sample each action from the policy's distribution instead of taking the argmax, as habitat-baselines'
+    # evaluator does (``actor_critic.act(..., deterministic=False)``). Reproducible through
+    # ``reset(i, seed=)``: each env draws from its own generator, so batching changes no action.
+    sample: bool = False
 
 
 class PointNavAgentPolicy:
-    """Stateful, batched, deterministic (argmax) inference around :class:`PointNavResNetPolicy`.
+    """Stateful, batched inference around :class:`PointNavResNetPolicy`: argmax actions, or with
+    ``config.sample`` actions drawn from each env's seeded generator.
 
     Keeps per environment the recurrent state, the previous action, whether the next step starts an
     episode, and the last goal position in world coordinates (when the caller provides it).
@@ -307,14 +312,20 @@ class PointNavAgentPolicy:
         self.prev_actions = torch.zeros(num_envs, dtype=torch.long)
         self.masks = torch.zeros(num_envs, dtype=torch.bool)
         self.goal_world = np.full((num_envs, 3), np.nan)
+        # until reset(i, seed=) each env draws from its own stream, so no two envs repeat each other's draws
+        self.rngs = [np.random.default_rng([0, k]) for k in range(num_envs)]
 
     def _envs(self, i: int | None) -> slice | list[int]:
         return slice(None) if i is None else [i]
 
-    def reset(self, i: int | None = None) -> None:
-        """Start a new episode in env ``i`` (all envs when None): clears state, action and goal."""
+    def reset(self, i: int | None = None, seed: int | list[int] | None = None) -> None:
+        """Start a new episode in env ``i`` (all envs when None): clears state, action and goal; with
+        ``seed``, also restarts the generator that ``config.sample`` draws this env's actions from."""
         self.reset_hidden(i)
         self.goal_world[self._envs(i)] = np.nan
+        if seed is not None:
+            for k in range(self.num_envs) if i is None else [i]:
+                self.rngs[k] = np.random.default_rng(seed)
 
     def reset_hidden(self, i: int | None = None) -> None:
         """Restart the recurrent state of env ``i`` (all when None); the next step uses the start token."""
@@ -371,7 +382,14 @@ class PointNavAgentPolicy:
             logits, _, hidden = self.policy.forward_features(visual[None], goal[None], self.prev_actions[None],
                                                              self.masks[None], self.hidden)
         # Outside inference_mode these ops give normal tensors, which reset_hidden may edit in place.
-        actions = logits[0].float().argmax(dim=-1)
+        if self.config.sample:
+            # inverse CDF with one uniform draw per env: the same draws give the same actions at any batch size
+            probs = torch.softmax(logits[0].double(), dim=-1).numpy()
+            u = np.array([rng.random() for rng in self.rngs])
+            picks = (probs.cumsum(-1) < u[:, None]).sum(-1).clip(max=probs.shape[-1] - 1)
+            actions = torch.as_tensor(picks, dtype=torch.long)
+        else:
+            actions = logits[0].float().argmax(dim=-1)
         self.hidden = hidden.float().clone()
         self.prev_actions = actions.clone()
         self.masks[:] = True

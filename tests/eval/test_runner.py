@@ -202,13 +202,18 @@ def test_parallel_workers_with_a_cold_grid_cache(pointnav_file, tmp_path, monkey
 
 def test_batched_policy_records_equal_one_at_a_time(pointnav_file, tmp_path):
     """Stepping several episodes with one batched forward pass changes nothing in any episode's record
-    (each slot keeps its own recurrent state); 3 slots over 6 episodes also exercises slot refills."""
+    (each slot keeps its own recurrent state); 3 slots over 6 episodes also exercises slot refills.
+    With sampled actions too: each episode draws from a generator seeded by the run's seed and the episode."""
     from navbench.cli import make_pointnav
 
     # 30-step episodes keep it cheap; their different lengths (STOPs) still refill slots unevenly.
-    for n in (1, 3):
-        run(_cfg(pointnav_file, "pointnav", agent="pointnav", envs_per_worker=n, env={"max_steps": 30}),
-            make_pointnav, tmp_path / f"b{n}")
-    recs1, recs3 = (read_records(tmp_path / d / "episodes.jsonl") for d in ("b1", "b3"))
-    assert len(recs3) == 6 and _strip(recs1) == _strip(recs3)
-    assert json.loads((tmp_path / "b3" / "config.json").read_text())["envs_per_worker"] == 3
+    records = {}
+    for sample in (False, True):
+        for n in (1, 3):
+            out = tmp_path / f"b{n}_{sample}"
+            run(_cfg(pointnav_file, "pointnav", agent="pointnav", envs_per_worker=n, env={"max_steps": 30},
+                     agent_options={"sample_actions": True} if sample else {}), make_pointnav, out)
+            records[n, sample] = _strip(read_records(out / "episodes.jsonl"))
+        assert len(records[3, sample]) == 6 and records[1, sample] == records[3, sample]
+    assert json.loads((tmp_path / "b3_False" / "config.json").read_text())["envs_per_worker"] == 3
+    assert records[1, True] != records[1, False]  # sampling reached the agent

@@ -264,3 +264,42 @@ def test_encode_depth_reads_each_pixel_where_the_encoder_expects_it(policy: Poin
     assert got.shape == expected.shape and torch.allclose(got, expected, atol=1e-5)
     with pytest.raises(RuntimeError), torch.inference_mode():  # a 3-channel frame is refused, not cut to one
         policy.net.encode_depth(torch.rand(3, 64, 96, 3))
+
+
+def _fixed_logits(agent: PointNavAgentPolicy, probs: list[float]) -> None:
+    """Make ``agent``'s policy output the same distribution for every env, without running the network."""
+    logits = torch.log(torch.tensor(probs))
+    agent.policy.net.encode_depth = lambda x: torch.zeros(x.shape[0], 1)
+    agent.policy.forward_features = lambda feat, goal, prev, masks, hidden: (
+        logits.expand(1, feat.shape[1], 4).clone(), torch.zeros(1, feat.shape[1], 1), hidden)
+
+
+def test_sampled_actions_follow_the_policys_distribution(policy: PointNavResNetPolicy) -> None:
+    n, calls = 200, 20  # 4,000 draws
+    probs = [0.1, 0.2, 0.3, 0.4]
+    depth, goal = np.zeros((n, 224, 224, 1), np.float32), np.ones((n, 2), np.float32)
+    sampled = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(channels_last=False, sample=True))
+    _fixed_logits(sampled, probs)
+    draws = np.concatenate([sampled.act(depth, goal) for _ in range(calls)])
+    np.testing.assert_allclose(np.bincount(draws, minlength=4) / draws.size, probs, atol=0.03)
+    greedy = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(channels_last=False))
+    _fixed_logits(greedy, probs)
+    assert (greedy.act(depth, goal) == 3).all()
+
+
+def test_sampled_actions_depend_on_each_envs_seed_not_on_the_batch(policy: PointNavResNetPolicy) -> None:
+    rng = np.random.default_rng(9)
+    steps = [tuple(x.numpy() for x in _obs(rng, 2)) for _ in range(12)]
+    cfg = InferenceConfig(channels_last=False, sample=True)
+
+    def actions(n: int, envs: list[int], seeds: list[int]) -> np.ndarray:
+        agent = PointNavAgentPolicy(policy, n, cfg)
+        for i, s in enumerate(seeds):
+            agent.reset(i, seed=s)
+        return np.stack([agent.act(d[envs], g[envs]) for d, g in steps])
+
+    both = actions(2, [0, 1], [7, 8])
+    np.testing.assert_array_equal(both[:, 0], actions(1, [0], [7])[:, 0])
+    np.testing.assert_array_equal(both[:, 1], actions(1, [1], [8])[:, 0])
+    np.testing.assert_array_equal(both, actions(2, [0, 1], [7, 8]))  # reproducible
+    assert not np.array_equal(both[:, 0], actions(1, [0], [9])[:, 0])  # another seed, other draws
