@@ -68,6 +68,11 @@ class PPOConfig:
     # turns in place, more metres on curves). Summed over an episode this term is -weight x (path
     # length - geodesic distance), SPL's own loss.
     waste_weight: float = 0.0
+    # Penalty per refused MOVE_FORWARD (the env counts it as a collision; 0 = habitat's reward). PPO samples
+    # its actions, so a policy that presses into an obstacle leaves it by chance after a few draws and the
+    # presses cost it little; evaluated by argmax the same policy presses for the rest of the episode (most
+    # of stage 16's val failures: 69-239 refused FORWARDs). The penalty prices each press directly.
+    collision_penalty: float = 0.0
     # Scale the success bonus by the episode's SPL (geodesic / max(path, geodesic)): the bonus then pays
     # what SPL pays, so a shorter successful path earns more, while a failure still forfeits all of it.
     success_spl: bool = False
@@ -92,13 +97,14 @@ class PPOConfig:
 
 
 def step_reward(d_before: float, d_after: float, moved: float, success: bool, cfg: PPOConfig,
-                spl: float = 1.0) -> float:
+                spl: float = 1.0, collided: bool = False) -> float:
     """habitat-lab's PointNav reward for one step (progress in geodesic distance, slack, success
     bonus, times the episode's ``spl`` with ``success_spl``), less ``waste_weight`` x the metres
-    ``moved`` beyond that progress."""
+    ``moved`` beyond that progress and ``collision_penalty`` if the step was a refused FORWARD."""
     progress = d_before - d_after
     bonus = cfg.success_reward * (spl if cfg.success_spl else 1.0) if success else 0.0
-    return progress + cfg.slack_reward + bonus - cfg.waste_weight * max(0.0, moved - progress)
+    return (progress + cfg.slack_reward + bonus - cfg.waste_weight * max(0.0, moved - progress)
+            - (cfg.collision_penalty if collided else 0.0))
 
 
 def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: np.ndarray,
@@ -128,6 +134,7 @@ class Rollout:
         self.obs = [env.reset()[0] for env in envs]
         self.dist = np.array([env.distance_to_goal() for env in envs])
         self.walked = np.zeros(n)  # path length so far
+        self.collisions = np.zeros(n, np.int64)  # the env's collision count so far this episode
         self.hidden = policy.initial_hidden(n)
         self.prev = torch.zeros(n, dtype=torch.long)
         self.mask = torch.zeros(n, dtype=torch.bool)
@@ -181,14 +188,14 @@ class Rollout:
                 self.obs[i], _, term, trunc, info = env.step(int(action[i]))
                 d, walked = info["distance_to_goal"], info["path_length"]
                 rewards[t, i] = step_reward(self.dist[i], d, walked - self.walked[i], bool(term and info["success"]),
-                                            self.cfg, info["spl"])
-                self.dist[i], self.walked[i] = d, walked
+                                            self.cfg, info["spl"], collided=info["collisions"] > self.collisions[i])
+                self.dist[i], self.walked[i], self.collisions[i] = d, walked, info["collisions"]
                 if term or trunc:
                     dones[t, i] = 1.0
                     self.finished.append({"success": info["success"], "spl": info["spl"],
                                           "replay": self.replaying[i]})
                     self.obs[i], self.replaying[i] = self._next_episode(env, bool(info["success"]))
-                    self.dist[i], self.walked[i] = env.distance_to_goal(), 0.0
+                    self.dist[i], self.walked[i], self.collisions[i] = env.distance_to_goal(), 0.0, 0
                     self.hidden[i] = 0.0
                     self.prev[i] = 0
                     self.mask[i] = False

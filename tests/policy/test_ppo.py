@@ -25,6 +25,13 @@ def test_waste_weight_charges_the_metres_that_made_no_progress():
     assert step_reward(3.0, 3.0, 0.0, False, cfg) == pytest.approx(-0.01)  # turns cost only the slack
 
 
+def test_collision_penalty_charges_only_refused_forwards():
+    cfg = PPOConfig(collision_penalty=0.05)
+    assert step_reward(3.0, 3.0, 0.0, False, cfg, collided=True) == pytest.approx(-0.01 - 0.05)
+    assert step_reward(3.0, 3.0, 0.0, False, cfg) == pytest.approx(-0.01)  # a turn
+    assert step_reward(3.0, 3.0, 0.0, False, PPOConfig(), collided=True) == pytest.approx(-0.01)  # off by default
+
+
 def test_success_spl_scales_only_the_success_bonus_by_the_episode_spl():
     cfg = PPOConfig(success_spl=True)
     assert step_reward(0.15, 0.15, 0.0, True, cfg, spl=0.6) == pytest.approx(2.5 * 0.6 - 0.01)
@@ -138,3 +145,25 @@ def test_replay_failures_brings_back_failed_episodes_once_each_and_never_success
     never.cfg, never.rng, never.failed = PPOConfig(), np.random.default_rng(0), []
     assert [never._next_episode(env, success=False)[1] for _ in range(5)] == [False] * 5
     assert never.failed == [] and env.episode == "fresh11"
+
+
+def test_collision_penalty_reaches_the_rollout_rewards_at_refused_forwards():
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    with torch.no_grad():  # an actor that always drives forward: it reaches a wall within the rollout
+        policy.action_distribution.linear.weight.zero_()
+        policy.action_distribution.linear.bias.copy_(torch.tensor([-30.0, 30.0, -30.0, -30.0]))
+    rewards = []
+    for penalty in (0.0, 1.0):
+        envs = make_envs(2, "train", 5)  # the same episodes and, with the same generator, the same actions
+        try:
+            cfg = PPOConfig(num_envs=2, rollout_steps=60, collision_penalty=penalty)
+            rewards.append(Rollout(envs, cfg, policy, torch.Generator().manual_seed(0)).collect()["reward"])
+            # STOP adds no collision and reports the episode's count (the always-forward episodes run on)
+            collisions = sum(e.step(0)[4]["collisions"] for e in envs)
+        finally:
+            for e in envs:
+                e.close()
+    diff = (rewards[1] - rewards[0]).numpy()
+    assert set(np.round(diff, 6).ravel()) <= {0.0, -1.0} and (diff < 0).any()
+    assert int((diff < 0).sum()) == collisions
