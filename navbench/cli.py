@@ -187,7 +187,9 @@ def cmd_run(args) -> int:
 def _agent_options(args) -> dict:
     """Everything that changes an agent's behaviour, recorded in the run's config.json."""
     opts = {"checkpoint": args.checkpoint}
-    if args.agent == "pointnav" and args.sample_actions:  # recorded only when on: argmax runs keep their config
+    if args.sample_actions:  # recorded only when on: argmax runs keep their config
+        if args.agent != "pointnav":
+            raise ValueError(f"--sample-actions applies to the pointnav agent, not {args.agent!r}")
         opts["sample_actions"] = True
     if args.agent in ("memory", "frontier"):
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,

@@ -2,6 +2,8 @@
 
 from types import SimpleNamespace
 
+import pytest
+
 from navbench.agents.memory_agent import MemoryAgentConfig
 from navbench.cli import _agent_options, _label, build_parser
 
@@ -31,3 +33,5 @@ def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
     args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav"])
     opts = _agent_options(args)  # argmax runs keep the config.json they had before the flag existed
     assert "sample_actions" not in opts and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav"
+    with pytest.raises(ValueError, match="pointnav agent"):  # the other agents drive by argmax: say so
+        _options("--sample-actions")
