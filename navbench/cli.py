@@ -49,8 +49,10 @@ def make_random(cfg):
 
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
-    return PointNavAgent(cfg.agent_options.get("checkpoint"), num_envs=max(1, cfg.envs_per_worker),
-                         sample=cfg.agent_options.get("sample_actions", False), seed=cfg.seed)
+    from navbench.policy.net import InferenceConfig
+    return PointNavAgent(cfg.agent_options.get("checkpoint"),
+                         InferenceConfig(sample=cfg.agent_options.get("sample_actions", False)),
+                         num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
 
 
 def scan_config(keyframe_res: str, all_frames: bool):

@@ -8,7 +8,6 @@ them, from a generator seeded by the run's seed and the episode, so a run is rep
 
 from __future__ import annotations
 
-import dataclasses
 import zlib
 from pathlib import Path
 
@@ -30,10 +29,9 @@ class PointNavAgent:
     sensors: tuple[str, ...] = ("depth",)
 
     def __init__(self, checkpoint: str | Path | None = None, config: InferenceConfig = InferenceConfig(),
-                 num_envs: int = 1, sample: bool = False, seed: int = 0):
+                 num_envs: int = 1, seed: int = 0):
         self.checkpoint = Path(checkpoint) if checkpoint else DEFAULT_CHECKPOINT
-        self.num_envs, self.seed = num_envs, seed
-        config = dataclasses.replace(config, sample=sample or config.sample)
+        self.num_envs, self.seed = num_envs, seed  # with config.sample, each episode draws from (seed, episode)
         self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=num_envs, config=config)
 
     def reset(self, episode: Episode) -> None:
