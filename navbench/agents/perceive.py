@@ -84,6 +84,11 @@ class SceneLocalizer:
         localised in (:class:`~navbench.localize.route.KeyframeRoutes`); ``inf`` where there is none."""
         return self.routes.lengths(position, candidates)
 
+    def route_path(self, position: np.ndarray, candidate: GoalCandidate) -> np.ndarray:
+        """The keyframe positions (K, 3) along the shortest route from ``position`` to ``candidate`` over
+        the same memory (:meth:`~navbench.localize.route.KeyframeRoutes.path`); (0, 3) where there is none."""
+        return self.routes.path(position, candidate)
+
 
 class LiveDetector:
     """``detect(observations, (position, yaw)) -> (N, 3)`` world points of the goal in the current frame,

@@ -56,6 +56,7 @@ class KeyframeRoutes:
         self._world_to_cam = np.stack([world_to_camera(p) for p in poses]) if n else np.zeros((0, 4, 4))
         self._depth: dict[int, np.ndarray] = {}  # keyframe -> stored depth, loaded when first needed
         self._graph: tuple[np.ndarray, np.ndarray] | None = None  # (edges, weights), built when first needed
+        self._walked: tuple[np.ndarray, np.ndarray] | None = None  # the same without the lines of sight
 
     def _visible(self, i: int, points: np.ndarray) -> np.ndarray:
         """Which of ``points`` (M, 3) keyframe ``i`` has a line of sight to, within ``max_sight``."""
@@ -80,10 +81,10 @@ class KeyframeRoutes:
         near = np.flatnonzero((z > 0) & (z <= self.config.max_sight))
         return np.asarray([i for i in near if self._visible(int(i), p)[0]], dtype=np.int64)
 
-    def graph(self) -> tuple[np.ndarray, np.ndarray]:
+    def graph(self, sight: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The pose graph's undirected edges (E, 2) and their xz lengths (E,): consecutive keyframes,
-        keyframes within ``link_radius``, and keyframes one of which sees the other's camera."""
-        if self._graph is None:
+        keyframes within ``link_radius``, and (``sight``) keyframes one of which sees the other's camera."""
+        if (self._graph if sight else self._walked) is None:
             n, cfg = len(self._xz), self.config
             pairs = cKDTree(self._xz).query_pairs(cfg.link_radius, output_type="ndarray").reshape(-1, 2) \
                 if n else np.zeros((0, 2), np.int64)
@@ -91,40 +92,76 @@ class KeyframeRoutes:
             step = step[np.linalg.norm(self._xz[step[:, 0]] - self._xz[step[:, 1]], axis=1) <= cfg.max_step]
             # The walk alone makes long detours of short trips (it goes room centre to room centre);
             # a line of sight between two cameras is a straight free segment at camera height.
-            sight = [np.stack([np.full(len(js), i), js], axis=1)
-                     for i in range(n) if len(js := np.flatnonzero(self._visible(i, self._positions)))]
-            edges = np.sort(np.concatenate([pairs, step, *sight]).astype(np.int64), axis=1)
+            seen = [np.stack([np.full(len(js), i), js], axis=1)
+                    for i in range(n) if sight and len(js := np.flatnonzero(self._visible(i, self._positions)))]
+            edges = np.sort(np.concatenate([pairs, step, *seen]).astype(np.int64), axis=1)
             # Each pair once: a sparse matrix built from repeated (i, j) entries sums their weights.
             edges = np.unique(edges[edges[:, 0] != edges[:, 1]], axis=0)
             # Joined keyframes at one place (a look-around) get a tiny positive weight: csgraph drops
             # explicit zeros as non-edges.
             w = np.maximum(np.linalg.norm(self._xz[edges[:, 0]] - self._xz[edges[:, 1]], axis=1), 1e-6)
-            self._graph = edges, w
-        return self._graph
+            if sight:
+                self._graph = edges, w
+            else:
+                self._walked = edges, w
+        return self._graph if sight else self._walked  # type: ignore[return-value]
 
-    def lengths(self, position: np.ndarray, candidates: Sequence[GoalCandidate]) -> np.ndarray:
-        """Route length (m) from floor point ``position`` to each candidate; ``inf`` where there is none."""
-        out = np.full(len(candidates), np.inf)
+    def _search(self, position: np.ndarray, sight: bool = True) -> tuple[np.ndarray, np.ndarray] | None:
+        """Shortest walks from floor point ``position`` over the graph (``sight``: with its lines of sight):
+        (distance, predecessor) per keyframe (the query point is node ``n``), or None when no keyframe saw
+        the point."""
         n = len(self._xz)
-        if n == 0 or not len(candidates):
-            return out
+        if n == 0:
+            return None
         position = np.asarray(position, np.float64)
         eye = position + np.array([0.0, self.camera_height, 0.0])
         near = np.flatnonzero(np.linalg.norm(self._xz - position[[0, 2]], axis=1) <= self.config.link_radius)
         entries = np.union1d(self.sees(eye), near).astype(np.int64)
         if not len(entries):
-            return out
-        edges, weights = self.graph()
+            return None
+        edges, weights = self.graph(sight)
         # One extra node (n) for the query point, joined to its entries by the straight legs.
         legs = np.maximum(np.linalg.norm(self._xz[entries] - position[[0, 2]], axis=1), 1e-6)
         rows = np.concatenate([edges[:, 0], np.full(len(entries), n)])
         cols = np.concatenate([edges[:, 1], entries])
         graph = coo_matrix((np.concatenate([weights, legs]), (rows, cols)), shape=(n + 1, n + 1)).tocsr()
-        dist = dijkstra(graph, directed=False, indices=n)
-        for j, c in enumerate(candidates):
-            ids = np.asarray(c.keyframe_ids, dtype=np.int64)
-            ids = ids[(ids >= 0) & (ids < n)]
-            if len(ids):
-                exit_legs = np.linalg.norm(self._xz[ids] - np.asarray(c.centre, np.float64)[[0, 2]], axis=1)
-                out[j] = float(np.min(dist[ids] + exit_legs))
+        return dijkstra(graph, directed=False, indices=n, return_predecessors=True)
+
+    def _exit(self, dist: np.ndarray, c: GoalCandidate) -> tuple[float, int]:
+        """(route length, exit keyframe) to candidate ``c`` given the walks ``dist``; (inf, -1) if none."""
+        n = len(self._xz)
+        ids = np.asarray(c.keyframe_ids, dtype=np.int64)
+        ids = ids[(ids >= 0) & (ids < n)]
+        if not len(ids):
+            return np.inf, -1
+        total = dist[ids] + np.linalg.norm(self._xz[ids] - np.asarray(c.centre, np.float64)[[0, 2]], axis=1)
+        k = int(np.argmin(total))
+        return (float(total[k]), int(ids[k])) if np.isfinite(total[k]) else (np.inf, -1)
+
+    def lengths(self, position: np.ndarray, candidates: Sequence[GoalCandidate]) -> np.ndarray:
+        """Route length (m) from floor point ``position`` to each candidate; ``inf`` where there is none."""
+        out = np.full(len(candidates), np.inf)
+        found = self._search(position) if len(candidates) else None
+        if found is not None:
+            for j, c in enumerate(candidates):
+                out[j] = self._exit(found[0], c)[0]
         return out
+
+    def path(self, position: np.ndarray, candidate: GoalCandidate) -> np.ndarray:
+        """The keyframe camera positions (K, 3), projected to ``position``'s floor height, along the shortest
+        route from floor point ``position`` to ``candidate``, in walking order and ending at the keyframe
+        that saw it; (0, 3) where there is none. Between keyframes the route keeps to the walk (and to
+        keyframes within ``link_radius``): a line of sight at camera height can pass over a table the
+        body cannot, and a path is for driving, where a length only ranks candidates."""
+        found = self._search(position, sight=False)
+        if found is None:
+            return np.zeros((0, 3))
+        dist, pred = found
+        _, k = self._exit(dist, candidate)
+        n, nodes = len(self._xz), []
+        while 0 <= k < n:  # back along the predecessors to the query point (node n)
+            nodes.append(k)
+            k = int(pred[k])
+        pts = self._positions[nodes[::-1]].copy()
+        pts[:, 1] = float(np.asarray(position, np.float64)[1])
+        return pts

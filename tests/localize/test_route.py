@@ -94,6 +94,26 @@ def test_route_goes_round_the_wall_through_the_door(routes):
     assert 6.5 < near < 10.5  # never through the wall; lines of sight cut the walk's corners
 
 
+def test_the_route_path_goes_through_the_door_along_the_walk(routes):
+    behind_wall = candidate([1.5, 0.5, 0.0], len(walk()) - 2)
+    start = np.array([-1.0, 0.3, 0.0])
+    path = routes.path(start, behind_wall)
+    assert len(path) >= 2 and np.all(path[:, 1] == 0.3)  # keyframe positions on the start's floor
+    assert path[-1, 0] == pytest.approx(1.0) and path[-1, 2] == pytest.approx(0.0)  # ends where it was seen
+    # every leg stays on one side of the wall or crosses it in the door (3 <= z <= 4.5)
+    legs = np.concatenate([start[None], path])
+    for a, b in zip(legs, legs[1:]):
+        if np.sign(a[0]) != np.sign(b[0]) and a[0] != 0 and b[0] != 0:
+            z = a[2] + (b[2] - a[2]) * (0 - a[0]) / (b[0] - a[0])
+            assert 3.0 <= z <= 4.5
+    # between keyframes it keeps to the walk (no line-of-sight shortcuts, which can pass over a table)
+    steps = np.linalg.norm(np.diff(path[:, [0, 2]], axis=0), axis=1)
+    assert np.all(steps <= routes.config.max_step + 1e-9)
+    walked = np.sum(np.linalg.norm(np.diff(legs[:, [0, 2]], axis=0), axis=1)) + 0.5  # + the exit leg
+    assert routes.lengths(start, [behind_wall])[0] <= walked + 1e-9 < 10.5
+    assert routes.path(np.array([-5.0, 0.0, -8.0]), behind_wall).shape == (0, 3)  # no keyframe saw it
+
+
 def test_unreachable_candidates_and_unseen_points_get_inf(routes):
     isolated = candidate([20.0, 0.5, 19.0], len(walk()) - 1)
     reachable = candidate([-1.0, 0.5, 1.0], 4)
