@@ -92,7 +92,8 @@ def make_memory(cfg):
                                   recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0,
                                   goal_standoff=MemoryAgentConfig.goal_standoff if o.get("standoff", True) else 0.0,
                                   view_detour=o.get("detour", True),
-                                  recovery_probes=MemoryAgentConfig.recovery_probes if o.get("probe", True) else 0)
+                                  recovery_probes=MemoryAgentConfig.recovery_probes if o.get("probe", True) else 0,
+                                  route_guidance=o.get("guidance", True))
     pcfg = _perception_config(cfg)
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
@@ -100,7 +101,8 @@ def make_memory(cfg):
     verify = LiveDetector(cfg.scene_dir, pcfg, env_cfg) if o.get("verify", True) else None
     localizer = SceneLocalizer(cfg.scene_dir, pcfg)
     route = localizer.route_lengths if o.get("route", True) else None
-    return MemoryAgent(localizer, _step_policy(cfg), agent_cfg, env_cfg, verify=verify, route=route)
+    return MemoryAgent(localizer, _step_policy(cfg), agent_cfg, env_cfg, verify=verify, route=route,
+                       route_path=localizer.route_path)
 
 
 def make_frontier(cfg):
@@ -199,6 +201,7 @@ def _agent_options(args) -> dict:
                     goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
                     verify=not args.no_verify, recovery=not args.no_recovery, standoff=not args.no_standoff,
                     detour=not args.no_detour, route=not args.no_route, probe=not args.no_probe,
+                    guidance=not args.no_guidance,
                     models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                               ("sam3", args.sam3)) if v})
     return {k: v for k, v in opts.items() if v is not None}
@@ -216,6 +219,7 @@ def _label(args, cfg) -> str:
                                       ("nostandoff", not o.get("standoff", True)),
                                       ("nodetour", not o.get("detour", True)), ("noroute", not o.get("route", True)),
                                       ("noprobe", not o.get("probe", True)),
+                                      ("noguidance", not o.get("guidance", True)),
                                       ("allframes", o["all_frames"]))
                   if on]
         if o["noise"] != "none":
@@ -346,6 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="memory agent: order candidates by straight-line distance, not by route over the keyframe poses")
     m.add_argument("--no-probe", action="store_true",
                    help="memory agent: a recovery whose first step is refused does not turn on to try other headings")
+    m.add_argument("--no-guidance", action="store_true",
+                   help="memory agent: stuck on a target, do not follow the memory's keyframe route to it")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")

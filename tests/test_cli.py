@@ -16,12 +16,13 @@ def _options(*flags):
 
 def test_memory_ablation_flags_are_recorded_and_labelled():
     _, opts, label = _options()
-    assert opts["standoff"] and opts["recovery"] and opts["verify"] and opts["route"] and label == "memory"
+    assert opts["standoff"] and opts["recovery"] and opts["verify"] and opts["route"] and opts["guidance"]
+    assert label == "memory"
     _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none", "--no-detour", "--no-route",
-                              "--no-probe")
+                              "--no-probe", "--no-guidance")
     assert not opts["standoff"] and not opts["recovery"] and not opts["rerank"] and not opts["detour"]
-    assert not opts["route"] and not opts["probe"]
-    assert label == "memory-norerank-norecover-nostandoff-nodetour-noroute-noprobe"
+    assert not opts["route"] and not opts["probe"] and not opts["guidance"]
+    assert label == "memory-norerank-norecover-nostandoff-nodetour-noroute-noprobe-noguidance"
     assert MemoryAgentConfig().goal_standoff > 0  # on by default; the flag turns it off
     assert MemoryAgentConfig().view_detour
 

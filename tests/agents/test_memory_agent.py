@@ -222,6 +222,43 @@ def test_stuck_switches_to_next_candidate_at_most_max_switches():
     assert policy.hidden_resets >= 4
 
 
+def test_route_guidance_follows_the_memorys_route_once_when_stuck_then_drives_to_the_target():
+    route = np.array([[2.0, 0.0, 0.0], [2.0, 0.0, -6.0]])  # right, then forward along the far side
+    calls = []
+
+    def route_path(position, candidate):
+        calls.append(position.copy())
+        return route
+
+    policy = ScriptedPolicy(TURN_LEFT)
+    agent = MemoryAgent(lambda ep: [cand(plane_points(-6.0))], policy,
+                        MemoryAgentConfig(recovery_probes=0), ENV, route_path=route_path)
+    agent.reset(EPISODE)
+    empty = wall_depth(0.5)  # the target is never in view
+    for _ in range(31):
+        agent.act(obs_at(empty))
+    assert [e["event"] for e in agent.episode_log()["events"]] == ["stuck", "route"]
+    assert len(calls) == 1 and np.linalg.norm(policy.last_goal[:1] - 2.0) < 1e-5  # 2 m to the first point
+    agent.act(obs_at(empty, right=1.8))  # within detour_reached of it: on to the next, 6 m ahead
+    assert policy.last_goal[0] == pytest.approx(np.hypot(0.2, 6.0), abs=1e-4)
+    agent.act(obs_at(empty, forward=5.8, right=2.0))  # the last point: back to the target itself
+    assert agent.episode_log()["events"][-1]["event"] == "route_end"
+    assert policy.last_goal[0] == pytest.approx(np.hypot(2.0, 0.2), abs=1e-4)
+    for _ in range(31):  # stuck again on the same target: no second route, the usual recovery
+        agent.act(obs_at(empty, forward=5.8, right=2.0))
+    assert [e["event"] for e in agent.episode_log()["events"]][-2:] == ["stuck", "recover"] and len(calls) == 1
+    # off (--no-guidance), or with no route known, stuck means what it meant before
+    for on in (False, True):
+        agent = MemoryAgent(lambda ep: [cand(plane_points(-6.0))], ScriptedPolicy(TURN_LEFT),
+                            MemoryAgentConfig(recovery_probes=0, route_guidance=on), ENV,
+                            route_path=(lambda p, c: np.zeros((0, 3))) if on else route_path)
+        agent.reset(EPISODE)
+        for _ in range(31):
+            agent.act(obs_at(empty))
+        assert [e["event"] for e in agent.episode_log()["events"]] == ["stuck", "recover"]
+    assert len(calls) == 1
+
+
 def test_oscillation_counts_as_stuck():
     class Alternating(ScriptedPolicy):
         def act(self, depth, pointgoal):
