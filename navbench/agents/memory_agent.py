@@ -463,7 +463,8 @@ class MemoryAgent:
         return action
 
     def _policy_goal(self, position: np.ndarray) -> np.ndarray:
-        """The point the policy drives to: a detour's view position, else the goal, pulled back by
+        """The point the policy drives to: a detour's view position, else the next point of a route being
+        followed (passing the ones within ``detour_reached``), else the goal, pulled back by
         ``goal_standoff`` (config comments)."""
         if self.detour is not None:
             return self.detour
@@ -490,7 +491,6 @@ class MemoryAgent:
         if not len(path):
             return False
         self.waypoints = list(path)
-        self.recovery = []
         self.policy.reset_hidden()
         self._event("route", waypoints=len(path),
                     length=float(np.sum(np.linalg.norm(np.diff(np.vstack([position, path])[:, [0, 2]], axis=0),

@@ -55,8 +55,8 @@ class KeyframeRoutes:
         self._xz = self._positions[:, [0, 2]]
         self._world_to_cam = np.stack([world_to_camera(p) for p in poses]) if n else np.zeros((0, 4, 4))
         self._depth: dict[int, np.ndarray] = {}  # keyframe -> stored depth, loaded when first needed
-        self._graph: tuple[np.ndarray, np.ndarray] | None = None  # (edges, weights), built when first needed
-        self._walked: tuple[np.ndarray, np.ndarray] | None = None  # the same without the lines of sight
+        # with / without the lines of sight -> (edges, weights), built when first needed
+        self._graphs: dict[bool, tuple[np.ndarray, np.ndarray]] = {}
 
     def _visible(self, i: int, points: np.ndarray) -> np.ndarray:
         """Which of ``points`` (M, 3) keyframe ``i`` has a line of sight to, within ``max_sight``."""
@@ -84,7 +84,7 @@ class KeyframeRoutes:
     def graph(self, sight: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The pose graph's undirected edges (E, 2) and their xz lengths (E,): consecutive keyframes,
         keyframes within ``link_radius``, and (``sight``) keyframes one of which sees the other's camera."""
-        if (self._graph if sight else self._walked) is None:
+        if sight not in self._graphs:
             n, cfg = len(self._xz), self.config
             pairs = cKDTree(self._xz).query_pairs(cfg.link_radius, output_type="ndarray").reshape(-1, 2) \
                 if n else np.zeros((0, 2), np.int64)
@@ -100,11 +100,8 @@ class KeyframeRoutes:
             # Joined keyframes at one place (a look-around) get a tiny positive weight: csgraph drops
             # explicit zeros as non-edges.
             w = np.maximum(np.linalg.norm(self._xz[edges[:, 0]] - self._xz[edges[:, 1]], axis=1), 1e-6)
-            if sight:
-                self._graph = edges, w
-            else:
-                self._walked = edges, w
-        return self._graph if sight else self._walked  # type: ignore[return-value]
+            self._graphs[sight] = edges, w
+        return self._graphs[sight]
 
     def _search(self, position: np.ndarray, sight: bool = True) -> tuple[np.ndarray, np.ndarray] | None:
         """Shortest walks from floor point ``position`` over the graph (``sight``: with its lines of sight):
