@@ -412,8 +412,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--batch-chunks", type=int)
     tr.add_argument("--lr", type=float)
     tr.add_argument("--lr-schedule", choices=("constant", "cosine"),
-                    help="learning rate over the iterations: constant (default) or cosine from --lr to --lr-min")
-    tr.add_argument("--lr-min", type=float, help="the cosine schedule's last rate (default 1e-5)")
+                    help="learning rate over the iterations (ppo: the updates after the critic warm-up): "
+                         "constant (default) or cosine from --lr to --lr-min")
+    tr.add_argument("--lr-min", type=float, help="the cosine schedule's last rate (default 1e-5; ppo: 0)")
     tr.add_argument("--collision-weight", type=float, help="loss weight of steps after a blocked FORWARD (default 1)")
     tr.add_argument("--endgame-weight", type=float, help="loss weight of steps within 0.75 m of the goal (default 1)")
     tr.add_argument("--turnaround-weight", type=float,

@@ -48,6 +48,12 @@ class PPOConfig:
     rollout_steps: int = 128  # per env and update (habitat-baselines' num_steps)
     updates: int = 300
     lr: float = 2.5e-5  # fine-tuning: a tenth of habitat-baselines' from-scratch 2.5e-4
+    # "constant", or "cosine": after the critic warm-up the actor's rate falls from lr to lr_min along half
+    # a cosine over the remaining updates (habitat-baselines decays it linearly to 0). At a constant rate the
+    # last update's weights are one draw from a random walk: three 250-update continuations of stage 16 at
+    # 2.5e-5 scored 88.5-91.0 SR on val against its 92.5. A decayed rate ends the run on settled weights.
+    lr_schedule: str = "constant"
+    lr_min: float = 0.0
     # The value head starts untrained and must fit returns of up to ~10 within the warm-up: at the
     # actor's rate 80 Adam steps would move it by ~0.002 a weight.
     critic_lr: float = 1e-3
@@ -211,6 +217,17 @@ class Rollout:
         return out
 
 
+def actor_lr(cfg: PPOConfig, u: int) -> float:
+    """The actor's learning rate at update ``u`` (0-based) under ``cfg.lr_schedule`` (the critic keeps
+    ``cfg.critic_lr``)."""
+    if cfg.lr_schedule == "constant":
+        return cfg.lr
+    if cfg.lr_schedule == "cosine":
+        frac = max(0, u - cfg.critic_warmup) / max(1, cfg.updates - cfg.critic_warmup - 1)
+        return cfg.lr_min + 0.5 * (cfg.lr - cfg.lr_min) * (1.0 + np.cos(np.pi * min(1.0, frac)))
+    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
+
+
 def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: dict[str, torch.Tensor],
                cfg: PPOConfig, actor: bool, rng: np.random.Generator) -> dict[str, float]:
     """Clipped PPO epochs over env groups; with ``actor`` False only the value loss is applied."""
@@ -304,6 +321,7 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
         data = rollout.collect()
         t_collect = time.time() - t0
         t0 = time.time()
+        opt.param_groups[0]["lr"] = actor_lr(cfg, u)  # set every update, so a resumed run follows the schedule
         stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng)
         # success figures over fresh draws only: replays are failures picked on purpose
         window = (window + [e for e in rollout.finished if not e["replay"]])[-100:]
@@ -311,6 +329,7 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
         rollout.finished = []
         frames += int(data["action"].numel())
         last = {"update": u + 1, "frames": frames, "actor": int(u >= cfg.critic_warmup),
+                **({"lr": opt.param_groups[0]["lr"]} if cfg.lr_schedule != "constant" else {}),
                 "reward_per_step": float(data["reward"].mean()),
                 "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
                 "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan"),

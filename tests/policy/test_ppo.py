@@ -6,7 +6,7 @@ import torch
 
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
-from navbench.policy.ppo import PPOConfig, Rollout, gae, ppo_update, step_reward, train_ppo
+from navbench.policy.ppo import PPOConfig, Rollout, actor_lr, gae, ppo_update, step_reward, train_ppo
 from navbench.policy.train import make_envs
 
 
@@ -37,6 +37,18 @@ def test_success_spl_scales_only_the_success_bonus_by_the_episode_spl():
     assert step_reward(0.15, 0.15, 0.0, True, cfg, spl=0.6) == pytest.approx(2.5 * 0.6 - 0.01)
     assert step_reward(3.0, 2.75, 0.25, False, cfg, spl=0.0) == pytest.approx(0.25 - 0.01)  # no bonus to scale
     assert step_reward(0.15, 0.15, 0.0, True, PPOConfig(), spl=0.6) == pytest.approx(2.5 - 0.01)  # off by default
+
+
+def test_cosine_schedule_holds_the_rate_through_the_warmup_then_decays_it_to_lr_min_at_the_last_update():
+    cfg = PPOConfig(lr=2e-5, lr_min=1e-6, lr_schedule="cosine", updates=110, critic_warmup=10)
+    rates = [actor_lr(cfg, u) for u in range(cfg.updates)]
+    assert rates[0] == rates[10] == pytest.approx(2e-5)
+    assert rates[60] == pytest.approx(1e-6 + 0.5 * (2e-5 - 1e-6) * (1 + np.cos(np.pi * 50 / 99)))
+    assert rates[-1] == pytest.approx(1e-6)
+    assert all(a >= b for a, b in zip(rates, rates[1:]))
+    assert {actor_lr(PPOConfig(lr=3e-5), u) for u in (0, 50, 299)} == {3e-5}
+    with pytest.raises(ValueError, match="linear"):
+        actor_lr(PPOConfig(lr_schedule="linear"), 0)
 
 
 def test_gae_bootstraps_within_an_episode_and_not_across_its_end():
@@ -76,6 +88,20 @@ def test_warmup_trains_only_the_critic_then_the_actor_moves_and_runs_resume(tmp_
                for n in final if n.startswith(("action_distribution.", "net.state_encoder.")))
     assert all(torch.equal(after[n], final[n]) for n in final if n.startswith("net.visual_encoder."))
     assert len((tmp_path / "ppo.log.csv").read_text().strip().splitlines()) == 3  # header + two updates
+
+
+def test_a_cosine_run_sets_and_logs_the_actor_rate_each_update_and_ends_at_lr_min(tmp_path):
+    init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {}, fp16=False)
+    cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=4, updates=3, critic_warmup=1, save_every=1,
+                    lr=1e-3, lr_min=1e-4, lr_schedule="cosine")
+    rows = []
+    last = train_ppo(cfg, tmp_path / "ppo.pth", init, state_dir=tmp_path / "state", log_every=rows.append)
+    assert last["lr"] == pytest.approx(1e-4)
+    header, *lines = (tmp_path / "ppo.log.csv").read_text().strip().splitlines()
+    col = header.split(",").index("lr")
+    assert [float(line.split(",")[col]) for line in lines] == pytest.approx([1e-3, 1e-3, 1e-4])
+    state = torch.load(tmp_path / "state" / "ppo_state.pt", weights_only=False)
+    assert [g["lr"] for g in state["optimizer"]["param_groups"]] == pytest.approx([1e-4, cfg.critic_lr])
 
 
 def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
