@@ -329,7 +329,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
         rollout.finished = []
         frames += int(data["action"].numel())
         last = {"update": u + 1, "frames": frames, "actor": int(u >= cfg.critic_warmup),
-                **({"lr": opt.param_groups[0]["lr"]} if cfg.lr_schedule != "constant" else {}),
+                # as text: the log rounds floats to 5 decimals, which would leave ~2e-05 of a 2.5e-5 rate
+                **({"lr": f"{opt.param_groups[0]['lr']:.4g}"} if cfg.lr_schedule != "constant" else {}),
                 "reward_per_step": float(data["reward"].mean()),
                 "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
                 "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan"),

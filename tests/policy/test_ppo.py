@@ -93,15 +93,15 @@ def test_warmup_trains_only_the_critic_then_the_actor_moves_and_runs_resume(tmp_
 def test_a_cosine_run_sets_and_logs_the_actor_rate_each_update_and_ends_at_lr_min(tmp_path):
     init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {}, fp16=False)
     cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=4, updates=3, critic_warmup=1, save_every=1,
-                    lr=1e-3, lr_min=1e-4, lr_schedule="cosine")
+                    lr=2.5e-5, lr_min=1.25e-6, lr_schedule="cosine")
     rows = []
     last = train_ppo(cfg, tmp_path / "ppo.pth", init, state_dir=tmp_path / "state", log_every=rows.append)
-    assert last["lr"] == pytest.approx(1e-4)
+    assert float(last["lr"]) == pytest.approx(1.25e-6)
     header, *lines = (tmp_path / "ppo.log.csv").read_text().strip().splitlines()
     col = header.split(",").index("lr")
-    assert [float(line.split(",")[col]) for line in lines] == pytest.approx([1e-3, 1e-3, 1e-4])
+    assert [float(line.split(",")[col]) for line in lines] == pytest.approx([2.5e-5, 2.5e-5, 1.25e-6])
     state = torch.load(tmp_path / "state" / "ppo_state.pt", weights_only=False)
-    assert [g["lr"] for g in state["optimizer"]["param_groups"]] == pytest.approx([1e-4, cfg.critic_lr])
+    assert [g["lr"] for g in state["optimizer"]["param_groups"]] == pytest.approx([1.25e-6, cfg.critic_lr])
 
 
 def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
