@@ -392,7 +392,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--val-episodes", type=int)
     tr.add_argument("--epochs-per-iteration", type=float)
     tr.add_argument("--train-encoder", dest="freeze_visual", action="store_false", default=None,
-                    help="train the visual encoder too (truncated chunks + free-space auxiliary loss)")
+                    help="train the visual encoder too (pointnav: truncated chunks + free-space auxiliary loss; "
+                         "ppo: re-encoded depth, bf16 autocast)")
     tr.add_argument("--truncated", dest="full_episodes", action="store_false", default=None,
                     help="train on chunks of --chunk-len steps instead of whole episodes")
     tr.add_argument("--no-prev-action", dest="prev_action", action="store_false", default=None,
@@ -431,6 +432,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="ppo: scale the success bonus by the episode's SPL (default: a flat 2.5)")
     tr.add_argument("--collision-penalty", type=float,
                     help="ppo: reward penalty per refused MOVE_FORWARD (default 0: habitat's reward)")
+    tr.add_argument("--encoder-lr-scale", type=float,
+                    help="ppo --train-encoder: the encoder's rate as a fraction of the actor's (default 0.1)")
     tr.add_argument("--bc-weight", type=float,
                     help="ppo: weight of a cross-entropy term to the geodesic expert's actions (default 0: off)")
     tr.add_argument("--replay-failures", type=float,

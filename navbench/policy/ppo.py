@@ -94,6 +94,18 @@ class PPOConfig:
     # furniture and a wall, turning in place at a dead end) recur on val. Prioritised level replay (Jiang
     # et al., 2021) in its simplest form. 0 = off. The buffer restarts empty on --resume.
     replay_failures: float = 0.0
+    # Fine-tune the visual encoder too (at the actor's rate). It was trained on geometry targets only
+    # (navbench.policy.pretrain) and has been frozen since; the shipped file's failures are pressing into
+    # an obstacle at the edge of the view, which the frozen features may not separate from free space.
+    # The rollout then keeps each frame's depth (fp16, ~100 MB an update) instead of its features, and the
+    # update re-encodes them, under bf16 autocast with ``bf16`` (1.2 s against 2.7 s forward+backward
+    # for 512 frames on session 24's AVX-512-BF16 CPU; slower than fp32 where the CPU lacks BF16).
+    train_encoder: bool = False
+    # The encoder's rate as a fraction of the actor's. At the full rate its ~11M weights moved the policy
+    # by an approximate KL of 0.02-0.03 per update (clip fraction ~0.09) where the frozen-encoder updates
+    # move it by ~5e-4: too far for fine-tuning a policy that already succeeds on ~94% of its rollouts.
+    encoder_lr_scale: float = 0.1
+    bf16: bool = True
     replay_buffer: int = 64
     expert_success_distance: float = 0.1  # the shipped policy's DAgger expert (policies/README.md)
     expert_margin: float = 0.15
@@ -171,11 +183,13 @@ class Rollout:
             feat = self.policy.net.encode_depth(depth)
             logits, value, hidden = self.policy.forward_features(feat[None], goal[None], self.prev[None],
                                                                  self.mask[None], self.hidden)
-        return feat.clone(), goal, logits[0].clone(), value[0].clone(), hidden.clone()
+        # with train_encoder the update re-encodes the frame, so the rollout keeps the depth instead
+        seen = depth.to(torch.float16) if self.cfg.train_encoder else feat.clone()
+        return seen, goal, logits[0].clone(), value[0].clone(), hidden.clone()
 
     def collect(self) -> dict[str, torch.Tensor]:
         T, n = self.cfg.rollout_steps, len(self.envs)
-        keys = ("feat", "goal", "prev", "mask", "action", "logp", "value")
+        keys = ("depth" if self.cfg.train_encoder else "feat", "goal", "prev", "mask", "action", "logp", "value")
         buf: dict[str, list] = {k: [] for k in keys}
         rewards, dones = np.zeros((T, n), np.float32), np.zeros((T, n), np.float32)
         hidden0 = self.hidden.clone()
@@ -228,6 +242,14 @@ def actor_lr(cfg: PPOConfig, u: int) -> float:
     raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
 
 
+def _encode(policy: PointNavResNetPolicy, depth: torch.Tensor, cfg: PPOConfig, grad: bool) -> torch.Tensor:
+    """(T, N, H, W, 1) stored depth -> (T, N, F) encoder output, with gradients only when the actor trains."""
+    steps, n = depth.shape[:2]
+    with torch.set_grad_enabled(grad), torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg.bf16):
+        feat = policy.net.encode_depth(depth.reshape(steps * n, *depth.shape[2:]).float())
+    return feat.float().view(steps, n, -1)
+
+
 def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: dict[str, torch.Tensor],
                cfg: PPOConfig, actor: bool, rng: np.random.Generator) -> dict[str, float]:
     """Clipped PPO epochs over env groups; with ``actor`` False only the value loss is applied."""
@@ -241,7 +263,8 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     for _ in range(cfg.ppo_epochs):
         for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
             idx = torch.as_tensor(idx)
-            logits, value, _ = policy.forward_features(data["feat"][:, idx], data["goal"][:, idx],
+            feat = data["feat"][:, idx] if "feat" in data else _encode(policy, data["depth"][:, idx], cfg, grad=actor)
+            logits, value, _ = policy.forward_features(feat, data["goal"][:, idx],
                                                        data["prev"][:, idx], data["mask"][:, idx], data["hidden0"][idx])
             logp_all = F.log_softmax(logits, -1)
             logp = logp_all.gather(-1, data["action"][:, idx, None])[..., 0]
@@ -287,12 +310,18 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
     log_path = out.with_suffix(".log.csv")
 
     policy = PointNavResNetPolicy(PolicyNetConfig())
-    policy.net.visual_encoder.requires_grad_(False)
+    if not cfg.train_encoder:
+        policy.net.visual_encoder.requires_grad_(False)
     # Adam's state must not accumulate on a frozen actor during the warm-up: Adam moves a parameter
     # whose gradient is zero by its momentum, so the actor's gradients are set to None instead.
     critic = list(policy.critic.parameters())
-    rest = [p for n, p in policy.named_parameters() if p.requires_grad and not n.startswith("critic.")]
-    opt = torch.optim.Adam([{"params": rest, "lr": cfg.lr}, {"params": critic, "lr": cfg.critic_lr}], eps=1e-5)
+    encoder = list(policy.net.visual_encoder.parameters()) if cfg.train_encoder else []
+    rest = [p for n, p in policy.named_parameters()
+            if p.requires_grad and not n.startswith(("critic.", "net.visual_encoder."))]
+    groups = [{"params": rest, "lr": cfg.lr}, {"params": critic, "lr": cfg.critic_lr}]
+    if encoder:  # a third group, so the optimizer state of a frozen-encoder run keeps its two groups
+        groups.append({"params": encoder, "lr": cfg.lr * cfg.encoder_lr_scale})
+    opt = torch.optim.Adam(groups, eps=1e-5)
     start, frames, wall0 = 0, 0, 0.0
     if resume and state_path.is_file():
         st = torch.load(state_path, weights_only=False)
@@ -322,6 +351,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
         t_collect = time.time() - t0
         t0 = time.time()
         opt.param_groups[0]["lr"] = actor_lr(cfg, u)  # set every update, so a resumed run follows the schedule
+        if cfg.train_encoder:
+            opt.param_groups[2]["lr"] = actor_lr(cfg, u) * cfg.encoder_lr_scale
         stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng)
         # success figures over fresh draws only: replays are failures picked on purpose
         window = (window + [e for e in rollout.finished if not e["replay"]])[-100:]
@@ -349,7 +380,9 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
 
 def main_args(args) -> int:
     fields = PPOConfig.__dataclass_fields__
-    cfg = PPOConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
+    cfg = PPOConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None},
+                    # the shared --train-encoder flag is spelt freeze_visual=False for DAgger's TrainConfig
+                    **({"train_encoder": True} if getattr(args, "freeze_visual", None) is False else {}))
     result = train_ppo(cfg, Path(args.out), Path(args.init) if args.init else None, resume=args.resume,
                        state_dir=Path(args.state_dir))
     print(json.dumps(result))

@@ -1,5 +1,7 @@
 """PPO fine-tuning: habitat's PointNav reward, GAE, the critic warm-up, resumable runs and the expert term."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -102,6 +104,31 @@ def test_a_cosine_run_sets_and_logs_the_actor_rate_each_update_and_ends_at_lr_mi
     assert [float(line.split(",")[col]) for line in lines] == pytest.approx([2.5e-5, 2.5e-5, 1.25e-6])
     state = torch.load(tmp_path / "state" / "ppo_state.pt", weights_only=False)
     assert [g["lr"] for g in state["optimizer"]["param_groups"]] == pytest.approx([1.25e-6, cfg.critic_lr])
+
+
+def test_train_encoder_rolls_out_depth_and_moves_the_encoder_only_once_the_actor_trains(tmp_path):
+    torch.manual_seed(0)
+    init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {}, fp16=False)
+    before = _params(load_checkpoint(init))
+    cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=4, updates=1, critic_warmup=1, save_every=1,
+                    train_encoder=True, lr=1e-3)
+    out, state = tmp_path / "ppo.pth", tmp_path / "state"
+    train_ppo(cfg, out, init, state_dir=state, log_every=lambda _: None)
+    warm = torch.load(state / "ppo_state.pt", weights_only=False)["policy"]  # fp32, unlike the fp16 checkpoint
+    encoder = [n for n in before if n.startswith("net.visual_encoder.")]
+    assert encoder and all(torch.equal(before[n], warm[n]) for n in encoder)
+    train_ppo(dataclasses.replace(cfg, updates=2), out, init, resume=True, state_dir=state, log_every=lambda _: None)
+    st = torch.load(state / "ppo_state.pt", weights_only=False)
+    assert [n for n in encoder if not torch.equal(warm[n], st["policy"][n])]
+    opt = st["optimizer"]
+    assert [g["lr"] for g in opt["param_groups"]] == pytest.approx([1e-3, cfg.critic_lr, 1e-4])
+
+    policy = load_checkpoint(init)
+    envs = make_envs(2, "train", 3)
+    data = Rollout(envs, cfg, policy, torch.Generator().manual_seed(0)).collect()
+    for e in envs:
+        e.close()
+    assert "feat" not in data and data["depth"].shape == (4, 2, 224, 224, 1) and data["depth"].dtype == torch.float16
 
 
 def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
