@@ -51,7 +51,8 @@ class PPOConfig:
     # "constant", or "cosine": after the critic warm-up the actor's rate falls from lr to lr_min along half
     # a cosine over the remaining updates (habitat-baselines decays it linearly to 0). At a constant rate the
     # last update's weights are one draw from a random walk: three 250-update continuations of stage 16 at
-    # 2.5e-5 scored 88.5-91.0 SR on val against its 92.5. A decayed rate ends the run on settled weights.
+    # 2.5e-5 scored 88.5-91.0 SR on val against its 92.5. A decayed rate ends the run on settled weights
+    # (tried in stage 22, 800 updates: val stayed where stage 16 is; policies/README.md).
     lr_schedule: str = "constant"
     lr_min: float = 0.0
     # The value head starts untrained and must fit returns of up to ~10 within the warm-up: at the
@@ -94,19 +95,20 @@ class PPOConfig:
     # furniture and a wall, turning in place at a dead end) recur on val. Prioritised level replay (Jiang
     # et al., 2021) in its simplest form. 0 = off. The buffer restarts empty on --resume.
     replay_failures: float = 0.0
-    # Fine-tune the visual encoder too (at the actor's rate). It was trained on geometry targets only
-    # (navbench.policy.pretrain) and has been frozen since; the shipped file's failures are pressing into
-    # an obstacle at the edge of the view, which the frozen features may not separate from free space.
+    replay_buffer: int = 64
+    # Fine-tune the visual encoder too (at encoder_lr_scale x the actor's rate). It was trained on geometry
+    # targets only (navbench.policy.pretrain) and has been frozen since; the shipped file's failures are
+    # pressing into an obstacle at the edge of the view, which frozen features may not tell from free space
+    # (tried in stage 23: no better on val; policies/README.md).
     # The rollout then keeps each frame's depth (fp16, ~100 MB an update) instead of its features, and the
     # update re-encodes them, under bf16 autocast with ``bf16`` (1.2 s against 2.7 s forward+backward
     # for 512 frames on session 24's AVX-512-BF16 CPU; slower than fp32 where the CPU lacks BF16).
     train_encoder: bool = False
-    # The encoder's rate as a fraction of the actor's. At the full rate its ~11M weights moved the policy
+    # The encoder's rate as a fraction of the actor's. At the full rate its 3.1M weights moved the policy
     # by an approximate KL of 0.02-0.03 per update (clip fraction ~0.09) where the frozen-encoder updates
     # move it by ~5e-4: too far for fine-tuning a policy that already succeeds on ~94% of its rollouts.
     encoder_lr_scale: float = 0.1
     bf16: bool = True
-    replay_buffer: int = 64
     expert_success_distance: float = 0.1  # the shipped policy's DAgger expert (policies/README.md)
     expert_margin: float = 0.15
     seed: int = 0
@@ -263,7 +265,8 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     for _ in range(cfg.ppo_epochs):
         for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
             idx = torch.as_tensor(idx)
-            feat = data["feat"][:, idx] if "feat" in data else _encode(policy, data["depth"][:, idx], cfg, grad=actor)
+            feat = (data["feat"][:, idx] if "feat" in data
+                    else _encode(policy, data["depth"][:, idx], cfg, grad=actor))
             logits, value, _ = policy.forward_features(feat, data["goal"][:, idx],
                                                        data["prev"][:, idx], data["mask"][:, idx], data["hidden0"][idx])
             logp_all = F.log_softmax(logits, -1)
