@@ -37,7 +37,7 @@ import torch.nn.functional as F
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_train_state
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.progress import log_row
-from navbench.policy.train import make_envs
+from navbench.policy.train import cosine_rate, make_envs
 from navbench.scene.follower import GreedyFollower
 
 
@@ -239,8 +239,7 @@ def actor_lr(cfg: PPOConfig, u: int) -> float:
     if cfg.lr_schedule == "constant":
         return cfg.lr
     if cfg.lr_schedule == "cosine":
-        frac = max(0, u - cfg.critic_warmup) / max(1, cfg.updates - cfg.critic_warmup - 1)
-        return cfg.lr_min + 0.5 * (cfg.lr - cfg.lr_min) * (1.0 + np.cos(np.pi * min(1.0, frac)))
+        return cosine_rate(cfg.lr, cfg.lr_min, (u - cfg.critic_warmup) / max(1, cfg.updates - cfg.critic_warmup - 1))
     raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
 
 
@@ -353,9 +352,10 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
         data = rollout.collect()
         t_collect = time.time() - t0
         t0 = time.time()
-        opt.param_groups[0]["lr"] = actor_lr(cfg, u)  # set every update, so a resumed run follows the schedule
+        rate = actor_lr(cfg, u)  # set every update, so a resumed run follows the schedule
+        opt.param_groups[0]["lr"] = rate
         if cfg.train_encoder:
-            opt.param_groups[2]["lr"] = actor_lr(cfg, u) * cfg.encoder_lr_scale
+            opt.param_groups[2]["lr"] = rate * cfg.encoder_lr_scale
         stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng)
         # success figures over fresh draws only: replays are failures picked on purpose
         window = (window + [e for e in rollout.finished if not e["replay"]])[-100:]

@@ -225,13 +225,17 @@ def silence_prev_action(policy: PointNavResNetPolicy) -> None:
     emb.requires_grad_(False)
 
 
+def cosine_rate(lr: float, lr_min: float, frac: float) -> float:
+    """The rate ``frac`` (0..1, clipped) of the way along half a cosine from ``lr`` down to ``lr_min``."""
+    return lr_min + 0.5 * (lr - lr_min) * (1.0 + np.cos(np.pi * min(1.0, max(0.0, frac))))
+
+
 def iteration_lr(cfg: TrainConfig, it: int) -> float:
     """Learning rate of iteration ``it`` (0-based) under ``cfg.lr_schedule``."""
     if cfg.lr_schedule == "constant":
         return cfg.lr
     if cfg.lr_schedule == "cosine":
-        frac = it / max(1, cfg.iterations - 1)
-        return cfg.lr_min + 0.5 * (cfg.lr - cfg.lr_min) * (1.0 + np.cos(np.pi * frac))
+        return cosine_rate(cfg.lr, cfg.lr_min, it / max(1, cfg.iterations - 1))
     raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
 
 
