@@ -439,6 +439,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--replay-failures", type=float,
                     help="ppo: probability that a finished episode is followed by a replay of an earlier failed one "
                          "(default 0: off)")
+    tr.add_argument("--tight-starts", type=float,
+                    help="pointnav/ppo: probability that a rollout episode starts from a random cell beside an "
+                         "obstacle (within 0.1 m of the navigable edge) instead of its own start (default 0: off)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
     tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)

@@ -37,7 +37,7 @@ import torch.nn.functional as F
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_train_state
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.progress import log_row
-from navbench.policy.train import cosine_rate, make_envs
+from navbench.policy.train import cosine_rate, make_envs, reset_maybe_tight
 from navbench.scene.follower import GreedyFollower
 
 
@@ -96,6 +96,9 @@ class PPOConfig:
     # et al., 2021) in its simplest form. 0 = off. The buffer restarts empty on --resume.
     replay_failures: float = 0.0
     replay_buffer: int = 64
+    # Probability that a fresh episode starts beside an obstacle (navbench.policy.train.reset_maybe_tight),
+    # where the shipped file's val failures begin three times as often. 0 = off.
+    tight_starts: float = 0.0
     # Fine-tune the visual encoder too (at encoder_lr_scale x the actor's rate). It was trained on geometry
     # targets only (navbench.policy.pretrain) and has been frozen since; the shipped file's failures are
     # pressing into an obstacle at the edge of the view, which frozen features may not tell from free space
@@ -151,7 +154,7 @@ class Rollout:
         self.failed: list = []  # episodes that ended without success, oldest first (replay_failures)
         self.replaying = [False] * len(envs)  # whether each env's current episode is a replay
         n = len(envs)
-        self.obs = [env.reset()[0] for env in envs]
+        self.obs = [reset_maybe_tight(env, self.rng, cfg.tight_starts) for env in envs]
         self.dist = np.array([env.distance_to_goal() for env in envs])
         self.walked = np.zeros(n)  # path length so far
         self.collisions = np.zeros(n, np.int64)  # the env's collision count so far this episode
@@ -167,7 +170,8 @@ class Rollout:
 
     def _next_episode(self, env, success: bool) -> tuple[dict, bool]:
         """Reset ``env`` after an episode: (first observation, whether it is a replay). A replay of an
-        earlier failure with probability ``replay_failures`` (config comment), else the env's own draw."""
+        earlier failure with probability ``replay_failures`` (config comment), else the env's own draw
+        (from a tight start with probability ``tight_starts``)."""
         cfg = self.cfg
         if cfg.replay_failures > 0:
             if not success:
@@ -175,7 +179,7 @@ class Rollout:
             if self.failed and self.rng.random() < cfg.replay_failures:
                 episode = self.failed.pop(int(self.rng.integers(len(self.failed))))
                 return env.reset(options={"episode": episode})[0], True
-        return env.reset()[0], False
+        return reset_maybe_tight(env, self.rng, cfg.tight_starts), False
 
     def _step_policy(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Encoder output, point goal, logits, value and next recurrent state for the current observations."""

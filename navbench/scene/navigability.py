@@ -504,6 +504,16 @@ class NavGrid:
         return np.array([self.origin[0] + j * self.cell_size + dx, self.floor_height,
                          self.origin[1] + i * self.cell_size + dz])
 
+    def sample_tight_point(self, rng: np.random.Generator, max_clearance: float) -> np.ndarray | None:
+        """The centre of a uniformly random navigable cell within ``max_clearance`` metres of the
+        navigable area's edge (the agent's body then touches or nearly touches an obstacle); None if
+        the grid has no such cell."""
+        cells = np.flatnonzero((self._navigable_clearance() <= max_clearance + 1e-9) & self.navigable)
+        if len(cells) == 0:
+            return None
+        i, j = divmod(int(cells[rng.integers(len(cells))]), self.navigable.shape[1])
+        return np.array([self.origin[0] + j * self.cell_size, self.floor_height, self.origin[1] + i * self.cell_size])
+
     def island_id(self, p) -> int:
         """Label (>= 1) of the 4-connected navigable island containing ``p``; 0 if not navigable."""
         p = _points(p, "point")

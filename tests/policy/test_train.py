@@ -239,3 +239,31 @@ def test_cosine_schedule_runs_from_lr_to_lr_min_and_constant_stays():
     assert iteration_lr(dataclasses.replace(cfg, lr_schedule="constant"), 3) == 4e-4
     with pytest.raises(ValueError, match="linear"):
         iteration_lr(dataclasses.replace(cfg, lr_schedule="linear"), 0)
+
+
+def test_tight_starts_keep_the_goal_and_start_beside_an_obstacle():
+    from navbench.policy.train import TIGHT_CLEARANCE, TIGHT_MIN_DISTANCE, reset_maybe_tight
+
+    env = make_envs(1, "train", seed=3)[0]
+    rng = np.random.default_rng(0)
+    state = rng.bit_generator.state
+    reset_maybe_tight(env, rng, 0.0)  # off: the env's own draw, and the generator is not touched
+    assert rng.bit_generator.state == state and not env.episode.episode_id.endswith("-tight")
+    env.reset(seed=3)
+    starts = []
+    for _ in range(6):
+        obs = reset_maybe_tight(env, rng, 1.0)
+        ep = env.episode
+        assert ep.episode_id.endswith("-tight")
+        original = next(e for e in env.dataset.episodes if e.episode_id == ep.episode_id[:-len("-tight")])
+        assert ep.goals == original.goals and ep.scene_id == original.scene_id
+        clearance = env.navgrid._navigable_clearance()
+        i, j = env.navgrid.world_to_grid(np.asarray(ep.start_position))
+        assert 0 < clearance[i, j] <= TIGHT_CLEARANCE + 1e-9
+        assert TIGHT_MIN_DISTANCE <= env.distance_to_goal() < np.inf
+        assert np.allclose(env.agent_position[[0, 2]], np.asarray(ep.start_position)[[0, 2]])
+        assert np.isclose(obs["pointgoal_with_gps_compass"][0], np.linalg.norm(
+            (np.asarray(ep.goals[0].position) - np.asarray(ep.start_position))[[0, 2]]), atol=1e-4)
+        starts.append(tuple(ep.start_position))
+    assert len(set(starts)) == 6
+    env.close()

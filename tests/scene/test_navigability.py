@@ -321,3 +321,18 @@ def test_wall_end_accuracy_holds_at_sub_cell_alignments(offset):
     for a, b in ((P(1.5, 1.5), P(4.5, 1.5)), (P(0.8, 3.0), P(5.2, 0.7))):
         exact = around_wall_end(a, b, 2.95 + offset, 3.05 + offset, 4.0 + offset, R)
         assert g.geodesic_distance(a, b) == pytest.approx(exact, rel=0.02)
+
+
+def test_tight_points_are_navigable_cells_beside_the_edge(wall_grid):
+    rng = np.random.default_rng(0)
+    clearance = wall_grid._navigable_clearance()
+    points = [wall_grid.sample_tight_point(rng, 0.1) for _ in range(200)]
+    for p in points:
+        assert wall_grid.is_navigable(p)
+        i, j = wall_grid.world_to_grid(p)
+        assert 0 < clearance[i, j] <= 0.1 + 1e-9
+    # both sides of the wall and the room's outer edges are drawn, not one cell over and over
+    assert len({tuple(np.round(p, 3)) for p in points}) > 100
+    assert min(p[0] for p in points) < 1.0 < 5.0 < max(p[0] for p in points)
+    # nothing that close to an edge on an impossibly tight request
+    assert wall_grid.sample_tight_point(rng, 0.0) is None
