@@ -97,7 +97,8 @@ class PPOConfig:
     replay_failures: float = 0.0
     replay_buffer: int = 64
     # Probability that a fresh episode starts beside an obstacle (navbench.policy.train.reset_maybe_tight),
-    # where the shipped file's val failures begin three times as often. 0 = off.
+    # where the shipped file's val failures begin three times as often. 0 = off. Tried alone in PPO (stage 24):
+    # no fewer tight failures on val; it pays in DAgger instead (policies/README.md, stages 24-27).
     tight_starts: float = 0.0
     # Fine-tune the visual encoder too (at encoder_lr_scale x the actor's rate). It was trained on geometry
     # targets only (navbench.policy.pretrain) and has been frozen since; the shipped file's failures are

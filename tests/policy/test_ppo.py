@@ -219,3 +219,26 @@ def test_collision_penalty_reaches_the_rollout_rewards_at_refused_forwards():
     diff = (rewards[1] - rewards[0]).numpy()
     assert set(np.round(diff, 6).ravel()) <= {0.0, -1.0} and (diff < 0).any()
     assert int((diff < 0).sum()) == collisions
+
+
+def test_tight_starts_begin_the_first_and_every_later_rollout_episode_beside_an_obstacle():
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig())
+    with torch.no_grad():  # an actor that always calls STOP: every step ends an episode and draws the next
+        policy.action_distribution.linear.weight.zero_()
+        policy.action_distribution.linear.bias.copy_(torch.tensor([30.0, -30.0, -30.0, -30.0]))
+    envs = make_envs(2, "train", 5)
+    try:
+        rollout = Rollout(envs, PPOConfig(num_envs=2, rollout_steps=3, tight_starts=1.0), policy,
+                          torch.Generator().manual_seed(0))
+        firsts = [e.episode.episode_id for e in envs]
+        rollout.collect()
+        assert len(rollout.finished) == 6
+        for ids in (firsts, [e.episode.episode_id for e in envs]):
+            assert all(i.endswith("-tight") for i in ids)
+        clearance = [e.navgrid._navigable_clearance()[tuple(e.navgrid.world_to_grid(np.asarray(e.episode.start_position)))]
+                     for e in envs]
+        assert all(0 < c <= 0.1 + 1e-9 for c in clearance)
+    finally:
+        for e in envs:
+            e.close()
