@@ -260,8 +260,8 @@ def make_envs(n: int, split: str, seed: int) -> list[PointNavEnv]:
     return envs
 
 
-# Tight starts (``tight_starts``): a start on a navigable cell this close to the grid's edge leaves the
-# body within ~2 cm of an obstacle (the grid is already eroded by the 0.18 m radius).
+# Tight starts (``tight_starts``): a start on a navigable cell this close to the grid's edge leaves at most
+# this much room between the body and an obstacle (the grid is already eroded by the 0.18 m radius).
 TIGHT_CLEARANCE = 0.1
 TIGHT_MIN_DISTANCE = 1.0  # metres of geodesic distance to the goal, so the episode is not over at once
 
