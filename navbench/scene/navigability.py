@@ -507,8 +507,7 @@ class NavGrid:
     def sample_tight_point(self, rng: np.random.Generator, max_clearance: float) -> np.ndarray | None:
         """The centre of a uniformly random navigable cell within ``max_clearance`` metres of the
         navigable area's edge (the grid is eroded by the agent's radius, so the body is then at most that
-        far from an obstacle); None if
-        the grid has no such cell."""
+        far from an obstacle); None if the grid has no such cell."""
         cells = np.flatnonzero((self._navigable_clearance() <= max_clearance + 1e-9) & self.navigable)
         if len(cells) == 0:
             return None
