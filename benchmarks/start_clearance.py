@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.ndimage import distance_transform_edt
 
 from navbench.env.config import EnvConfig
 from navbench.episodes.io import load_dataset
@@ -37,7 +36,7 @@ def start_clearances(episodes_file: str, scene_dir: Path) -> dict[str, float]:
     for ep in load_dataset(episodes_file).episodes:
         if ep.scene_id not in grids:
             _, grid = load_scene_and_navgrid(scene_dir / ep.scene_id, cfg)
-            grids[ep.scene_id] = grid, distance_transform_edt(grid.navigable) * grid.cell_size
+            grids[ep.scene_id] = grid, grid.navigable_clearance()
         grid, clearance = grids[ep.scene_id]
         i, j = grid.world_to_grid(np.asarray(ep.start_position, np.float64))
         out[ep.episode_id] = float(clearance[i, j])

@@ -508,7 +508,7 @@ class NavGrid:
         """The centre of a uniformly random navigable cell within ``max_clearance`` metres of the
         navigable area's edge (the grid is eroded by the agent's radius, so the body is then at most that
         far from an obstacle); None if the grid has no such cell."""
-        cells = np.flatnonzero((self._navigable_clearance() <= max_clearance + 1e-9) & self.navigable)
+        cells = np.flatnonzero((self.navigable_clearance() <= max_clearance + 1e-9) & self.navigable)
         if len(cells) == 0:
             return None
         i, j = divmod(int(cells[rng.integers(len(cells))]), self.navigable.shape[1])
@@ -605,7 +605,7 @@ class NavGrid:
         phi.ravel()[ii[sel] * w + jj[sel]] = np.minimum(dist[sel] - r, 1.0)
         phi = np.ma.MaskedArray(phi, mask=~self.navigable)
         if margin > 0:
-            speed = np.clip(self._navigable_clearance() / margin, _MIN_SPEED, 1.0)
+            speed = np.clip(self.navigable_clearance() / margin, _MIN_SPEED, 1.0)
             d = skfmm.travel_time(phi, speed, dx=cs, order=2)
         else:
             d = skfmm.distance(phi, dx=cs, order=2)
@@ -643,7 +643,7 @@ class NavGrid:
             self._clearance = ndimage.distance_transform_edt(self.free) * self.cell_size
         return self._clearance
 
-    def _navigable_clearance(self) -> np.ndarray:
+    def navigable_clearance(self) -> np.ndarray:
         """Per cell, metres to the nearest non-navigable cell (0 off the navigable area)."""
         if self._nav_clearance is None:
             self._nav_clearance = ndimage.distance_transform_edt(self.navigable) * self.cell_size
@@ -654,7 +654,7 @@ class NavGrid:
         length = math.hypot(x1 - x0, z1 - z0)
         if length == 0.0:
             return x0, z0, False
-        clearance = self._navigable_clearance()
+        clearance = self.navigable_clearance()
         start = self._cell(x0, z0)
         # Every sample's cell centre lies within length + 1.5 cells of the start cell's centre; if
         # all cells that close are navigable, the whole segment is (the common case, kept cheap).

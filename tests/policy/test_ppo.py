@@ -236,7 +236,7 @@ def test_tight_starts_begin_the_first_and_every_later_rollout_episode_beside_an_
         assert len(rollout.finished) == 6
         for ids in (firsts, [e.episode.episode_id for e in envs]):
             assert all(i.endswith("-tight") for i in ids)
-        clearance = [e.navgrid._navigable_clearance()[tuple(e.navgrid.world_to_grid(np.asarray(e.episode.start_position)))]
+        clearance = [e.navgrid.navigable_clearance()[tuple(e.navgrid.world_to_grid(np.asarray(e.episode.start_position)))]
                      for e in envs]
         assert all(0 < c <= 0.1 + 1e-9 for c in clearance)
     finally:

@@ -257,7 +257,7 @@ def test_tight_starts_keep_the_goal_and_start_beside_an_obstacle():
         assert ep.episode_id.endswith("-tight")
         original = next(e for e in env.dataset.episodes if e.episode_id == ep.episode_id[:-len("-tight")])
         assert ep.goals == original.goals and ep.scene_id == original.scene_id
-        clearance = env.navgrid._navigable_clearance()
+        clearance = env.navgrid.navigable_clearance()
         i, j = env.navgrid.world_to_grid(np.asarray(ep.start_position))
         assert 0 < clearance[i, j] <= TIGHT_CLEARANCE + 1e-9
         assert TIGHT_MIN_DISTANCE <= env.distance_to_goal() < np.inf

@@ -178,7 +178,7 @@ def test_follower_success_and_spl_on_random_episodes(furnished_grid):
 
 def test_clearance_margin_keeps_away_from_the_wall_end_at_little_cost(wall_grid):
     """Round the end of the wall (z = 4): the plain shortest path grazes it, the margin path keeps room."""
-    clearance = wall_grid._navigable_clearance()
+    clearance = wall_grid.navigable_clearance()
     runs = {}
     for margin in (0.0, 0.15):
         positions: list = []

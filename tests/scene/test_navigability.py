@@ -325,7 +325,7 @@ def test_wall_end_accuracy_holds_at_sub_cell_alignments(offset):
 
 def test_tight_points_are_navigable_cells_beside_the_edge(wall_grid):
     rng = np.random.default_rng(0)
-    clearance = wall_grid._navigable_clearance()
+    clearance = wall_grid.navigable_clearance()
     points = [wall_grid.sample_tight_point(rng, 0.1) for _ in range(200)]
     for p in points:
         assert wall_grid.is_navigable(p)
