@@ -2,7 +2,7 @@
 
     navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
-    navbench generate scenes|episodes|policy-train [--seed 0]
+    navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench train encoder|pointnav|ppo [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
@@ -23,7 +23,8 @@ from pathlib import Path
 from navbench.env.config import SUCCESS_DISTANCE
 from navbench.paths import EPISODES_DIR, SCENES_DIR, split_file
 
-POINTNAV_SPLITS = ("train", "val")
+# `select`: houses of their own for choosing among trained policies, so `val` is looked at once, to report
+POINTNAV_SPLITS = ("train", "val", "select")
 OBJECTNAV_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")
 OVON_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")  # navbench's ObjectNav splits
 
@@ -249,6 +250,12 @@ def cmd_generate(args) -> int:
         h = POLICY_TRAIN_HOUSES
         generate_dataset(SCENES_DIR / h["dir"], n_train=h["n_train"], n_val=0, seed=h["seed"])
         generate_policy_train_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+    elif args.what == "policy-select":  # houses and episodes for choosing among policies, never val
+        from navbench.episodes.generate import generate_policy_select_split
+        from navbench.scene.procedural import POLICY_SELECT_HOUSES, generate_dataset
+        h = POLICY_SELECT_HOUSES
+        generate_dataset(SCENES_DIR / h["dir"], n_train=0, n_val=h["n_val"], seed=h["seed"])
+        generate_policy_select_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
     else:
         from navbench.episodes.generate import generate_bundled_splits
         generate_bundled_splits(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
@@ -371,8 +378,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.set_defaults(func=cmd_table)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
-                                        "extra training houses and episodes (policy-train)")
-    g.add_argument("what", choices=("scenes", "episodes", "policy-train"))
+                                        "extra training houses and episodes (policy-train), or its selection houses and "
+                                        "episodes (policy-select)")
+    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select"))
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)

@@ -161,7 +161,7 @@ class SplitPlan:
 def scene_files(scene_dir: Path, split: str, dataset: str = "houses") -> list[Path]:
     files = sorted((scene_dir / dataset / split).glob("*.glb"))
     if not files:
-        command = "policy-train" if dataset != "houses" else "scenes"
+        command = {"houses": "scenes", "houses_policy_select": "policy-select"}.get(dataset, "policy-train")
         raise FileNotFoundError(f"{scene_dir / dataset / split}: no scenes (run `navbench generate {command}`)")
     return files
 
@@ -220,4 +220,20 @@ def generate_policy_train_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = 
         eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
     save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / "train_large" / "train_large.json.gz")
     log(f"pointnav/train_large: {len(eps)} episodes")
+    return len(eps)
+
+
+def generate_policy_select_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
+                                 per_scene: int = 25, log=print) -> int:
+    """PointNav ``select``: ``per_scene`` episodes in each house of ``envs/houses_policy_select``
+    (:data:`navbench.scene.procedural.POLICY_SELECT_HOUSES`), for choosing among trained policies
+    without looking at ``val``. Its own generator stream, like ``train_large``."""
+    from navbench.scene.procedural import POLICY_SELECT_HOUSES
+
+    rng = np.random.default_rng([seed, 0, 3])
+    eps: list[Episode] = []
+    for path in scene_files(scene_dir, "val", POLICY_SELECT_HOUSES["dir"]):
+        eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
+    save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / "select" / "select.json.gz")
+    log(f"pointnav/select: {len(eps)} episodes")
     return len(eps)

@@ -917,17 +917,25 @@ def generate_dataset(out_dir: str | Path, n_train: int = 8, n_val: int = 4, seed
 # houses (seed 1, not 0), never used by any evaluation split. Eight train houses are too few for an
 # imitation-learned policy: the shipped policy scored SR 80 on its own train episodes and 59.5 on val.
 POLICY_TRAIN_HOUSES = {"dir": "houses_policy_train", "n_train": 40, "seed": 1}
+# Houses for choosing among trained PointNav policies (checkpoints, seeds, decoding) without looking at
+# the reported val split: disjoint from the bundled houses and the training houses (seed 2), in `val/`
+# because no policy trains on them.
+POLICY_SELECT_HOUSES = {"dir": "houses_policy_select", "n_val": 8, "seed": 2}
 
 
 def _readme(rows: list, seed: int, name: str = "houses", n_train: int = 8, n_val: int = 4) -> str:
     bundled = (name, n_train, n_val, seed) == ("houses", 8, 4, 0)
     extra = (name, n_train, n_val, seed) == (POLICY_TRAIN_HOUSES["dir"], POLICY_TRAIN_HOUSES["n_train"], 0,
                                              POLICY_TRAIN_HOUSES["seed"])
+    select = (name, n_train, n_val, seed) == (POLICY_SELECT_HOUSES["dir"], 0, POLICY_SELECT_HOUSES["n_val"],
+                                              POLICY_SELECT_HOUSES["seed"])
     title = ("Procedural houses (bundled default scenes)" if bundled else
              "Procedural houses for training the PointNav policy only (never evaluated on)" if extra else
-             "Procedural houses")
+             "Procedural houses for choosing among PointNav policies (never trained on, not reported)"
+             if select else "Procedural houses")
     command = ("`navbench generate scenes`, i.e. " if bundled else
-               "`navbench generate policy-train`, i.e. " if extra else "")
+               "`navbench generate policy-train`, i.e. " if extra else
+               "`navbench generate policy-select`, i.e. " if select else "")
     lines = [
         f"# {title}",
         "",
