@@ -52,7 +52,8 @@ def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
     from navbench.policy.net import InferenceConfig
     return PointNavAgent(cfg.agent_options.get("checkpoint"),
-                         InferenceConfig(sample=cfg.agent_options.get("sample_actions", False)),
+                         InferenceConfig(sample=cfg.agent_options.get("sample_actions", False),
+                                         temperature=cfg.agent_options.get("temperature", 1.0)),
                          num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
 
 
@@ -196,6 +197,12 @@ def _agent_options(args) -> dict:
         if args.agent != "pointnav":
             raise ValueError(f"--sample-actions applies to the pointnav agent, not {args.agent!r}")
         opts["sample_actions"] = True
+    if args.temperature is not None:
+        if not args.sample_actions:
+            raise ValueError("--temperature sets how --sample-actions draws: give both")
+        if not args.temperature > 0:
+            raise ValueError(f"--temperature must be > 0, got {args.temperature}")
+        opts["temperature"] = args.temperature
     if args.agent in ("memory", "frontier"):
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
@@ -230,7 +237,7 @@ def _label(args, cfg) -> str:
         if o["perception"] != "oracle":
             parts.append(o["perception"])
     if o.get("sample_actions"):
-        parts.append("sampled")
+        parts.append("sampled" if o.get("temperature", 1.0) == 1.0 else f"sampled_t{o['temperature']:g}")
     return "-".join(parts)
 
 
@@ -339,6 +346,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--sample-actions", action="store_true",
                    help="pointnav agent: sample actions from the policy (habitat-baselines' evaluation; seeded "
                         "by --seed and the episode) instead of taking the argmax")
+    r.add_argument("--temperature", type=float,
+                   help="with --sample-actions: draw from softmax(logits / T) (default 1, the policy's own "
+                        "distribution; lower is closer to the argmax)")
     m = r.add_argument_group("memory / frontier agents (perception and ablations)")
     m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
     m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")

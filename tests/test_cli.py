@@ -36,3 +36,11 @@ def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
     assert "sample_actions" not in opts and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav"
     with pytest.raises(ValueError, match="pointnav agent"):  # the other agents drive by argmax: say so
         _options("--sample-actions")
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
+                                      "--temperature", "0.5"])
+    opts = _agent_options(args)
+    assert opts["temperature"] == 0.5 and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav-sampled_t0.5"
+    for bad in (["--temperature", "0.5"], ["--sample-actions", "--temperature", "0"]):  # no draws to shape; T > 0
+        args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", *bad])
+        with pytest.raises(ValueError, match="temperature"):
+            _agent_options(args)

@@ -290,6 +290,13 @@ class InferenceConfig:
     # evaluator does (``actor_critic.act(..., deterministic=False)``). Reproducible through
     # ``reset(i, seed=)``: each env draws from its own generator, so batching changes no action.
     sample: bool = False
+    # With ``sample``, draw from softmax(logits / temperature): 1 is the policy's own distribution,
+    # lower values move the draws towards the argmax (which temperature -> 0 becomes).
+    temperature: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not self.temperature > 0:  # also refuses NaN
+            raise ValueError(f"temperature must be > 0, got {self.temperature}")
 
 
 class PointNavAgentPolicy:
@@ -384,7 +391,7 @@ class PointNavAgentPolicy:
         # Outside inference_mode these ops give normal tensors, which reset_hidden may edit in place.
         if self.config.sample:
             # inverse CDF with one uniform draw per env: the same draws give the same actions at any batch size
-            probs = torch.softmax(logits[0].double(), dim=-1).numpy()
+            probs = torch.softmax(logits[0].double() / self.config.temperature, dim=-1).numpy()
             u = np.array([rng.random() for rng in self.rngs])
             picks = (probs.cumsum(-1) < u[:, None]).sum(-1).clip(max=probs.shape[-1] - 1)
             actions = torch.as_tensor(picks, dtype=torch.long)

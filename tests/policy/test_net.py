@@ -287,6 +287,21 @@ def test_sampled_actions_follow_the_policys_distribution(policy: PointNavResNetP
     assert (greedy.act(depth, goal) == 3).all()
 
 
+def test_temperature_sharpens_the_sampled_distribution(policy: PointNavResNetPolicy) -> None:
+    n, calls, probs = 200, 20, np.array([0.1, 0.2, 0.3, 0.4])
+    depth, goal = np.zeros((n, 224, 224, 1), np.float32), np.ones((n, 2), np.float32)
+    for t in (0.5, 2.0):
+        agent = PointNavAgentPolicy(copy.deepcopy(policy), n,
+                                    InferenceConfig(channels_last=False, sample=True, temperature=t))
+        _fixed_logits(agent, list(probs))
+        draws = np.concatenate([agent.act(depth, goal) for _ in range(calls)])
+        expected = probs ** (1 / t) / (probs ** (1 / t)).sum()  # softmax(log p / t)
+        np.testing.assert_allclose(np.bincount(draws, minlength=4) / draws.size, expected, atol=0.03)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="temperature"):
+            InferenceConfig(sample=True, temperature=bad)
+
+
 def test_sampled_actions_depend_on_each_envs_seed_not_on_the_batch(policy: PointNavResNetPolicy) -> None:
     rng = np.random.default_rng(9)
     steps = [tuple(x.numpy() for x in _obs(rng, 2)) for _ in range(12)]
