@@ -388,8 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.set_defaults(func=cmd_table)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
-                                        "extra training houses and episodes (policy-train), or its selection houses and "
-                                        "episodes (policy-select)")
+                                        "extra training houses and episodes (policy-train) or its houses and "
+                                        "episodes for choosing among policies (policy-select)")
     g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select"))
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--out")
