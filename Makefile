@@ -67,8 +67,10 @@ results-localize: setup
 # learning rate and 1.5x the updates per iteration (no monitor episodes); 8. continue with the loss
 # weighted x3 on steps after a refused FORWARD and within 0.75 m of the goal; 9. continue with half that
 # learning rate again and a new rollout seed; 15. PPO on habitat's reward with a cross-entropy term to the
-# geodesic expert's actions on its own rollouts (encoder frozen). (Stages 6, 7 and 10-14 were experiments,
-# not part of the recipe.)
+# geodesic expert's actions on its own rollouts (encoder frozen); 16. the same again with a new seed;
+# 25. DAgger at an eighth of stage 9's rate with a third of the episodes restarted beside an obstacle
+# (--tight-starts); 26b. PPO as in 15-16 (seed 47, chosen among three seeds on the `select` split).
+# (Stages 6, 7, 10-14, 17-24, 25c, 26, 26c, 26d and 27 were experiments, not part of the recipe.)
 # Each stage is resumable: rerun the same line with --resume after a kill (the DAgger buffer restarts empty).
 train-pointnav: setup
 	$(BIN)/navbench train encoder --out runs/pointnav/encoder.pth --state-dir runs/pointnav/encoder_state
@@ -95,14 +97,23 @@ train-pointnav: setup
 	  --bc-weight 0.1 --seed 35 --out runs/pointnav/policy_stage15.pth --state-dir runs/pointnav/stage15_state
 	$(BIN)/navbench train ppo --init runs/pointnav/policy_stage15.pth --train-split train_large --updates 250 \
 	  --bc-weight 0.1 --seed 36 --out runs/pointnav/policy_stage16.pth --state-dir runs/pointnav/stage16_state
-	cp runs/pointnav/policy_stage16.pth policies/pointnav_navbench.pth
+	$(BIN)/navbench train pointnav --init runs/pointnav/policy_stage16.pth --train-split train_large --expert geodesic \
+	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 1.5625e-5 \
+	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --tight-starts 0.3 --seed 25 \
+	  --out runs/pointnav/policy_stage25.pth --state-dir runs/pointnav/stage25_state
+	$(BIN)/navbench train ppo --init runs/pointnav/policy_stage25.pth --train-split train_large --updates 250 \
+	  --bc-weight 0.1 --seed 47 --out runs/pointnav/policy_stage26b.pth --state-dir runs/pointnav/stage26b_state
+	cp runs/pointnav/policy_stage26b.pth policies/pointnav_navbench.pth
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the two oracles (the geodesic one's run
 # comes from results-oracle; the optimistic one plans on the map it has seen, the ceiling for a learner).
 results-pointnav: setup
 	$(BIN)/navbench run --task pointnav --split val --agent optimistic --out results/runs/optimistic_pointnav_val -q
 	$(BIN)/navbench run --task pointnav --split val --agent pointnav --out results/runs/pointnav_val -q
-	$(BIN)/navbench table results/runs/oracle_pointnav_val results/runs/optimistic_pointnav_val results/runs/pointnav_val --long > results/pointnav.md
+	$(BIN)/navbench run --task pointnav --split val --agent pointnav --sample-actions --temperature 0.5 --seed 0 \
+	  --out results/runs/pointnav-sampled_t0.5_val -q
+	$(BIN)/navbench table results/runs/oracle_pointnav_val results/runs/optimistic_pointnav_val results/runs/pointnav_val \
+	  results/runs/pointnav-sampled_t0.5_val --long > results/pointnav.md
 
 # ObjectNav tables (the paper's Table 2 on our data), oracle perception: the frontier baseline, the
 # memory agent without re-ranking and the memory agent on every episode of the three OVON-style val

@@ -10,7 +10,9 @@ from navbench.paths import RESULTS_DIR
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("run_name,factory", [("pointnav_val", make_pointnav), ("oracle_val_unseen", make_oracle),
+@pytest.mark.parametrize("run_name,factory", [("pointnav_val", make_pointnav),
+                                              ("pointnav-sampled_t0.5_val", make_pointnav),
+                                              ("oracle_val_unseen", make_oracle),
                                               ("optimistic_pointnav_val", make_optimistic),
                                               ("memory_val_unseen", make_memory)])
 def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path):
