@@ -166,18 +166,25 @@ def scene_files(scene_dir: Path, split: str, dataset: str = "houses") -> list[Pa
     return files
 
 
+def write_pointnav_split(out_dir: Path, split: str, scene_paths: list[Path], scene_dir: Path, per_scene: int,
+                         rng: np.random.Generator, log=print) -> int:
+    """``per_scene`` PointNav episodes in each scene, in order, to ``out_dir/pointnav/{split}/{split}.json.gz``."""
+    eps: list[Episode] = []
+    for path in scene_paths:
+        eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
+    save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / split / f"{split}.json.gz")
+    log(f"pointnav/{split}: {len(eps)} episodes")
+    return len(eps)
+
+
 def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
                             plan: SplitPlan = SplitPlan(), log=print) -> dict[str, int]:
     """Write every bundled split; returns {"task/split": number of episodes}."""
     counts: dict[str, int] = {}
     for split, per_scene in (("train", plan.pointnav_train_per_scene), ("val", plan.pointnav_val_per_scene)):
         rng = np.random.default_rng([seed, 0, 0 if split == "train" else 1])
-        eps: list[Episode] = []
-        for path in scene_files(scene_dir, split):
-            eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
-        save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / split / f"{split}.json.gz")
-        counts[f"pointnav/{split}"] = len(eps)
-        log(f"pointnav/{split}: {len(eps)} episodes")
+        counts[f"pointnav/{split}"] = write_pointnav_split(out_dir, split, scene_files(scene_dir, split), scene_dir,
+                                                           per_scene, rng, log)
 
     scene_goals = {s: [SceneGoals(p, scene_dir) for p in scene_files(scene_dir, s)] for s in ("train", "val")}
     plans = {
@@ -214,13 +221,9 @@ def generate_policy_train_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = 
     episodes each. Its own generator stream, so the bundled splits are unchanged by it."""
     from navbench.scene.procedural import POLICY_TRAIN_HOUSES
 
-    rng = np.random.default_rng([seed, 0, 2])
-    eps: list[Episode] = []
-    for path in scene_files(scene_dir, "train") + scene_files(scene_dir, "train", POLICY_TRAIN_HOUSES["dir"]):
-        eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
-    save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / "train_large" / "train_large.json.gz")
-    log(f"pointnav/train_large: {len(eps)} episodes")
-    return len(eps)
+    scenes = scene_files(scene_dir, "train") + scene_files(scene_dir, "train", POLICY_TRAIN_HOUSES["dir"])
+    return write_pointnav_split(out_dir, "train_large", scenes, scene_dir, per_scene,
+                                np.random.default_rng([seed, 0, 2]), log)
 
 
 def generate_policy_select_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
@@ -230,10 +233,5 @@ def generate_policy_select_split(out_dir: Path = EPISODES_DIR, scene_dir: Path =
     without looking at ``val``. Its own generator stream, like ``train_large``."""
     from navbench.scene.procedural import POLICY_SELECT_HOUSES
 
-    rng = np.random.default_rng([seed, 0, 3])
-    eps: list[Episode] = []
-    for path in scene_files(scene_dir, "val", POLICY_SELECT_HOUSES["dir"]):
-        eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
-    save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / "select" / "select.json.gz")
-    log(f"pointnav/select: {len(eps)} episodes")
-    return len(eps)
+    return write_pointnav_split(out_dir, "select", scene_files(scene_dir, "val", POLICY_SELECT_HOUSES["dir"]),
+                                scene_dir, per_scene, np.random.default_rng([seed, 0, 3]), log)

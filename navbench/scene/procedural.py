@@ -924,18 +924,16 @@ POLICY_SELECT_HOUSES = {"dir": "houses_policy_select", "n_val": 8, "seed": 2}
 
 
 def _readme(rows: list, seed: int, name: str = "houses", n_train: int = 8, n_val: int = 4) -> str:
-    bundled = (name, n_train, n_val, seed) == ("houses", 8, 4, 0)
-    extra = (name, n_train, n_val, seed) == (POLICY_TRAIN_HOUSES["dir"], POLICY_TRAIN_HOUSES["n_train"], 0,
-                                             POLICY_TRAIN_HOUSES["seed"])
-    select = (name, n_train, n_val, seed) == (POLICY_SELECT_HOUSES["dir"], 0, POLICY_SELECT_HOUSES["n_val"],
-                                              POLICY_SELECT_HOUSES["seed"])
-    title = ("Procedural houses (bundled default scenes)" if bundled else
-             "Procedural houses for training the PointNav policy only (never evaluated on)" if extra else
-             "Procedural houses for choosing among PointNav policies (never trained on, not reported)"
-             if select else "Procedural houses")
-    command = ("`navbench generate scenes`, i.e. " if bundled else
-               "`navbench generate policy-train`, i.e. " if extra else
-               "`navbench generate policy-select`, i.e. " if select else "")
+    t, v = POLICY_TRAIN_HOUSES, POLICY_SELECT_HOUSES
+    known = {  # the bundled datasets: their title and the command that writes them
+        ("houses", 8, 4, 0): ("Procedural houses (bundled default scenes)", "scenes"),
+        (t["dir"], t["n_train"], 0, t["seed"]): (
+            "Procedural houses for training the PointNav policy only (never evaluated on)", "policy-train"),
+        (v["dir"], 0, v["n_val"], v["seed"]): (
+            "Procedural houses for choosing among PointNav policies (never trained on, not reported)", "policy-select"),
+    }
+    title, cmd = known.get((name, n_train, n_val, seed), ("Procedural houses", None))
+    command = f"`navbench generate {cmd}`, i.e. " if cmd else ""
     lines = [
         f"# {title}",
         "",
