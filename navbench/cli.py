@@ -53,7 +53,8 @@ def make_pointnav(cfg):
     from navbench.policy.net import InferenceConfig
     return PointNavAgent(cfg.agent_options.get("checkpoint"),
                          InferenceConfig(sample=cfg.agent_options.get("sample_actions", False),
-                                         temperature=cfg.agent_options.get("temperature", 1.0)),
+                                         temperature=cfg.agent_options.get("temperature", 1.0),
+                                         sample_on_revisit=cfg.agent_options.get("sample_on_revisit", False)),
                          num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
 
 
@@ -203,6 +204,10 @@ def _agent_options(args) -> dict:
         if not args.temperature > 0:
             raise ValueError(f"--temperature must be > 0, got {args.temperature}")
         opts["temperature"] = args.temperature
+    if args.sample_on_revisit:
+        if not args.sample_actions:
+            raise ValueError("--sample-on-revisit sets when --sample-actions draws: give both")
+        opts["sample_on_revisit"] = True
     if args.agent in ("memory", "frontier"):
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
@@ -238,6 +243,8 @@ def _label(args, cfg) -> str:
             parts.append(o["perception"])
     if o.get("sample_actions"):
         parts.append("sampled" if o.get("temperature", 1.0) == 1.0 else f"sampled_t{o['temperature']:g}")
+        if o.get("sample_on_revisit"):
+            parts.append("revisit")
     return "-".join(parts)
 
 
@@ -349,6 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--temperature", type=float,
                    help="with --sample-actions: draw from softmax(logits / T) (default 1, the policy's own "
                         "distribution; lower is closer to the argmax)")
+    r.add_argument("--sample-on-revisit", action="store_true",
+                   help="with --sample-actions: take the argmax, and draw only at a pose the episode has "
+                        "already been in (a refused step, a back-and-forth turn, a loop)")
     m = r.add_argument_group("memory / frontier agents (perception and ablations)")
     m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
     m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")

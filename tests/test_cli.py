@@ -44,3 +44,11 @@ def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
         args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", *bad])
         with pytest.raises(ValueError, match="temperature"):
             _agent_options(args)
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
+                                      "--temperature", "0.5", "--sample-on-revisit"])
+    opts = _agent_options(args)
+    assert opts["sample_on_revisit"]
+    assert _label(args, SimpleNamespace(agent_options=opts)) == "pointnav-sampled_t0.5-revisit"
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-on-revisit"])
+    with pytest.raises(ValueError, match="sample-on-revisit"):
+        _agent_options(args)

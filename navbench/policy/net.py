@@ -293,6 +293,11 @@ class InferenceConfig:
     # With ``sample``, draw from softmax(logits / temperature): 1 is the policy's own distribution,
     # lower values move the draws towards the argmax (which temperature -> 0 becomes).
     temperature: float = 1.0
+    # With ``sample``: draw only at a pose the episode has already been in (the same goal vector, to
+    # 2 cm and 2 degrees, as at an earlier step since the last reset), take the argmax elsewhere. Why:
+    # back at a pose, the argmax tends to repeat what brought it there (12 of stage 26b's 13 argmax
+    # failures on `select` are timeouts), while drawing everywhere lengthens the paths that succeed.
+    sample_on_revisit: bool = False
 
     def __post_init__(self) -> None:
         if not self.temperature > 0:  # also refuses NaN
@@ -321,6 +326,7 @@ class PointNavAgentPolicy:
         self.goal_world = np.full((num_envs, 3), np.nan)
         # until reset(i, seed=) each env draws from its own stream, so no two envs repeat each other's draws
         self.rngs = [np.random.default_rng([0, k]) for k in range(num_envs)]
+        self.visited: list[set[tuple[int, int]]] = [set() for _ in range(num_envs)]
 
     def _envs(self, i: int | None) -> slice | list[int]:
         return slice(None) if i is None else [i]
@@ -340,6 +346,8 @@ class PointNavAgentPolicy:
         self.hidden[idx] = 0.0
         self.prev_actions[idx] = 0
         self.masks[idx] = False
+        for k in range(self.num_envs) if i is None else [i]:
+            self.visited[k].clear()
 
     def _track_goals(self, goal_world: np.ndarray) -> None:
         goal = np.asarray(goal_world, dtype=np.float64).reshape(self.num_envs, -1)
@@ -352,6 +360,16 @@ class PointNavAgentPolicy:
             self.reset_hidden(int(i))
         # As VLFM does, remember the latest goal even after a small move, so slow drift never resets.
         self.goal_world = goal
+
+    def _revisits(self, pointgoal: np.ndarray) -> np.ndarray:
+        """Per env: was this goal vector (rho to 2 cm, theta to 2 degrees) seen before since the reset?
+        Records it. A refused FORWARD or a turn back and forth repeats the pose and so the vector."""
+        out = np.zeros(self.num_envs, dtype=bool)
+        for k, (rho, theta) in enumerate(pointgoal.astype(np.float64)):
+            key = (int(round(rho / 0.02)), int(round(np.degrees(theta) / 2.0)) % 180)
+            out[k] = key in self.visited[k]
+            self.visited[k].add(key)
+        return out
 
     def act(
         self,
@@ -394,6 +412,8 @@ class PointNavAgentPolicy:
             probs = torch.softmax(logits[0].double() / self.config.temperature, dim=-1).numpy()
             u = np.array([rng.random() for rng in self.rngs])
             picks = (probs.cumsum(-1) < u[:, None]).sum(-1).clip(max=probs.shape[-1] - 1)
+            if self.config.sample_on_revisit:
+                picks = np.where(self._revisits(goal.numpy()), picks, logits[0].float().argmax(dim=-1).numpy())
             actions = torch.as_tensor(picks, dtype=torch.long)
         else:
             actions = logits[0].float().argmax(dim=-1)

@@ -318,3 +318,22 @@ def test_sampled_actions_depend_on_each_envs_seed_not_on_the_batch(policy: Point
     np.testing.assert_array_equal(both[:, 1], actions(1, [1], [8])[:, 0])
     np.testing.assert_array_equal(both, actions(2, [0, 1], [7, 8]))  # reproducible
     assert not np.array_equal(both[:, 0], actions(1, [0], [9])[:, 0])  # another seed, other draws
+
+
+def test_sample_on_revisit_draws_only_where_the_pose_repeats(policy: PointNavResNetPolicy) -> None:
+    n, probs = 400, [0.5, 0.2, 0.2, 0.1]  # argmax is STOP (0); draws are often something else
+    depth = np.zeros((n, 224, 224, 1), np.float32)
+    agent = PointNavAgentPolicy(copy.deepcopy(policy), n,
+                                InferenceConfig(channels_last=False, sample=True, sample_on_revisit=True))
+    _fixed_logits(agent, probs)
+    for i in range(n):
+        agent.reset(i, seed=i)
+    goal = np.tile(np.float32([3.0, 0.5]), (n, 1))
+    assert (agent.act(depth, goal) == 0).all()  # a first visit: argmax
+    moved = goal + np.float32([0.25, 0.0])
+    assert (agent.act(depth, moved) == 0).all()  # a new pose: argmax
+    # back at the first pose (to within float noise, as after a turn there and back): draws
+    drawn = agent.act(depth, goal + np.float32([0.003, 0.004]))
+    np.testing.assert_allclose(np.bincount(drawn, minlength=4) / n, probs, atol=0.08)
+    agent.reset_hidden()  # a new episode or a moved goal forgets the poses
+    assert (agent.act(depth, goal) == 0).all()
