@@ -105,7 +105,7 @@ train-pointnav: setup
 	  --bc-weight 0.1 --seed 47 --out runs/pointnav/policy_stage26b.pth --state-dir runs/pointnav/stage26b_state
 	cp runs/pointnav/policy_stage26b.pth policies/pointnav_navbench.pth
 
-# Session 27's 2-hour recipe (~88 minutes alone on the AVX-512 BF16 EPYC; not shipped, see the model
+# Session 27's 2-hour recipe (87 minutes alone on the AVX-512 BF16 EPYC; not shipped, see the model
 # card): the encoder stage, one cosine-rate DAgger stage on train_large, PPO with the expert's labels,
 # DAgger with tight starts, PPO again. Writes runs/p2h/s4.pth.
 train-pointnav-2h: setup
