@@ -107,21 +107,24 @@ train-pointnav: setup
 
 # Session 27's 2-hour recipe (87 minutes alone on the AVX-512 BF16 EPYC; not shipped, see the model
 # card): the encoder stage, one cosine-rate DAgger stage on train_large, PPO with the expert's labels,
-# DAgger with tight starts, PPO again. Writes runs/p2h/s4.pth.
+# DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth. Session 28 ran it with
+# P2H_ITERS=56 P2H_DIR=runs/p2h56 (the DAgger stage 16 iterations longer).
+P2H_ITERS ?= 40
+P2H_DIR ?= runs/p2h
 train-pointnav-2h: setup
-	$(BIN)/navbench train encoder --out runs/p2h/encoder.pth --state-dir runs/p2h/encoder_state
-	$(BIN)/navbench train pointnav --init runs/p2h/encoder.pth --train-split train_large --expert geodesic \
-	  --expert-success-distance 0.1 --iterations 40 --frames-per-iteration 8000 --lr 5e-4 --lr-schedule cosine \
-	  --lr-min 1.5e-5 --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --seed 60 \
-	  --out runs/p2h/s1.pth --state-dir runs/p2h/s1_state
-	$(BIN)/navbench train ppo --init runs/p2h/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
-	  --seed 61 --out runs/p2h/s2.pth --state-dir runs/p2h/s2_state
-	$(BIN)/navbench train pointnav --init runs/p2h/s2.pth --train-split train_large --expert geodesic \
+	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state
+	$(BIN)/navbench train pointnav --init $(P2H_DIR)/encoder.pth --train-split train_large --expert geodesic \
+	  --expert-success-distance 0.1 --iterations $(P2H_ITERS) --frames-per-iteration 8000 --lr 5e-4 \
+	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 \
+	  --endgame-weight 3 --seed 60 --out $(P2H_DIR)/s1.pth --state-dir $(P2H_DIR)/s1_state
+	$(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
+	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state
+	$(BIN)/navbench train pointnav --init $(P2H_DIR)/s2.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 1.5625e-5 \
 	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --tight-starts 0.3 --seed 62 \
-	  --out runs/p2h/s3.pth --state-dir runs/p2h/s3_state
-	$(BIN)/navbench train ppo --init runs/p2h/s3.pth --train-split train_large --updates 250 --bc-weight 0.1 \
-	  --seed 63 --out runs/p2h/s4.pth --state-dir runs/p2h/s4_state
+	  --out $(P2H_DIR)/s3.pth --state-dir $(P2H_DIR)/s3_state
+	$(BIN)/navbench train ppo --init $(P2H_DIR)/s3.pth --train-split train_large --updates 250 --bc-weight 0.1 \
+	  --seed 63 --out $(P2H_DIR)/s4.pth --state-dir $(P2H_DIR)/s4_state
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the two oracles (the geodesic one's run
 # comes from results-oracle; the optimistic one plans on the map it has seen, the ceiling for a learner).
@@ -132,8 +135,11 @@ results-pointnav: setup
 	  --out results/runs/pointnav-sampled_t0.5_val -q
 	$(BIN)/navbench run --task pointnav --split val --agent pointnav --sample-actions --sample-on-revisit --seed 0 \
 	  --out results/runs/pointnav-sampled-revisit_val -q
+	$(BIN)/navbench run --task pointnav --split val --agent pointnav --sample-actions --sample-on-revisit --least-tried \
+	  --seed 0 --out results/runs/pointnav-sampled-revisit-leasttried_val -q
 	$(BIN)/navbench table results/runs/oracle_pointnav_val results/runs/optimistic_pointnav_val results/runs/pointnav_val \
-	  results/runs/pointnav-sampled_t0.5_val results/runs/pointnav-sampled-revisit_val --long > results/pointnav.md
+	  results/runs/pointnav-sampled_t0.5_val results/runs/pointnav-sampled-revisit_val \
+	  results/runs/pointnav-sampled-revisit-leasttried_val --long > results/pointnav.md
 
 # ObjectNav tables (the paper's Table 2 on our data), oracle perception: the frontier baseline, the
 # memory agent without re-ranking and the memory agent on every episode of the three OVON-style val

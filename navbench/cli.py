@@ -54,7 +54,8 @@ def make_pointnav(cfg):
     return PointNavAgent(cfg.agent_options.get("checkpoint"),
                          InferenceConfig(sample=cfg.agent_options.get("sample_actions", False),
                                          temperature=cfg.agent_options.get("temperature", 1.0),
-                                         sample_on_revisit=cfg.agent_options.get("sample_on_revisit", False)),
+                                         sample_on_revisit=cfg.agent_options.get("sample_on_revisit", False),
+                                         least_tried=cfg.agent_options.get("least_tried", False)),
                          num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
 
 
@@ -208,6 +209,10 @@ def _agent_options(args) -> dict:
         if not args.sample_actions:
             raise ValueError("--sample-on-revisit sets when --sample-actions draws: give both")
         opts["sample_on_revisit"] = True
+    if args.least_tried:
+        if not args.sample_on_revisit:
+            raise ValueError("--least-tried sets what --sample-on-revisit draws from: give both")
+        opts["least_tried"] = True
     if args.agent in ("memory", "frontier"):
         opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                     rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
@@ -245,6 +250,8 @@ def _label(args, cfg) -> str:
         parts.append("sampled" if o.get("temperature", 1.0) == 1.0 else f"sampled_t{o['temperature']:g}")
         if o.get("sample_on_revisit"):
             parts.append("revisit")
+        if o.get("least_tried"):
+            parts.append("leasttried")
     return "-".join(parts)
 
 
@@ -359,6 +366,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--sample-on-revisit", action="store_true",
                    help="with --sample-actions: take the argmax, and draw only at a pose the episode has "
                         "already been in (a refused step, a back-and-forth turn, a loop)")
+    r.add_argument("--least-tried", action="store_true",
+                   help="with --sample-on-revisit: draw only among the movements taken least often at that "
+                        "pose (STOP keeps its probability)")
     m = r.add_argument_group("memory / frontier agents (perception and ablations)")
     m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
     m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")

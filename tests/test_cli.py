@@ -52,3 +52,12 @@ def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
     args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-on-revisit"])
     with pytest.raises(ValueError, match="sample-on-revisit"):
         _agent_options(args)
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
+                                      "--sample-on-revisit", "--least-tried"])
+    opts = _agent_options(args)
+    assert opts["least_tried"] and _label(args, SimpleNamespace(agent_options=opts)) == \
+        "pointnav-sampled-revisit-leasttried"
+    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
+                                      "--least-tried"])
+    with pytest.raises(ValueError, match="least-tried"):  # it shapes the revisit draws: without them, say so
+        _agent_options(args)

@@ -4,9 +4,9 @@ Uses the shipped checkpoint ``policies/pointnav_navbench.pth`` unless another fi
 is given (``navbench run --task pointnav --agent pointnav --checkpoint PATH``). Actions are the argmax,
 or with ``--sample-actions`` drawn from the policy's distribution as habitat-baselines' evaluator draws
 them (``--temperature T`` draws from softmax(logits / T); ``--sample-on-revisit`` draws only at a pose
-the episode has already been in and takes the argmax elsewhere, the decoding the shipped file's figures
-are reported with), from a generator seeded by the run's seed and the episode, so a run is reproducible
-either way.
+the episode has already been in and takes the argmax elsewhere; ``--least-tried`` then draws only among
+the movements taken least often at that pose, the decoding the shipped file's figures are reported with),
+from a generator seeded by the run's seed and the episode, so a run is reproducible either way.
 """
 
 from __future__ import annotations

@@ -298,10 +298,17 @@ class InferenceConfig:
     # back at a pose, the argmax tends to repeat what brought it there (12 of stage 26b's 13 argmax
     # failures on `select` are timeouts), while drawing everywhere lengthens the paths that succeed.
     sample_on_revisit: bool = False
+    # With ``sample_on_revisit``: at a revisited pose, draw only among the movements taken there least often
+    # (first the untried ones; all three once each has been taken equally often); STOP keeps its own
+    # probability. Why: where a loop closes, the policy's distribution often still favours the action
+    # that closed it (FORWARD into an obstacle beside the view, turning on the spot in a cluttered corner).
+    least_tried: bool = False
 
     def __post_init__(self) -> None:
         if not self.temperature > 0:  # also refuses NaN
             raise ValueError(f"temperature must be > 0, got {self.temperature}")
+        if self.least_tried and not (self.sample and self.sample_on_revisit):
+            raise ValueError("least_tried sets what sample_on_revisit draws from: set sample and sample_on_revisit")
 
 
 class PointNavAgentPolicy:
@@ -326,7 +333,8 @@ class PointNavAgentPolicy:
         self.goal_world = np.full((num_envs, 3), np.nan)
         # until reset(i, seed=) each env draws from its own stream, so no two envs repeat each other's draws
         self.rngs = [np.random.default_rng([0, k]) for k in range(num_envs)]
-        self.visited: list[set[tuple[int, int]]] = [set() for _ in range(num_envs)]
+        # per env: goal vector key -> how often each action was taken at that pose since the last reset
+        self.visited: list[dict[tuple[int, int], np.ndarray]] = [{} for _ in range(num_envs)]
 
     def _envs(self, i: int | None) -> slice | list[int]:
         return slice(None) if i is None else [i]
@@ -361,15 +369,17 @@ class PointNavAgentPolicy:
         # As VLFM does, remember the latest goal even after a small move, so slow drift never resets.
         self.goal_world = goal
 
-    def _revisits(self, pointgoal: np.ndarray) -> np.ndarray:
-        """Per env: was this goal vector (rho to 2 cm, theta to 2 degrees) seen before since the reset?
-        Records it. A refused FORWARD or a turn back and forth repeats the pose and so the vector."""
-        out = np.zeros(self.num_envs, dtype=bool)
+    def _revisits(self, pointgoal: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Per env: was this goal vector (rho to 2 cm, theta to 2 degrees) seen before since the reset,
+        and how often each action was taken at it so far (the caller counts the one it takes). A refused
+        FORWARD or a turn back and forth repeats the pose and so the vector."""
+        seen = np.zeros(self.num_envs, dtype=bool)
+        taken: list[np.ndarray] = []
         for k, (rho, theta) in enumerate(pointgoal.astype(np.float64)):
             key = (int(round(rho / 0.02)), int(round(np.degrees(theta) / 2.0)) % 180)
-            out[k] = key in self.visited[k]
-            self.visited[k].add(key)
-        return out
+            seen[k] = key in self.visited[k]
+            taken.append(self.visited[k].setdefault(key, np.zeros(4, np.int64)))
+        return seen, taken
 
     def act(
         self,
@@ -411,9 +421,23 @@ class PointNavAgentPolicy:
             # inverse CDF with one uniform draw per env: the same draws give the same actions at any batch size
             probs = torch.softmax(logits[0].double() / self.config.temperature, dim=-1).numpy()
             u = np.array([rng.random() for rng in self.rngs])
+            if self.config.sample_on_revisit:
+                seen, taken = self._revisits(goal.numpy())
+                if self.config.least_tried:
+                    for k in np.flatnonzero(seen):
+                        p = probs[k].copy()
+                        moves = taken[k][1:]
+                        p[1:][moves > moves.min()] = 0.0
+                        # the movements left take the mass of those masked; STOP keeps its own probability
+                        # (renormalised, a near-zero STOP far from the goal would be drawn often)
+                        if p[1:].sum() > 0:
+                            p[1:] *= (1.0 - p[0]) / p[1:].sum()
+                            probs[k] = p
             picks = (probs.cumsum(-1) < u[:, None]).sum(-1).clip(max=probs.shape[-1] - 1)
             if self.config.sample_on_revisit:
-                picks = np.where(self._revisits(goal.numpy()), picks, logits[0].float().argmax(dim=-1).numpy())
+                picks = np.where(seen, picks, logits[0].float().argmax(dim=-1).numpy())
+                for k in range(self.num_envs):
+                    taken[k][int(picks[k])] += 1
             actions = torch.as_tensor(picks, dtype=torch.long)
         else:
             actions = logits[0].float().argmax(dim=-1)

@@ -13,6 +13,7 @@ from navbench.paths import RESULTS_DIR
 @pytest.mark.parametrize("run_name,factory", [("pointnav_val", make_pointnav),
                                               ("pointnav-sampled_t0.5_val", make_pointnav),
                                               ("pointnav-sampled-revisit_val", make_pointnav),
+                                              ("pointnav-sampled-revisit-leasttried_val", make_pointnav),
                                               ("oracle_val_unseen", make_oracle),
                                               ("optimistic_pointnav_val", make_optimistic),
                                               ("memory_val_unseen", make_memory)])

@@ -337,3 +337,28 @@ def test_sample_on_revisit_draws_only_where_the_pose_repeats(policy: PointNavRes
     np.testing.assert_allclose(np.bincount(drawn, minlength=4) / n, probs, atol=0.08)
     agent.reset_hidden()  # a new episode or a moved goal forgets the poses
     assert (agent.act(depth, goal) == 0).all()
+
+
+def test_least_tried_draws_among_the_movements_taken_least_often_at_that_pose(policy: PointNavResNetPolicy) -> None:
+    n, probs = 400, [0.05, 0.6, 0.2, 0.15]  # argmax is FORWARD
+    depth = np.zeros((n, 224, 224, 1), np.float32)
+    agent = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(
+        channels_last=False, sample=True, sample_on_revisit=True, least_tried=True))
+    _fixed_logits(agent, probs)
+    for i in range(n):
+        agent.reset(i, seed=i)
+    goal = np.tile(np.float32([3.0, 0.5]), (n, 1))
+    assert (agent.act(depth, goal) == 1).all()  # a first visit: the argmax
+    # back at the pose: FORWARD was taken here, the two turns were not; STOP keeps its 0.05
+    second = agent.act(depth, goal)
+    np.testing.assert_allclose(np.bincount(second, minlength=4) / n, [0.05, 0, 0.95 * 0.2 / 0.35, 0.95 * 0.15 / 0.35],
+                               atol=0.05)
+    third = agent.act(depth, goal)
+    turned = second >= 2
+    assert ((third[turned] == 0) | (third[turned] == 5 - second[turned])).all()  # STOP or the other turn
+    # every movement taken once at this pose: the policy's own distribution again
+    both = turned & (third >= 2)
+    fourth = agent.act(depth, goal)[both]
+    np.testing.assert_allclose(np.bincount(fourth, minlength=4) / len(fourth), probs, atol=0.08)
+    with pytest.raises(ValueError, match="least_tried"):
+        InferenceConfig(sample=True, least_tried=True)
