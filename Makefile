@@ -107,8 +107,7 @@ train-pointnav: setup
 
 # Session 27's 2-hour recipe (87 minutes alone on the AVX-512 BF16 EPYC; not shipped, see the model
 # card): the encoder stage, one cosine-rate DAgger stage on train_large, PPO with the expert's labels,
-# DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth. Session 28 ran it with
-# P2H_ITERS=56 P2H_DIR=runs/p2h56 (the DAgger stage 16 iterations longer).
+# DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth; P2H_ITERS sets the DAgger stage's length.
 P2H_ITERS ?= 40
 P2H_DIR ?= runs/p2h
 train-pointnav-2h: setup

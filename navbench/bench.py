@@ -130,8 +130,8 @@ def field_ms_20x20m(repeats: int = 5) -> float:
     parts = [trimesh.creation.box(extents=(20.0, 0.1, 20.0), transform=trimesh.transformations.translation_matrix(
         (0, -0.05, 0)))]
     for x in (-5.0, 0.0, 5.0):  # three walls with gaps, so the field has to bend around them
-        parts.append(trimesh.creation.box(extents=(0.1, 2.5, 14.0), transform=trimesh.transformations.translation_matrix(
-            (x, 1.25, 3.0 if x == 0.0 else -3.0))))
+        at = trimesh.transformations.translation_matrix((x, 1.25, 3.0 if x == 0.0 else -3.0))
+        parts.append(trimesh.creation.box(extents=(0.1, 2.5, 14.0), transform=at))
     grid = NavGrid.from_mesh(trimesh.util.concatenate(parts), NavGridConfig())
     rng = np.random.default_rng(2)
     times = []

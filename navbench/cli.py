@@ -384,7 +384,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--no-detour", action="store_true",
                    help="memory agent: no detour to a keyframe's view of a target hidden behind a wall")
     m.add_argument("--no-route", action="store_true",
-                   help="memory agent: order candidates by straight-line distance, not by route over the keyframe poses")
+                   help="memory agent: order candidates by straight-line distance, not by route over the "
+                        "keyframe poses")
     m.add_argument("--no-probe", action="store_true",
                    help="memory agent: a recovery whose first step is refused does not turn on to try other headings")
     m.add_argument("--no-guidance", action="store_true",
@@ -437,11 +438,13 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--no-prev-action", dest="prev_action", action="store_false", default=None,
                     help="zero and freeze the previous-action embedding (against copycat policies)")
     tr.add_argument("--expert-margin", type=float, help="extra clearance (m) the geodesic expert keeps")
-    tr.add_argument("--expert-success-distance", type=float, help="where the expert says STOP (default 0.2 m; ppo --bc-weight: 0.1 m)")
+    tr.add_argument("--expert-success-distance", type=float,
+                    help="where the expert says STOP (default 0.2 m; ppo --bc-weight: 0.1 m)")
     tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default geodesic)")
     tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
     tr.add_argument("--beta-min", type=float, help="floor of the oracle share (default 0.1; 0 = pure learner rollouts)")
-    tr.add_argument("--random-action-prob", type=float, help="share of random non-STOP actions in rollouts (default 0.08)")
+    tr.add_argument("--random-action-prob", type=float,
+                    help="share of random non-STOP actions in rollouts (default 0.08)")
     tr.add_argument("--max-episode-steps", type=int)
     tr.add_argument("--buffer-frames", type=int, help="aggregated DAgger buffer cap in frames, oldest episodes "
                                                       "dropped first (default 250000)")

@@ -102,7 +102,8 @@ def _reason(e: BaseException) -> str:
     """The informative line of a torch.load error (its weights_only errors start with boilerplate)."""
     boilerplate = ("Weights only load failed", "(1)", "(2)", "Check the documentation")
     lines = [line.strip() for line in str(e).splitlines() if line.strip()]
-    useful = [line.removeprefix("WeightsUnpickler error:").strip() for line in lines if not line.startswith(boilerplate)]
+    useful = [line.removeprefix("WeightsUnpickler error:").strip() for line in lines
+              if not line.startswith(boilerplate)]
     return (useful or lines or [type(e).__name__])[0]
 
 

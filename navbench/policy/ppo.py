@@ -208,8 +208,9 @@ class Rollout:
             for k, v in zip(keys, step):
                 buf[k].append(v)
             if self.experts is not None:  # labelled where the learner is, before it moves
-                buf.setdefault("label", []).append(torch.tensor(
-                    [ex.next_action(env.agent_position, env.agent_rotation) for ex, env in zip(self.experts, self.envs)]))
+                labels = [ex.next_action(env.agent_position, env.agent_rotation)
+                          for ex, env in zip(self.experts, self.envs)]
+                buf.setdefault("label", []).append(torch.tensor(labels))
             self.hidden, self.prev, self.mask = hidden, action.clone(), torch.ones(n, dtype=torch.bool)
             for i, env in enumerate(self.envs):
                 self.obs[i], _, term, trunc, info = env.step(int(action[i]))
@@ -262,7 +263,7 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     n = data["action"].shape[1]
     adv = data["adv"]
     adv = (adv - adv.mean()) / (adv.std() + 1e-5)
-    stats: dict[str, list[float]] = {"policy_loss": [], "value_loss": [], "entropy": [], "approx_kl": [], "clip_frac": []}
+    stats: dict[str, list[float]] = {k: [] for k in ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_frac")}
     if cfg.bc_weight > 0:
         stats["bc_loss"] = []
     params = [p for p in policy.parameters() if p.requires_grad]

@@ -208,8 +208,9 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
     params = list(policy.net.visual_encoder.parameters()) + list(policy.net.visual_fc.parameters()) + \
         list(head.parameters())
     opt = torch.optim.AdamW(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
+    floor = cfg.min_lr / cfg.lr
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda u: min(1.0, (u + 1) / cfg.warmup) * (
-        cfg.min_lr / cfg.lr + (1 - cfg.min_lr / cfg.lr) * 0.5 * (1 + math.cos(math.pi * min(u, cfg.updates) / cfg.updates))))
+        floor + (1 - floor) * 0.5 * (1 + math.cos(math.pi * min(u, cfg.updates) / cfg.updates))))
     state_path = state_dir / "pretrain_state.pt"
     start, wall0 = 0, 0.0
     if resume and state_path.is_file():

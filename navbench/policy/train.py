@@ -8,9 +8,10 @@ The expert is the geodesic follower (plans on the true map and keeps ``expert_ma
     navbench train pointnav --init runs/pointnav/encoder.pth --out runs/pointnav/policy.pth  # add --resume
 
 Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the policy reads) on the
-PointNav split ``train_split`` (the 8 bundled train houses, or ``train_large`` with 40 more). The executed action is the oracle's with probability beta (1 in the first
-iteration, decaying) and the learner's otherwise, plus occasional random turns/moves so the data
-covers recovery from off-path states; every step is labelled with the oracle's action from the
+PointNav split ``train_split`` (the 8 bundled train houses, or ``train_large`` with 40 more). The
+executed action is the oracle's with probability beta (1 in the first iteration, decaying) and the
+learner's otherwise, plus occasional random turns/moves so the data covers recovery from off-path
+states; every step is labelled with the oracle's action from the
 state actually reached (DAgger). Frames join an aggregated buffer and the network is
 trained with cross-entropy and inflection weighting (steps where the oracle changes its action,
 including STOP, weigh more) on whole episodes from their first step (default) or on short chunks
@@ -565,9 +566,9 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         policy.eval()
         val = (evaluate(policy, cfg.val_episodes, cfg.success_distance, cfg.val_max_steps) if cfg.val_episodes > 0
                else {"val_sr": float("nan"), "val_spl": float("nan")})
-        last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}", "loss": float(np.mean(losses)),
-                "acc": float(np.mean(accs)), **stats, **val, "collect_s": t_collect, "train_s": t_train,
-                "updates": n_updates, "buffer_frames": buffer.frames, "wall_s": time.time() - t_start}
+        last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}",
+                "loss": float(np.mean(losses)), "acc": float(np.mean(accs)), **stats, **val,
+                "collect_s": t_collect, "train_s": t_train, "updates": n_updates, "buffer_frames": buffer.frames, "wall_s": time.time() - t_start}
         log_every(log_row(log_path, last, digits=3))
         meta = {"train_config": dataclasses.asdict(cfg), "frames": frames_total, "wall_s": last["wall_s"],
                 "iteration": it + 1, "val_sr": val["val_sr"], "val_spl": val["val_spl"]}
