@@ -48,14 +48,17 @@ def make_random(cfg):
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
 
 
+def _inference_config(cfg):
+    """How the PointNav policy picks actions (argmax unless --sample-actions), for every agent that drives with it."""
+    from navbench.policy.net import InferenceConfig
+    o = cfg.agent_options
+    return InferenceConfig(sample=o.get("sample_actions", False), temperature=o.get("temperature", 1.0),
+                           sample_on_revisit=o.get("sample_on_revisit", False), least_tried=o.get("least_tried", False))
+
+
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
-    from navbench.policy.net import InferenceConfig
-    return PointNavAgent(cfg.agent_options.get("checkpoint"),
-                         InferenceConfig(sample=cfg.agent_options.get("sample_actions", False),
-                                         temperature=cfg.agent_options.get("temperature", 1.0),
-                                         sample_on_revisit=cfg.agent_options.get("sample_on_revisit", False),
-                                         least_tried=cfg.agent_options.get("least_tried", False)),
+    return PointNavAgent(cfg.agent_options.get("checkpoint"), _inference_config(cfg),
                          num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
 
 
@@ -84,7 +87,8 @@ def _step_policy(cfg):
     from navbench.agents.pointnav import DEFAULT_CHECKPOINT
     from navbench.policy.checkpoint import load_checkpoint
     from navbench.policy.net import PointNavAgentPolicy
-    return PointNavAgentPolicy(load_checkpoint(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT))
+    return PointNavAgentPolicy(load_checkpoint(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT),
+                               config=_inference_config(cfg))
 
 
 def make_memory(cfg):
@@ -106,7 +110,7 @@ def make_memory(cfg):
     localizer = SceneLocalizer(cfg.scene_dir, pcfg)
     route = localizer.route_lengths if o.get("route", True) else None
     return MemoryAgent(localizer, _step_policy(cfg), agent_cfg, env_cfg, verify=verify, route=route,
-                       route_path=localizer.route_path)
+                       route_path=localizer.route_path, seed=cfg.seed)
 
 
 def make_frontier(cfg):
@@ -114,7 +118,7 @@ def make_frontier(cfg):
     from navbench.agents.perceive import LiveDetector
     env_cfg = cfg.env_config(FrontierAgentConfig().sensors)
     return FrontierAgent(LiveDetector(cfg.scene_dir, _perception_config(cfg), env_cfg), _step_policy(cfg),
-                         FrontierAgentConfig(), env_cfg)
+                         FrontierAgentConfig(), env_cfg, seed=cfg.seed)
 
 
 AGENTS = {"oracle": make_oracle, "optimistic": make_optimistic, "random": make_random, "pointnav": make_pointnav,
@@ -196,8 +200,9 @@ def _agent_options(args) -> dict:
     """Everything that changes an agent's behaviour, recorded in the run's config.json."""
     opts = {"checkpoint": args.checkpoint}
     if args.sample_actions:  # recorded only when on: argmax runs keep their config
-        if args.agent != "pointnav":
-            raise ValueError(f"--sample-actions applies to the pointnav agent, not {args.agent!r}")
+        if args.agent not in ("pointnav", "memory", "frontier"):
+            raise ValueError(f"--sample-actions applies to the agents that drive with the PointNav policy "
+                             f"(pointnav, memory, frontier), not {args.agent!r}")
         opts["sample_actions"] = True
     if args.temperature is not None:
         if not args.sample_actions:
@@ -358,8 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--success-distance", type=float)
     r.add_argument("--checkpoint", help="PointNav policy checkpoint in habitat's layout (default: the shipped one)")
     r.add_argument("--sample-actions", action="store_true",
-                   help="pointnav agent: sample actions from the policy (habitat-baselines' evaluation; seeded "
-                        "by --seed and the episode) instead of taking the argmax")
+                   help="pointnav, memory and frontier agents: sample the PointNav policy's actions "
+                        "(habitat-baselines' evaluation; seeded by --seed and the episode) instead of the argmax")
     r.add_argument("--temperature", type=float,
                    help="with --sample-actions: draw from softmax(logits / T) (default 1, the policy's own "
                         "distribution; lower is closer to the argmax)")

@@ -34,8 +34,11 @@ def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
     args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav"])
     opts = _agent_options(args)  # argmax runs keep the config.json they had before the flag existed
     assert "sample_actions" not in opts and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav"
-    with pytest.raises(ValueError, match="pointnav agent"):  # the other agents drive by argmax: say so
-        _options("--sample-actions")
+    args = build_parser().parse_args(["run", "--agent", "oracle", "--sample-actions"])
+    with pytest.raises(ValueError, match="PointNav policy"):  # the oracle has no policy to draw from: say so
+        _agent_options(args)
+    _, opts, label = _options("--sample-actions", "--sample-on-revisit", "--least-tried")  # memory drives with it
+    assert opts["least_tried"] and label == "memory-sampled-revisit-leasttried"
     args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
                                       "--temperature", "0.5"])
     opts = _agent_options(args)

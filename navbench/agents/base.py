@@ -7,6 +7,7 @@ rendering the rest) and ``episode_log()`` (decisions to record in ``episodes.jso
 from __future__ import annotations
 
 import math
+import zlib
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -36,6 +37,12 @@ class BatchAgent(Protocol):
     def reset_env(self, i: int, episode: Episode) -> None: ...
 
     def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray: ...
+
+
+def episode_seed(seed: int, episode: Episode) -> list[int]:
+    """A generator seed for one episode's draws: from the run's seed and the episode, not from the worker,
+    slot or order the episode runs in, so a run's records do not depend on how it is split up."""
+    return [seed, zlib.crc32(f"{episode.scene_id}:{episode.episode_id}".encode())]
 
 
 def episode_log(agent: Agent) -> dict[str, Any]:

@@ -47,7 +47,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import PoseTracker, fov_stop_radius, log_value, nearest_to_height, xz_dist, xz_dists
+from navbench.agents.base import (PoseTracker, episode_seed, fov_stop_radius, log_value, nearest_to_height, xz_dist,
+                                  xz_dists)
 from navbench.agents.memory_agent import StepPolicy
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
@@ -90,8 +91,9 @@ class FrontierAgent:
     sensors: tuple[str, ...] = ("rgb", "depth", "semantic")
 
     def __init__(self, detect: Detector, policy: StepPolicy, config: FrontierAgentConfig = FrontierAgentConfig(),
-                 env_config: EnvConfig = EnvConfig()):
+                 env_config: EnvConfig = EnvConfig(), seed: int = 0):
         self.detect, self.policy, self.config, self.env_config = detect, policy, config, env_config
+        self.seed = seed  # for a policy that draws its actions: each episode draws from (seed, episode)
         self.sensors = config.sensors
         cam = CameraConfig(width=env_config.width, height=env_config.height, hfov_deg=env_config.hfov_deg)
         self.K = intrinsics(cam)
@@ -106,7 +108,7 @@ class FrontierAgent:
             detector_reset(episode)
         self._pose.reset(episode)
         self.map.reset(np.asarray(episode.start_position, np.float64))
-        self.policy.reset()
+        self.policy.reset(seed=episode_seed(self.seed, episode))
         self.step = 0
         self.mode = "look_around"
         self.frontier: Frontier | None = None

@@ -54,8 +54,8 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import (PoseTracker, fov_leave_distance, fov_stop_radius, log_value, nearest_to_height,
-                                  xz_dist, xz_dists)
+from navbench.agents.base import (PoseTracker, episode_seed, fov_leave_distance, fov_stop_radius, log_value,
+                                  nearest_to_height, xz_dist, xz_dists)
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import depth_metres, pointgoal_polar
 from navbench.episodes.types import Episode
@@ -177,7 +177,7 @@ class MemoryAgentConfig:
 class StepPolicy(Protocol):
     """What the agent needs from a PointNav policy (``PointNavAgentPolicy`` with one env)."""
 
-    def reset(self, i: int | None = None) -> None: ...
+    def reset(self, i: int | None = None, seed: int | list[int] | None = None) -> None: ...
 
     def reset_hidden(self, i: int | None = None) -> None: ...
 
@@ -216,8 +216,9 @@ class MemoryAgent:
     def __init__(self, localize: Callable[[Episode], list[GoalCandidate]], policy: StepPolicy,
                  config: MemoryAgentConfig = MemoryAgentConfig(), env_config: EnvConfig = EnvConfig(),
                  verify: Detector | None = None, route: RouteLengths | None = None,
-                 route_path: RoutePath | None = None):
+                 route_path: RoutePath | None = None, seed: int = 0):
         self.localize, self.policy, self.config, self.env_config = localize, policy, config, env_config
+        self.seed = seed  # for a policy that draws its actions: each episode draws from (seed, episode)
         self.verify, self.route, self.route_path = verify, route, route_path
         # The policy and the visibility test read depth only; the detector adds the image it segments.
         self.sensors: tuple[str, ...] = ("depth",) + (tuple(verify.sensors) if verify is not None else ())
@@ -264,7 +265,7 @@ class MemoryAgent:
         self.goal = self._initial_goal(start) if self.candidates else None
         if self.verify is not None:
             self.verify.reset(episode)
-        self.policy.reset()
+        self.policy.reset(seed=episode_seed(self.seed, episode))
 
     def _initial_goal(self, position: np.ndarray) -> np.ndarray:
         cloud = self._clouds[self.current]

@@ -11,11 +11,11 @@ from a generator seeded by the run's seed and the episode, so a run is reproduci
 
 from __future__ import annotations
 
-import zlib
 from pathlib import Path
 
 import numpy as np
 
+from navbench.agents.base import episode_seed
 from navbench.episodes.types import Episode
 from navbench.paths import POLICIES_DIR
 from navbench.policy.checkpoint import load_checkpoint
@@ -47,7 +47,7 @@ class PointNavAgent:
 
     def reset_env(self, i: int, episode: Episode) -> None:
         # seeded by the episode, not by the slot or the order episodes arrive in
-        self.policy.reset(i, seed=[self.seed, zlib.crc32(f"{episode.scene_id}:{episode.episode_id}".encode())])
+        self.policy.reset(i, seed=episode_seed(self.seed, episode))
 
     def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray:
         return self.policy.act(np.stack([o["depth"] for o in observations]),

@@ -4,10 +4,9 @@ ObjectNav, which has no such sensor). Seeded per episode, so runs are reproducib
 
 from __future__ import annotations
 
-import zlib
-
 import numpy as np
 
+from navbench.agents.base import episode_seed
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT
 from navbench.episodes.types import Episode
 
@@ -20,7 +19,7 @@ class RandomAgent:
         self.seed = seed
 
     def reset(self, episode: Episode) -> None:
-        self._rng = np.random.default_rng([self.seed, zlib.crc32(f"{episode.scene_id}:{episode.episode_id}".encode())])
+        self._rng = np.random.default_rng(episode_seed(self.seed, episode))
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
         goal = observations.get("pointgoal_with_gps_compass")

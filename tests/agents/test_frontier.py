@@ -74,7 +74,7 @@ class GreedyPolicy:
     def __init__(self, fixed=None):
         self.fixed, self.hidden_resets, self.goals = fixed, 0, []
 
-    def reset(self, i=None):
+    def reset(self, i=None, seed=None):
         pass
 
     def reset_hidden(self, i=None):

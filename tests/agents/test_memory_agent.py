@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from navbench.agents.base import episode_seed
 from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.episodes.types import Episode
@@ -14,10 +15,10 @@ H = W = 224
 
 class ScriptedPolicy:
     def __init__(self, action):
-        self.action, self.hidden_resets, self.calls, self.last_goal = action, 0, 0, None
+        self.action, self.hidden_resets, self.calls, self.last_goal, self.seeds = action, 0, 0, None, []
 
-    def reset(self, i=None):
-        pass
+    def reset(self, i=None, seed=None):
+        self.seeds.append(seed)
 
     def reset_hidden(self, i=None):
         self.hidden_resets += 1
@@ -71,6 +72,18 @@ def test_visibility_on_synthetic_depth():
     assert len(agent.visibility(just_off, depth, np.zeros(3), 0.0)[0]) == len(just_off)
     # turned 180 deg the points are behind the camera: none in view
     assert agent.visibility(on_wall, depth, np.zeros(3), np.pi)[1] == 0
+
+
+def test_each_episode_reseeds_the_policy_from_the_run_seed_and_the_episode():
+    # a policy that draws its actions (navbench run --agent memory --sample-actions) then draws the same
+    # actions for an episode whichever worker, slot or order it runs in
+    policy = ScriptedPolicy(MOVE_FORWARD)
+    agent = MemoryAgent(lambda ep: [cand(plane_points(-6.0))], policy, MemoryAgentConfig(), ENV, seed=3)
+    other = Episode("1", EPISODE.scene_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], object_category="chair")
+    for ep in (EPISODE, other, EPISODE):
+        agent.reset(ep)
+    assert policy.seeds == [episode_seed(3, EPISODE), episode_seed(3, other), episode_seed(3, EPISODE)]
+    assert episode_seed(3, EPISODE) != episode_seed(3, other) != episode_seed(4, other)
 
 
 def test_stops_when_close_and_visible():

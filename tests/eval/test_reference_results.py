@@ -16,7 +16,8 @@ from navbench.paths import RESULTS_DIR
                                               ("pointnav-sampled-revisit-leasttried_val", make_pointnav),
                                               ("oracle_val_unseen", make_oracle),
                                               ("optimistic_pointnav_val", make_optimistic),
-                                              ("memory_val_unseen", make_memory)])
+                                              ("memory_val_unseen", make_memory),
+                                              ("memory-sampled-revisit-leasttried_val_unseen", make_memory)])
 def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path):
     ref_dir = RESULTS_DIR / "runs" / run_name
     cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
