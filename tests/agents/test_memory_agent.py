@@ -571,7 +571,8 @@ def test_policy_drives_to_a_point_short_of_a_seen_target_then_to_the_target():
     # policy gets the goal pulled goal_standoff back (a point in front of the wall it can reach).
     agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD)
     agent.act(obs_at(wall_depth(3.0)))
-    assert policy.last_goal[0] == pytest.approx(3.0 - MemoryAgentConfig().goal_standoff, abs=1e-4) and policy.last_goal[1] == pytest.approx(0.0)
+    assert policy.last_goal[0] == pytest.approx(3.0 - MemoryAgentConfig().goal_standoff, abs=1e-4)
+    assert policy.last_goal[1] == pytest.approx(0.0)
     # standoff off: the true goal
     agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD, goal_standoff=0.0)
     agent.act(obs_at(wall_depth(3.0)))

@@ -66,7 +66,8 @@ def test_image_query_from_a_new_view(oracle_memory, oracle_scene):
     with Renderer(asset, CameraConfig(224, 224, 79.0)) as r:
         for k in range(36):
             a = math.radians(10 * k + 5)
-            p = np.array([fridge.center[0] + 1.7 * math.sin(a), grid.floor_height, fridge.center[2] + 1.7 * math.cos(a)])
+            p = np.array([fridge.center[0] + 1.7 * math.sin(a), grid.floor_height,
+                          fridge.center[2] + 1.7 * math.cos(a)])
             if grid.is_navigable(p):
                 out = r.render(p + [0, 0.88, 0], quat_from_yaw(yaw_towards(p, fridge.center)), ids=True)
                 if centre_instance(out.ids) == FRIDGE:

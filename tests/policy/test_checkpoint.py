@@ -119,7 +119,8 @@ def test_normalizer_checkpoint_builds_matching_policy(policy: PointNavResNetPoli
     loaded = load_checkpoint(path)
     assert loaded.cfg.normalize_visual_inputs
     assert loaded.net.visual_encoder.running_mean_and_var._mean.item() == pytest.approx(0.4)
-    with pytest.raises(CheckpointError, match=r"3 unexpected tensor\(s\): net\.visual_encoder\.running_mean_and_var\._"):
+    with pytest.raises(CheckpointError,
+                       match=r"3 unexpected tensor\(s\): net\.visual_encoder\.running_mean_and_var\._"):
         load_checkpoint(path, copy.deepcopy(policy))
 
 

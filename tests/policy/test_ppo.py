@@ -179,7 +179,8 @@ def test_replay_failures_brings_back_failed_episodes_once_each_and_never_success
     env = _Episodes()
     env.reset()
     always = Rollout.__new__(Rollout)  # only the replay bookkeeping is exercised: no policy, no rendering
-    always.cfg, always.rng, always.failed = PPOConfig(replay_failures=1.0, replay_buffer=2), np.random.default_rng(0), []
+    always.cfg = PPOConfig(replay_failures=1.0, replay_buffer=2)
+    always.rng, always.failed = np.random.default_rng(0), []
     obs, replay = always._next_episode(env, success=True)  # nothing failed yet: a fresh draw
     assert (obs["episode"], replay) == ("fresh2", False)
     obs, replay = always._next_episode(env, success=False)  # fresh2 failed: replayed at once
@@ -188,7 +189,8 @@ def test_replay_failures_brings_back_failed_episodes_once_each_and_never_success
     assert (obs["episode"], replay) == ("fresh3", False)
 
     queued = Rollout.__new__(Rollout)  # queues failures but (practically) never replays them
-    queued.cfg, queued.rng, queued.failed = PPOConfig(replay_failures=1e-12, replay_buffer=2), np.random.default_rng(0), []
+    queued.cfg = PPOConfig(replay_failures=1e-12, replay_buffer=2)
+    queued.rng, queued.failed = np.random.default_rng(0), []
     for _ in range(3):  # three failures into a buffer of two: the oldest is dropped
         queued._next_episode(env, success=False)
     assert queued.failed == ["fresh4", "fresh5"]
@@ -236,8 +238,8 @@ def test_tight_starts_begin_the_first_and_every_later_rollout_episode_beside_an_
         assert len(rollout.finished) == 6
         for ids in (firsts, [e.episode.episode_id for e in envs]):
             assert all(i.endswith("-tight") for i in ids)
-        clearance = [e.navgrid.navigable_clearance()[tuple(e.navgrid.world_to_grid(np.asarray(e.episode.start_position)))]
-                     for e in envs]
+        clearance = [e.navgrid.navigable_clearance()[tuple(e.navgrid.world_to_grid(np.asarray(
+            e.episode.start_position)))] for e in envs]
         assert all(0 < c <= 0.1 + 1e-9 for c in clearance)
     finally:
         for e in envs:

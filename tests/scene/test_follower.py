@@ -37,7 +37,8 @@ def wall_grid() -> NavGrid:
 @pytest.fixture(scope="module")
 def furnished_grid() -> NavGrid:
     parts = [box((0, -0.1, 0), (7, 0, 6)), box((3.45, 0, 0), (3.55, 2.5, 2.2)), box((3.45, 0, 3.1), (3.55, 2.5, 6)),
-             box((1.0, 0, 1.0), (2.0, 0.75, 1.6)), box((4.5, 0, 3.5), (5.3, 1.8, 4.1)), box((5.5, 0, 1.0), (5.9, 0.45, 1.4))]
+             box((1.0, 0, 1.0), (2.0, 0.75, 1.6)), box((4.5, 0, 3.5), (5.3, 1.8, 4.1)),
+             box((5.5, 0, 1.0), (5.9, 0.45, 1.4))]
     return NavGrid.from_mesh(trimesh.util.concatenate(parts))
 
 

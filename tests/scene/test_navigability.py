@@ -269,7 +269,8 @@ def test_non_finite_inputs_raise_value_error(wall_grid):
     bad = P(float("nan"), 1.0)
     for call in (lambda: g.try_step(bad, P(1, 1)), lambda: g.try_step(P(1, 1), P(1, float("inf"))),
                  lambda: g.geodesic_distance(bad, P(1, 1)), lambda: g.geodesic_distance(P(1, 1), bad),
-                 lambda: g.is_navigable(bad), lambda: g.snap_point(bad), lambda: g.distance_field(bad).distance(P(1, 1)),
+                 lambda: g.is_navigable(bad), lambda: g.snap_point(bad),
+                 lambda: g.distance_field(bad).distance(P(1, 1)),
                  lambda: g.distance_field(P(1, 1)).distance(bad)):
         with pytest.raises(ValueError, match="non-finite"):
             call()
