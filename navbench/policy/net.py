@@ -369,17 +369,13 @@ class PointNavAgentPolicy:
         # As VLFM does, remember the latest goal even after a small move, so slow drift never resets.
         self.goal_world = goal
 
-    def _revisits(self, pointgoal: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-        """Per env: was this goal vector (rho to 2 cm, theta to 2 degrees) seen before since the reset,
-        and how often each action was taken at it so far (the caller counts the one it takes). A refused
-        FORWARD or a turn back and forth repeats the pose and so the vector."""
-        seen = np.zeros(self.num_envs, dtype=bool)
-        taken: list[np.ndarray] = []
-        for k, (rho, theta) in enumerate(pointgoal.astype(np.float64)):
-            key = (int(round(rho / 0.02)), int(round(np.degrees(theta) / 2.0)) % 180)
-            seen[k] = key in self.visited[k]
-            taken.append(self.visited[k].setdefault(key, np.zeros(4, np.int64)))
-        return seen, taken
+    def _taken_here(self, pointgoal: np.ndarray) -> list[np.ndarray]:
+        """Per env: how often each action was taken at this goal vector (rho to 2 cm, theta to 2 degrees)
+        since the reset; all zeros at a new pose. The caller counts the action it takes. A refused FORWARD
+        or a turn back and forth repeats the pose and so the vector."""
+        return [self.visited[k].setdefault((int(round(rho / 0.02)), int(round(np.degrees(theta) / 2.0)) % 180),
+                                           np.zeros(4, np.int64))
+                for k, (rho, theta) in enumerate(pointgoal.astype(np.float64))]
 
     def act(
         self,
@@ -422,7 +418,8 @@ class PointNavAgentPolicy:
             probs = torch.softmax(logits[0].double() / self.config.temperature, dim=-1).numpy()
             u = np.array([rng.random() for rng in self.rngs])
             if self.config.sample_on_revisit:
-                seen, taken = self._revisits(goal.numpy())
+                taken = self._taken_here(goal.numpy())
+                seen = np.array([t.any() for t in taken])
                 if self.config.least_tried:
                     for k in np.flatnonzero(seen):
                         p = probs[k].copy()

@@ -11,12 +11,12 @@ Each iteration rolls out ``num_envs`` PointNav envs (depth only, the sensor the 
 PointNav split ``train_split`` (the 8 bundled train houses, or ``train_large`` with 40 more). The
 executed action is the oracle's with probability beta (1 in the first iteration, decaying) and the
 learner's otherwise, plus occasional random turns/moves so the data covers recovery from off-path
-states; every step is labelled with the oracle's action from the
-state actually reached (DAgger). Frames join an aggregated buffer and the network is
-trained with cross-entropy and inflection weighting (steps where the oracle changes its action,
-including STOP, weigh more) on whole episodes from their first step (default) or on short chunks
-that start from a zero recurrent state (``--truncated``). After every iteration it evaluates on
-bundled PointNav ``val`` episodes, logs to CSV and writes a resumable checkpoint.
+states; every step is labelled with the oracle's action from the state actually reached (DAgger).
+Frames join an aggregated buffer and the network is trained with cross-entropy and inflection
+weighting (steps where the oracle changes its action, including STOP, weigh more) on whole episodes
+from their first step (default) or on short chunks that start from a zero recurrent state
+(``--truncated``). After every iteration it evaluates on bundled PointNav ``val`` episodes, logs to
+CSV and writes a resumable checkpoint.
 
 By default (``freeze_visual``) the visual encoder is not trained: the buffer keeps the encoder output
 the rollout's own forward pass computed for each frame (fp16), and the rest of the network trains on
@@ -568,7 +568,8 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
                else {"val_sr": float("nan"), "val_spl": float("nan")})
         last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}",
                 "loss": float(np.mean(losses)), "acc": float(np.mean(accs)), **stats, **val,
-                "collect_s": t_collect, "train_s": t_train, "updates": n_updates, "buffer_frames": buffer.frames, "wall_s": time.time() - t_start}
+                "collect_s": t_collect, "train_s": t_train, "updates": n_updates, "buffer_frames": buffer.frames,
+                "wall_s": time.time() - t_start}
         log_every(log_row(log_path, last, digits=3))
         meta = {"train_config": dataclasses.asdict(cfg), "frames": frames_total, "wall_s": last["wall_s"],
                 "iteration": it + 1, "val_sr": val["val_sr"], "val_spl": val["val_spl"]}
