@@ -38,8 +38,9 @@ def test_oracle_rollouts_are_whole_labelled_episodes():
     assert stats["rollout_success"] == 1.0  # the oracle reaches every goal it stops at
 
 
-def test_a_few_updates_reduce_the_imitation_loss():
-    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3)
+@pytest.mark.parametrize("bf16", [False, True])
+def test_a_few_updates_reduce_the_imitation_loss(bf16):
+    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3, bf16=bf16)
     policy, segments, _ = _collect(cfg, frames=90)
     policy.net.visual_encoder.requires_grad_(False)
     buffer = EpisodeBuffer(10_000)
@@ -51,6 +52,26 @@ def test_a_few_updates_reduce_the_imitation_loss():
     policy.train()
     losses = [train_step(policy, opt, batch, cfg)[0] for _ in range(15)]
     assert losses[-1] < 0.7 * losses[0]
+    assert all(p.dtype == torch.float32 for p in policy.parameters())  # autocast leaves the weights fp32
+
+
+def test_bf16_updates_run_the_forward_pass_in_bfloat16_and_track_fp32():
+    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3)
+    policy, segments, _ = _collect(cfg, frames=90)
+    policy.net.visual_encoder.requires_grad_(False)
+    buffer = EpisodeBuffer(10_000)
+    for seg in segments:
+        buffer.add(seg)
+    batch = buffer.sample(np.random.default_rng(0), cfg.batch_chunks, None)
+    state = {k: v.clone() for k, v in policy.state_dict().items()}
+    first = {}
+    for bf16 in (False, True):
+        policy.load_state_dict(state)
+        opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr)
+        first[bf16] = train_step(policy, opt, batch, dataclasses.replace(cfg, bf16=bf16))[0]
+    # bfloat16 keeps 8 bits of mantissa: the loss moves in the third digit, not the first
+    assert first[True] != first[False]
+    assert first[True] == pytest.approx(first[False], rel=0.02)
 
 
 def test_stored_features_are_the_encoder_output_and_acting_matches_the_full_forward_pass():
@@ -74,9 +95,10 @@ def test_stored_features_are_the_encoder_output_and_acting_matches_the_full_forw
         prev, masks = torch.from_numpy(actions), torch.ones(3, dtype=torch.bool)
 
 
-def test_truncated_chunks_train_the_whole_network():
+@pytest.mark.parametrize("bf16", [False, True])
+def test_truncated_chunks_train_the_whole_network(bf16):
     cfg = dataclasses.replace(TrainConfig(num_envs=2, max_episode_steps=20, batch_chunks=2, lr=1e-3),
-                              full_episodes=False, chunk_len=8, freeze_visual=False)
+                              full_episodes=False, chunk_len=8, freeze_visual=False, bf16=bf16)
     policy, segments, _ = _collect(cfg, frames=40)
     buffer = EpisodeBuffer(10_000)
     for seg in segments:
