@@ -94,14 +94,37 @@ class LSTMStateEncoder(nn.Module):
         cuts = ((~masks[1:]).any(dim=1).nonzero().flatten() + 1).tolist() if steps > 1 else []
         bounds = [0, *cuts, steps]
         outs = []
+        # One step at a time (acting), the cell's arithmetic in plain matrix products (_step): oneDNN's LSTM
+        # kernel takes 2.1 ms for a single step at batch 1 on a 2-core EPYC where these take 0.8 (1.3 vs 2.2
+        # ms at batch 8); outputs agree to ~1e-7. Sequences (training) keep nn.LSTM: oneDNN is faster there
+        # (0.20 vs 0.28 s for 80 x 16 forward+backward in fp32, and far faster under bf16 autocast).
+        single = steps == 1 and not torch.is_autocast_enabled("cpu")
         for start, end in zip(bounds[:-1], bounds[1:]):
             state = torch.where(masks[start].view(1, -1, 1), state, state.new_zeros(()))
             h, c = state.chunk(2, dim=0)
-            out, (h, c) = self.rnn(x[start:end], (h.contiguous(), c.contiguous()))
+            if single:
+                out, (h, c) = self._step(x[0], h, c)
+            else:
+                out, (h, c) = self.rnn(x[start:end], (h.contiguous(), c.contiguous()))
             outs.append(out)
             state = torch.cat([h, c], dim=0)
         out = outs[0] if len(outs) == 1 else torch.cat(outs, dim=0)
         return out, state.transpose(0, 1)
+
+    def _step(self, x: torch.Tensor, h: torch.Tensor, c: torch.Tensor
+              ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]:
+        """One step of ``self.rnn``: x (N, F), h and c (L, N, H) -> out (1, N, H), (h, c) as nn.LSTM returns."""
+        hs, cs = [], []
+        for k in range(self.num_layers):
+            w_ih, w_hh = getattr(self.rnn, f"weight_ih_l{k}"), getattr(self.rnn, f"weight_hh_l{k}")
+            bias = getattr(self.rnn, f"bias_ih_l{k}") + getattr(self.rnn, f"bias_hh_l{k}")
+            gates = torch.addmm(bias, x, w_ih.t()).addmm_(h[k], w_hh.t())
+            i, f, g, o = gates.chunk(4, dim=1)  # PyTorch's gate order
+            c_k = torch.sigmoid(f) * c[k] + torch.sigmoid(i) * torch.tanh(g)
+            x = torch.sigmoid(o) * torch.tanh(c_k)
+            hs.append(x)
+            cs.append(c_k)
+        return x[None], (torch.stack(hs), torch.stack(cs))
 
 
 class PointNavNet(nn.Module):

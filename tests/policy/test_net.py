@@ -16,6 +16,7 @@ from navbench.policy import (
     load_checkpoint,
     prepare_depth,
 )
+from navbench.policy.net import LSTMStateEncoder
 from navbench.policy.resnet import RunningMeanAndVar
 
 
@@ -158,6 +159,22 @@ def test_sequence_mode_equals_step_by_step(policy: PointNavResNetPolicy) -> None
             torch.testing.assert_close(value_seq[t], value, atol=1e-4, rtol=1e-4)
     torch.testing.assert_close(hidden_seq, hidden, atol=1e-4, rtol=1e-4)
     assert logits_seq.shape == (steps, n, 4) and value_seq.shape == (steps, n) and hidden_seq.shape == (n, 4, 512)
+
+
+def test_single_step_cell_equals_nn_lstm() -> None:
+    # Acting runs the LSTM cell as plain matrix products (LSTMStateEncoder._step); it must be nn.LSTM's step,
+    # biases included (they start at zero in a fresh policy, so randomise everything here).
+    torch.manual_seed(0)
+    enc = LSTMStateEncoder(576, 512, 2)
+    with torch.no_grad():
+        for p in enc.parameters():
+            p.normal_(0, 0.05)
+        x, hidden = torch.randn(1, 5, 576), torch.randn(5, 4, 512) * 0.5
+        out, new_hidden = enc(x, hidden, torch.ones(1, 5, dtype=torch.bool))
+        h, c = hidden.transpose(0, 1).chunk(2, dim=0)
+        ref_out, (ref_h, ref_c) = enc.rnn(x, (h.contiguous(), c.contiguous()))
+    torch.testing.assert_close(out, ref_out, atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(new_hidden, torch.cat([ref_h, ref_c]).transpose(0, 1), atol=1e-5, rtol=1e-5)
 
 
 def test_mask_zero_resets_state_and_previous_action(policy: PointNavResNetPolicy) -> None:
