@@ -38,15 +38,20 @@ def test_oracle_rollouts_are_whole_labelled_episodes():
     assert stats["rollout_success"] == 1.0  # the oracle reaches every goal it stops at
 
 
-@pytest.mark.parametrize("bf16", [False, True])
-def test_a_few_updates_reduce_the_imitation_loss(bf16):
-    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3, bf16=bf16)
+def _frozen_encoder_batch(cfg: TrainConfig):
+    """An untrained policy with its encoder frozen, and a batch of whole episodes from its rollouts."""
     policy, segments, _ = _collect(cfg, frames=90)
     policy.net.visual_encoder.requires_grad_(False)
     buffer = EpisodeBuffer(10_000)
     for seg in segments:
         buffer.add(seg)
-    batch = buffer.sample(np.random.default_rng(0), cfg.batch_chunks, None)
+    return policy, buffer.sample(np.random.default_rng(0), cfg.batch_chunks, None)
+
+
+@pytest.mark.parametrize("bf16", [False, True])
+def test_a_few_updates_reduce_the_imitation_loss(bf16):
+    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3, bf16=bf16)
+    policy, batch = _frozen_encoder_batch(cfg)
     assert batch["feat"].shape[:2] == batch["label"].shape
     opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr)
     policy.train()
@@ -57,12 +62,7 @@ def test_a_few_updates_reduce_the_imitation_loss(bf16):
 
 def test_bf16_updates_run_the_forward_pass_in_bfloat16_and_track_fp32():
     cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3)
-    policy, segments, _ = _collect(cfg, frames=90)
-    policy.net.visual_encoder.requires_grad_(False)
-    buffer = EpisodeBuffer(10_000)
-    for seg in segments:
-        buffer.add(seg)
-    batch = buffer.sample(np.random.default_rng(0), cfg.batch_chunks, None)
+    policy, batch = _frozen_encoder_batch(cfg)
     state = {k: v.clone() for k, v in policy.state_dict().items()}
     first = {}
     for bf16 in (False, True):
