@@ -109,12 +109,14 @@ train-pointnav: setup
 # Session 27's 2-hour recipe (87 minutes alone on the AVX-512 BF16 EPYC; not shipped, see the model
 # card): the encoder stage, one cosine-rate DAgger stage on train_large, PPO with the expert's labels,
 # DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth; P2H_ITERS sets the DAgger stage's length.
-# P2H_DAGGER_FLAGS adds options to both DAgger stages (e.g. --bf16: bfloat16 updates, untested in this recipe).
+# P2H_DAGGER_FLAGS adds options to both DAgger stages, P2H_ENCODER_FLAGS to the encoder stage (e.g. --bf16:
+# bfloat16 updates; not used in a complete run of this recipe yet).
 P2H_ITERS ?= 40
 P2H_DIR ?= runs/p2h
 P2H_DAGGER_FLAGS ?=
+P2H_ENCODER_FLAGS ?=
 train-pointnav-2h: setup
-	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state
+	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)
 	$(BIN)/navbench train pointnav --init $(P2H_DIR)/encoder.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --iterations $(P2H_ITERS) --frames-per-iteration 8000 --lr 5e-4 \
 	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 \

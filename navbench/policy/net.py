@@ -23,7 +23,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from navbench.policy.resnet import GroupNormResNet, RunningMeanAndVar
+from navbench.policy.resnet import GroupNorm, GroupNormResNet, RunningMeanAndVar
 
 POINTNAV_ACTIONS = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
 
@@ -56,7 +56,7 @@ class ResNetEncoder(nn.Module):
         channels = int(round(2048 / (h * w)))
         self.compression = nn.Sequential(
             nn.Conv2d(self.backbone.final_channels, channels, kernel_size=3, padding=1, bias=False),
-            nn.GroupNorm(1, channels),
+            GroupNorm(1, channels),
             nn.ReLU(True),
         )
         self.output_shape = (channels, h, w)

@@ -15,7 +15,26 @@ correlated rollout frames), so there is no train/eval difference in the backbone
 from __future__ import annotations
 
 import torch
+import torch.nn.functional as F
 from torch import nn
+
+
+class GroupNorm(nn.GroupNorm):
+    """``nn.GroupNorm`` (the same parameters and state_dict keys) that normalises in fp32 under autocast.
+
+    Why: given a bfloat16 input, PyTorch runs the mixed-precision channels_last kernel, which on the
+    AVX-512-BF16 EPYC (session 30) took 2-3x as long as the fp32 one, forward and backward, and cancelled
+    what bf16 convolutions save. Normalising in fp32 and handing back the input's dtype keeps those savings
+    (the encoder's forward+backward at batch 64: 0.39 s fp32, 0.35 s bf16, 0.28 s bf16 with this).
+    Outside autocast it is exactly ``nn.GroupNorm``.
+    """
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if x.dtype == torch.float32:
+            return super().forward(x)
+        with torch.autocast(x.device.type, enabled=False):
+            y = F.group_norm(x.float(), self.num_groups, self.weight, self.bias, self.eps)
+        return y.to(x.dtype)
 
 
 def _conv3x3(in_planes: int, out_planes: int, stride: int = 1) -> nn.Conv2d:
@@ -33,15 +52,15 @@ class BasicBlock(nn.Module):
         super().__init__()
         self.convs = nn.Sequential(
             _conv3x3(inplanes, planes, stride),
-            nn.GroupNorm(ngroups, planes),
+            GroupNorm(ngroups, planes),
             nn.ReLU(True),
             _conv3x3(planes, planes),
-            nn.GroupNorm(ngroups, planes),
+            GroupNorm(ngroups, planes),
         )
         # habitat stores `downsample = None` when the shortcut is the identity, so no keys appear.
         self.downsample: nn.Module | None = None
         if stride != 1 or inplanes != planes:
-            self.downsample = nn.Sequential(_conv1x1(inplanes, planes, stride), nn.GroupNorm(ngroups, planes))
+            self.downsample = nn.Sequential(_conv1x1(inplanes, planes, stride), GroupNorm(ngroups, planes))
         self.relu = nn.ReLU(True)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -64,7 +83,7 @@ class GroupNormResNet(nn.Module):
         super().__init__()
         self.conv1 = nn.Sequential(
             nn.Conv2d(in_channels, base_planes, kernel_size=7, stride=2, padding=3, bias=False),
-            nn.GroupNorm(ngroups, base_planes),
+            GroupNorm(ngroups, base_planes),
             nn.ReLU(True),
         )
         self.maxpool = nn.MaxPool2d(kernel_size=3, stride=2, padding=1)

@@ -17,7 +17,7 @@ from navbench.policy import (
     prepare_depth,
 )
 from navbench.policy.net import LSTMStateEncoder
-from navbench.policy.resnet import RunningMeanAndVar
+from navbench.policy.resnet import GroupNorm, RunningMeanAndVar
 
 
 def _block(prefix: str, cin: int, cout: int, downsample: bool) -> dict[str, tuple[int, ...]]:
@@ -138,6 +138,24 @@ def test_running_mean_and_var_merges_batches_and_normalises() -> None:
     x = torch.randn(1, 2, 5, 5, generator=gen)
     expected = (x - everything.mean(1).view(1, 2, 1, 1)) / everything.var(1, unbiased=False).sqrt().view(1, 2, 1, 1)
     torch.testing.assert_close(norm.eval()(x), expected)
+
+
+def test_group_norm_is_torchs_in_fp32_and_normalises_bfloat16_in_fp32() -> None:
+    gen = torch.Generator().manual_seed(0)
+    ours, torchs = GroupNorm(4, 8), torch.nn.GroupNorm(4, 8)
+    with torch.no_grad():
+        for p in ours.parameters():
+            p.copy_(torch.randn(p.shape, generator=gen))
+    torchs.load_state_dict(ours.state_dict())  # the same keys and shapes
+    x = (torch.randn(2, 8, 6, 6, generator=gen) * 3 + 2).contiguous(memory_format=torch.channels_last)
+    assert torch.equal(ours(x), torchs(x))
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        y = ours(x.bfloat16())
+    assert y.dtype == torch.bfloat16 and y.is_contiguous(memory_format=torch.channels_last)
+    # statistics in fp32 over the bfloat16-rounded input: only the output's rounding is left
+    expected = torchs(x.bfloat16().float())
+    torch.testing.assert_close(y.float(), expected, rtol=1e-2, atol=1e-2)
+    assert not torch.equal(y.float(), expected)  # it did hand back bfloat16
 
 
 def test_sequence_mode_equals_step_by_step(policy: PointNavResNetPolicy) -> None:
