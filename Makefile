@@ -110,7 +110,7 @@ train-pointnav: setup
 # card): the encoder stage, one cosine-rate DAgger stage on train_large, PPO with the expert's labels,
 # DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth; P2H_ITERS sets the DAgger stage's length.
 # P2H_DAGGER_FLAGS adds options to both DAgger stages, P2H_ENCODER_FLAGS to the encoder stage (e.g. --bf16:
-# bfloat16 updates; not used in a complete run of this recipe yet).
+# bfloat16 updates; session 30 ran the recipe with both on a family-25 EPYC: 131 minutes, model card).
 P2H_ITERS ?= 40
 P2H_DIR ?= runs/p2h
 P2H_DAGGER_FLAGS ?=
