@@ -47,6 +47,7 @@ from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_tr
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.pretrain import free_distances
 from navbench.policy.progress import log_row
+from navbench.policy.workers import WorkerPool
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.optimistic import OptimisticFollower
 from navbench.scene.pose import quat_from_yaw
@@ -133,6 +134,11 @@ class TrainConfig:
     tight_starts: float = 0.0
     seed: int = 0
     threads: int = 2
+    # Rollout processes (navbench.policy.workers): with 2, each steps half of the envs with its own copy of
+    # the policy, one llvmpipe and one torch thread, and collection runs ~1.7x faster on 2 cores (session 31).
+    # 1 = in this process, as every committed run before session 31 was collected. Results depend on the
+    # number of workers (each has its own random stream), not on timing.
+    workers: int = 1
     # torch.autocast(cpu, bfloat16) around each update's forward pass (the optimizer keeps fp32 weights).
     # With the encoder frozen an update is the LSTM and the fully connected layers on cached features;
     # on session 29's AVX-512-BF16 CPU (family 25) that runs ~1.6x faster under bf16 (T=80 x 16
@@ -257,13 +263,23 @@ def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------ rollouts
-def make_envs(n: int, split: str, seed: int) -> list[PointNavEnv]:
+def make_envs(n: int, split: str, seed: int, first: int = 0) -> list[PointNavEnv]:
+    """Envs ``first .. first + n - 1`` of a training run: env ``i`` is seeded with ``seed * 1000 + i``, so a
+    run split over workers draws the same episode streams as one process with all the envs."""
     ds = load_dataset(split_file("pointnav", split))
     cfg = EnvConfig(rgb=False, depth=True, success_distance=TrainConfig.success_distance)
     envs = [PointNavEnv(ds, config=cfg) for _ in range(n)]
     for i, env in enumerate(envs):
-        env.reset(seed=seed * 1000 + i)
+        env.reset(seed=seed * 1000 + first + i)
     return envs
+
+
+def worker_shares(num_envs: int, workers: int) -> list[tuple[int, int]]:
+    """(first env, env count) of each rollout worker: ``num_envs`` split as evenly as it goes."""
+    if workers < 1 or workers > num_envs:
+        raise ValueError(f"workers must be between 1 and num_envs ({num_envs}), got {workers}")
+    counts = [num_envs // workers + (w < num_envs % workers) for w in range(workers)]
+    return [(sum(counts[:w]), counts[w]) for w in range(workers)]
 
 
 # Tight starts (``tight_starts``): a start on a navigable cell this close to the grid's edge leaves at most
@@ -326,6 +342,7 @@ class Collector:
         # encoder needs the frames themselves ("depth", 2x2-pooled uint8).
         self.frame_key = "feat" if cfg.freeze_visual else "depth"
         self.state: list[dict] = [self._start(env) for env in envs]
+        self.successes: list[float] = []  # success of each episode the last collect() finished
 
     def _start(self, env: PointNavEnv) -> dict:
         obs = reset_maybe_tight(env, self.rng, self.cfg.tight_starts)  # seeded draw from the env's own generator
@@ -408,7 +425,37 @@ class Collector:
             for s in self.state:  # hand over running episodes as segments; they continue next call
                 if s["label"]:
                     out.append(self._segment(s))
+        self.successes = successes
         return out, {"rollout_success": float(np.mean(successes)) if successes else float("nan")}
+
+
+class CollectorWorker:
+    """One rollout worker's share of the envs (``TrainConfig.workers``): its envs, its :class:`Collector` with
+    its own random stream, and a copy of the policy that ``collect`` refreshes with the trainer's weights."""
+
+    def __init__(self, cfg: TrainConfig, first: int, num_envs: int, env_seed: int, rng_seed: list[int]):
+        self.collector = Collector(make_envs(num_envs, cfg.train_split, env_seed, first), cfg,
+                                   np.random.default_rng(rng_seed))
+        self.policy, _ = build_learner(cfg)
+
+    def collect(self, weights: dict[str, torch.Tensor], frames: int, beta: float) -> tuple[list[dict], list[float]]:
+        self.policy.load_state_dict(weights)
+        learner = PointNavAgentPolicy(self.policy.eval(), num_envs=len(self.collector.envs),
+                                      config=InferenceConfig(channels_last=False))
+        eps, _ = self.collector.collect(learner, frames, beta)
+        return eps, self.collector.successes
+
+
+def collect_in_workers(pool: WorkerPool, policy: PointNavResNetPolicy, frames: int, beta: float
+                       ) -> tuple[list[dict], dict]:
+    """``Collector.collect`` over every worker of ``pool`` (each collects its share of ``frames``); episodes in
+    worker order."""
+    weights = policy.state_dict()
+    share = -(-frames // len(pool))
+    results = pool.call("collect", [(weights, share, beta)] * len(pool))
+    eps = [e for r in results for e in r[0]]
+    successes = [x for r in results for x in r[1]]
+    return eps, {"rollout_success": float(np.mean(successes)) if successes else float("nan")}
 
 
 def evaluate(policy: PointNavResNetPolicy, episodes: int, success_distance: float,
@@ -540,8 +587,29 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         if log_path.exists():
             log_path.unlink()
 
-    envs = make_envs(cfg.num_envs, cfg.train_split, cfg.seed + start_it)
-    collector = Collector(envs, cfg, rng)
+    envs: list[PointNavEnv] = []
+    pool: WorkerPool | None = None
+    shares = worker_shares(cfg.num_envs, cfg.workers)
+    if cfg.workers > 1:
+        pool = source = WorkerPool(CollectorWorker, [(cfg, first, n, cfg.seed + start_it, [cfg.seed, start_it, w])
+                                                     for w, (first, n) in enumerate(shares)],
+                                   threads=max(1, cfg.threads // cfg.workers))
+    else:
+        envs = make_envs(cfg.num_envs, cfg.train_split, cfg.seed + start_it)
+        source = Collector(envs, cfg, rng)
+    try:
+        return _train_loop(cfg, policy, aux_head, opt, rng, source, start_it,
+                           frames_total, wall0, out, log_path, state_path, log_every)
+    finally:
+        if pool is not None:
+            pool.close()
+        for e in envs:
+            e.close()
+
+
+def _train_loop(cfg, policy, aux_head, opt, rng, source: Collector | WorkerPool, start_it, frames_total, wall0,
+                out, log_path, state_path, log_every) -> dict[str, float]:
+    """The iterations of :func:`train`: collect (in this process, or in a WorkerPool), aggregate, update, log."""
     buffer = EpisodeBuffer(cfg.buffer_frames)
     t_start = time.time() - wall0
     last: dict[str, float] = {}
@@ -551,9 +619,12 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         for group in opt.param_groups:
             group["lr"] = lr
         policy.eval()
-        learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
         t0 = time.time()
-        eps, stats = collector.collect(learner, cfg.frames_per_iteration, beta)
+        if isinstance(source, WorkerPool):
+            eps, stats = collect_in_workers(source, policy, cfg.frames_per_iteration, beta)
+        else:
+            learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
+            eps, stats = source.collect(learner, cfg.frames_per_iteration, beta)
         for e in eps:
             buffer.add(e)
         new_frames = sum(len(e["label"]) for e in eps)
@@ -585,8 +656,6 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
                                       "iteration": it + 1,
                                       "aux_head": aux_head.state_dict() if aux_head is not None else None,
                                       "frames": frames_total, "wall_s": last["wall_s"]})
-    for e in envs:
-        e.close()
     return last
 
 
