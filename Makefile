@@ -115,8 +115,9 @@ P2H_ITERS ?= 40
 P2H_DIR ?= runs/p2h
 P2H_DAGGER_FLAGS ?=
 P2H_ENCODER_FLAGS ?=
-# Rollout processes of the DAgger and PPO stages (--workers): 2 collects ~1.4x faster on 2 cores (session 31).
-# The committed logs of sessions 27 and 30 were collected in one process (1).
+# Rollout processes of the DAgger and PPO stages (--workers): 2 collects ~1.4x faster on 2 cores. Session 31 ran
+# the recipe with P2H_WORKERS=2 and both bf16 flags on a family-25 EPYC in 110 minutes (model card). The
+# committed logs of sessions 27 and 30 were collected in one process, the default.
 P2H_WORKERS ?= 1
 train-pointnav-2h: setup
 	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)

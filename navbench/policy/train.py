@@ -18,6 +18,10 @@ from their first step (default) or on short chunks that start from a zero recurr
 (``--truncated``). After every iteration it evaluates on bundled PointNav ``val`` episodes, logs to
 CSV and writes a resumable checkpoint.
 
+With ``--workers 2`` the envs are split between two rollout processes (:mod:`navbench.policy.workers`),
+each with its own copy of the policy, refreshed with the trainer's weights before every collection; on 2
+cores that collects ~1.4x faster than one process, whose renderer and expert leave a core idle.
+
 By default (``freeze_visual``) the visual encoder is not trained: the buffer keeps the encoder output
 the rollout's own forward pass computed for each frame (fp16), and the rest of the network trains on
 those, ~50x cheaper per update on 2 cores. With a trainable encoder the buffer keeps the frames

@@ -1,0 +1,116 @@
+"""Rollout workers: pinned processes that keep their envs between calls, for DAgger and PPO collection."""
+
+import os
+from functools import partial
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import torch
+
+from navbench.policy.checkpoint import save_checkpoint
+from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
+                                 prepare_depth)
+from navbench.policy.ppo import PooledRollout, PPOConfig, RolloutWorker, train_ppo
+from navbench.policy.train import (Collector, CollectorWorker, TrainConfig, collect_in_workers, make_envs, train,
+                                   worker_shares)
+from navbench.policy.workers import WorkerError, WorkerPool
+
+
+def test_pool_answers_in_worker_order_and_reports_a_workers_error_with_its_traceback():
+    with WorkerPool(dict, [({"k": 1},), ({"k": 2},), ({"k": 3},)]) as pool:
+        assert len(pool) == 3
+        assert pool.call("get", [("k",)] * 3) == [1, 2, 3]
+        pool.call("update", [({"k": 10 * i},) for i in range(3)])  # state stays in each worker between calls
+        assert pool.call("get", [("k",)] * 3) == [0, 10, 20]
+        with pytest.raises(KeyError, match="gone") as err:  # the worker's own exception, re-raised here
+            pool.call("pop", [("k",), ("gone",), ("k",)])
+        assert "raised in rollout worker 1" in err.value.__notes__[0]
+        assert pool.call("get", [("k", "none")] * 3) == ["none", 10, "none"]  # the pool still answers
+        with pytest.raises(ValueError, match="2 argument tuples for 3 workers"):
+            pool.call("get", [("k",)] * 2)
+
+
+def test_a_worker_that_cannot_build_its_object_fails_the_pool_with_its_error():
+    with pytest.raises(ValueError, match=r"invalid literal for int\(\)") as err:
+        WorkerPool(int, [("3",), ("three",)])
+    assert "raised in rollout worker 1" in err.value.__notes__[0]
+
+
+def test_a_worker_that_dies_fails_the_pool_by_name():
+    with WorkerPool(partial(SimpleNamespace, run=os._exit), [(), ()]) as pool:
+        with pytest.raises(WorkerError, match="rollout worker 0: exited with code 3"):
+            pool.call("run", [(3,), (4,)])
+
+
+def test_worker_shares_split_the_envs_evenly_in_order():
+    assert worker_shares(8, 1) == [(0, 8)]
+    assert worker_shares(8, 2) == [(0, 4), (4, 4)]
+    assert worker_shares(5, 2) == [(0, 3), (3, 2)]
+    for bad in (0, 9):
+        with pytest.raises(ValueError, match="workers must be between 1 and num_envs"):
+            worker_shares(8, bad)
+
+
+def _key(seg):
+    return seg["label"].tobytes(), np.round(seg["goal"], 4).tobytes()
+
+
+def test_expert_rollouts_split_over_two_workers_are_those_of_one_process():
+    # beta = 1 and no random actions: every action is the expert's, so an env's episodes depend only on its
+    # seed, and two workers with one env each must hand over exactly the episodes one process collects.
+    cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=100, workers=2)
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig()).eval()
+    envs = make_envs(2, "train", seed=0)
+    learner = PointNavAgentPolicy(policy, num_envs=2, config=InferenceConfig(channels_last=False))
+    local, _ = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, 240, beta=1.0)
+    for env in envs:
+        env.close()
+    shares = worker_shares(2, 2)
+    with WorkerPool(CollectorWorker, [(cfg, first, n, 0, [0, w]) for w, (first, n) in enumerate(shares)]) as pool:
+        pooled, stats = collect_in_workers(pool, policy, 240, beta=1.0)
+    assert len(local) >= 2 and stats["rollout_success"] == 1.0
+    by_key = {_key(s): s for s in local}
+    assert sorted(by_key) == sorted(_key(s) for s in pooled)
+    for seg in pooled:  # the worker encoded the same frames with the trainer's weights (batch 1 against 2)
+        np.testing.assert_allclose(seg["feat"].astype(np.float32), by_key[_key(seg)]["feat"].astype(np.float32),
+                                   rtol=2e-3, atol=2e-3)
+
+
+def test_pooled_ppo_rollout_lays_the_workers_envs_side_by_side_with_the_trainers_weights():
+    cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=6, workers=2)
+    torch.manual_seed(1)
+    policy = PointNavResNetPolicy(PolicyNetConfig()).eval()
+    shares = worker_shares(2, 2)
+    with WorkerPool(RolloutWorker, [(cfg, first, n, 7, [0, w]) for w, (first, n) in enumerate(shares)]) as pool:
+        rollout = PooledRollout(pool, policy, cfg)
+        data = rollout.collect()
+        again = rollout.collect()  # the second call sends no encoder weights
+    feat_dim = int(np.prod(policy.net.visual_encoder.output_shape))
+    assert data["action"].shape == (6, 2) and data["feat"].shape == (6, 2, feat_dim)
+    assert data["hidden0"].shape == (2, *policy.initial_hidden(1).shape[1:]) and not data["hidden0"].any()
+    assert again["hidden0"].any()  # the recurrent state carried over between calls
+    # env i of the run, as make_envs seeds it, after the rollout's own first reset
+    envs = make_envs(2, "train", 7)
+    obs = [env.reset()[0] for env in envs]
+    goal = np.stack([o["pointgoal_with_gps_compass"] for o in obs])
+    np.testing.assert_allclose(data["goal"][0].numpy(), goal, rtol=1e-6)
+    with torch.inference_mode():
+        _, value, _ = policy(prepare_depth(np.stack([o["depth"] for o in obs]), policy.cfg.input_size),
+                             torch.as_tensor(goal), torch.zeros(2, dtype=torch.long),
+                             torch.zeros(2, dtype=torch.bool), policy.initial_hidden(2))
+    np.testing.assert_allclose(data["value"][0].numpy(), value.numpy(), rtol=1e-4, atol=1e-5)
+    for env in envs:
+        env.close()
+
+
+def test_training_runs_with_two_workers(tmp_path):
+    cfg = TrainConfig(num_envs=2, iterations=1, frames_per_iteration=60, max_episode_steps=30, val_episodes=0,
+                      batch_chunks=2, workers=2)
+    last = train(cfg, tmp_path / "dagger.pth", state_dir=tmp_path / "dagger_state", log_every=lambda _: None)
+    assert last["iteration"] == 1 and last["frames"] > 0 and last["updates"] >= 1
+    init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {}, fp16=False)
+    cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=4, updates=2, critic_warmup=1, workers=2)
+    last = train_ppo(cfg, tmp_path / "ppo.pth", init, state_dir=tmp_path / "ppo_state", log_every=lambda _: None)
+    assert last["update"] == 2 and last["frames"] == 16
