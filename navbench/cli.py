@@ -434,7 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--frames-per-iteration", type=int)
     tr.add_argument("--num-envs", type=int)
     tr.add_argument("--workers", type=int, help="pointnav/ppo: rollout processes sharing the envs (default 1: in "
-                                                "this process; 2 collects ~1.7x faster on 2 cores)")
+                                                "this process; 2 collects ~1.4x faster on 2 cores)")
     tr.add_argument("--val-episodes", type=int)
     tr.add_argument("--epochs-per-iteration", type=float)
     tr.add_argument("--train-encoder", dest="freeze_visual", action="store_false", default=None,

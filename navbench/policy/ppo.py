@@ -118,7 +118,7 @@ class PPOConfig:
     expert_margin: float = 0.15
     seed: int = 0
     threads: int = 2
-    # Rollout processes (navbench.policy.workers; TrainConfig.workers explains): 2 collect ~1.7x faster on 2
+    # Rollout processes (navbench.policy.workers; TrainConfig.workers explains): 2 collect ~1.4x faster on 2
     # cores. 1 = in this process, as every committed PPO run before session 31 was collected.
     workers: int = 1
     save_every: int = 5  # updates between checkpoints (each writes ~120 MB of resumable state)

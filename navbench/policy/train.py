@@ -139,7 +139,7 @@ class TrainConfig:
     seed: int = 0
     threads: int = 2
     # Rollout processes (navbench.policy.workers): with 2, each steps half of the envs with its own copy of
-    # the policy, one llvmpipe and one torch thread, and collection runs ~1.7x faster on 2 cores (session 31).
+    # the policy, one llvmpipe and one torch thread, and collection runs ~1.4x faster on 2 cores (session 31).
     # 1 = in this process, as every committed run before session 31 was collected. Results depend on the
     # number of workers (each has its own random stream), not on timing.
     workers: int = 1

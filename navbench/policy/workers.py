@@ -38,8 +38,9 @@ def _send_error(conn, exc: BaseException) -> None:
 
 
 def _serve(conn, factory: Callable[..., Any], args: tuple, threads: int) -> None:
-    # Before anything renders or runs torch: one llvmpipe thread and ``threads`` torch threads, so the
-    # workers share the cores instead of oversubscribing them (llvmpipe reads this when a context is made).
+    # Before anything renders or runs torch: ``threads`` llvmpipe and torch threads (1 for two workers on 2
+    # cores), so the workers share the cores instead of oversubscribing them (llvmpipe reads this when a
+    # context is made).
     os.environ["LP_NUM_THREADS"] = str(threads)
     import torch
 
