@@ -37,6 +37,7 @@ from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import aggregate
+from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
 
 
@@ -198,11 +199,7 @@ _WORKER: dict[str, Any] = {}
 
 def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) -> None:
     if single_thread:
-        # One llvmpipe thread and one torch thread per process: two processes then use both cores
-        # about twice as well as one process with two threads (platform notes).
-        os.environ["LP_NUM_THREADS"] = "1"
-        import torch
-        torch.set_num_threads(1)
+        share_cores(1)
     dataset = load_dataset(cfg.episodes)
     agent = make_agent(cfg)
     sensors = tuple(getattr(agent, "sensors", ("rgb", "depth")))

@@ -37,14 +37,19 @@ def _send_error(conn, exc: BaseException) -> None:
         conn.send(("error", (None, tb)))
 
 
-def _serve(conn, factory: Callable[..., Any], args: tuple, threads: int) -> None:
-    # Before anything renders or runs torch: ``threads`` llvmpipe and torch threads (1 for two workers on 2
-    # cores), so the workers share the cores instead of oversubscribing them (llvmpipe reads this when a
-    # context is made).
+def share_cores(threads: int) -> None:
+    """Give this worker process ``threads`` llvmpipe and torch threads. Call it before anything renders
+    (llvmpipe reads ``LP_NUM_THREADS`` when a context is made). Why: two processes with one thread each use
+    2 cores about twice as well for rendering as one process with two (platform notes), and more threads
+    than cores would only oversubscribe them."""
     os.environ["LP_NUM_THREADS"] = str(threads)
     import torch
 
     torch.set_num_threads(threads)
+
+
+def _serve(conn, factory: Callable[..., Any], args: tuple, threads: int) -> None:
+    share_cores(threads)
     try:
         obj = factory(*args)
     except Exception as exc:
