@@ -119,6 +119,9 @@ P2H_ENCODER_FLAGS ?=
 # the recipe with P2H_WORKERS=2 and both bf16 flags on a family-25 EPYC in 110 minutes (model card). The
 # committed logs of sessions 27 and 30 were collected in one process, the default.
 P2H_WORKERS ?= 1
+# P2H_PPO_FLAGS adds options to both PPO stages (e.g. --act-bf16, which P2H_DAGGER_FLAGS also takes: bfloat16
+# for the acting policy's encoder in rollouts; session 32).
+P2H_PPO_FLAGS ?=
 train-pointnav-2h: setup
 	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)
 	$(BIN)/navbench train pointnav --init $(P2H_DIR)/encoder.pth --train-split train_large --expert geodesic \
@@ -126,13 +129,13 @@ train-pointnav-2h: setup
 	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 \
 	  --endgame-weight 3 --seed 60 --out $(P2H_DIR)/s1.pth --state-dir $(P2H_DIR)/s1_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
 	$(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
-	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state --workers $(P2H_WORKERS)
+	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
 	$(BIN)/navbench train pointnav --init $(P2H_DIR)/s2.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 1.5625e-5 \
 	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --tight-starts 0.3 --seed 62 \
 	  --out $(P2H_DIR)/s3.pth --state-dir $(P2H_DIR)/s3_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
 	$(BIN)/navbench train ppo --init $(P2H_DIR)/s3.pth --train-split train_large --updates 250 --bc-weight 0.1 \
-	  --seed 63 --out $(P2H_DIR)/s4.pth --state-dir $(P2H_DIR)/s4_state --workers $(P2H_WORKERS)
+	  --seed 63 --out $(P2H_DIR)/s4.pth --state-dir $(P2H_DIR)/s4_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
 
 # The shipped PointNav checkpoint on bundled PointNav val, next to the two oracles (the geodesic one's run
 # comes from results-oracle; the optimistic one plans on the map it has seen, the ceiling for a learner).

@@ -493,6 +493,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--bf16", action=argparse.BooleanOptionalAction, default=None,
                     help="bfloat16 autocast in the updates (encoder and pointnav: default off; ppo: default on, "
                          "for the encoder with --train-encoder)")
+    tr.add_argument("--act-bf16", action="store_true", default=None,
+                    help="pointnav/ppo: bfloat16 autocast for the acting policy's encoder in rollouts (default off)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
     tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
     tr.set_defaults(func=cmd_train)

@@ -244,3 +244,23 @@ def test_tight_starts_begin_the_first_and_every_later_rollout_episode_beside_an_
     finally:
         for e in envs:
             e.close()
+
+
+def test_act_bf16_encodes_the_rollout_in_bfloat16_and_keeps_the_logits_fp32():
+    torch.manual_seed(0)
+    policy = PointNavResNetPolicy(PolicyNetConfig()).eval()
+    steps = {}
+    for act_bf16 in (False, True):  # the same first frames: envs seeded alike
+        envs = make_envs(2, "train", 5)
+        try:
+            rollout = Rollout(envs, PPOConfig(num_envs=2, rollout_steps=2, act_bf16=act_bf16), policy,
+                              torch.Generator().manual_seed(0), np.random.default_rng(0))
+            steps[act_bf16] = rollout._step_policy()
+        finally:
+            for e in envs:
+                e.close()
+    (f32, goal32, logits32, _, _), (fbf, goal_bf, logits_bf, value_bf, _) = steps[False], steps[True]
+    assert torch.equal(goal32, goal_bf)
+    assert fbf.dtype == logits_bf.dtype == value_bf.dtype == torch.float32
+    assert not torch.equal(f32, fbf) and float((f32 - fbf).norm() / f32.norm()) < 0.05
+    assert not torch.equal(logits32, logits_bf) and torch.allclose(logits32, logits_bf, atol=0.05)

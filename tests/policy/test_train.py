@@ -8,8 +8,8 @@ import torch
 
 from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
                                  prepare_depth)
-from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, iteration_lr, make_aux_head, make_envs,
-                                   train_step)
+from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, acting_config, iteration_lr, make_aux_head,
+                                   make_envs, train_step)
 
 
 def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
@@ -289,3 +289,26 @@ def test_tight_starts_keep_the_goal_and_start_beside_an_obstacle():
         starts.append(tuple(ep.start_position))
     assert len(set(starts)) == 6
     env.close()
+
+
+def test_act_bf16_collects_the_same_expert_episodes_with_bfloat16_rounded_features():
+    # The expert acts (beta = 1, no random actions), so the episodes are the same; only the stored encoder
+    # outputs change, by bf16's rounding.
+    cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=40)
+    runs = {}
+    for act_bf16 in (False, True):
+        c = dataclasses.replace(cfg, act_bf16=act_bf16)
+        torch.manual_seed(0)
+        policy = PointNavResNetPolicy(PolicyNetConfig())
+        envs = make_envs(2, "train", seed=0)
+        learner = PointNavAgentPolicy(policy, num_envs=2, config=acting_config(c))
+        runs[act_bf16], _ = Collector(envs, c, np.random.default_rng(0)).collect(learner, 80, beta=1.0)
+        for env in envs:
+            env.close()
+    assert len(runs[False]) == len(runs[True]) >= 2
+    for a, b in zip(runs[False], runs[True]):
+        np.testing.assert_array_equal(a["label"], b["label"])
+        np.testing.assert_array_equal(a["goal"], b["goal"])
+        fa, fb = a["feat"].astype(np.float32), b["feat"].astype(np.float32)
+        assert b["feat"].dtype == np.float16 and not np.array_equal(fa, fb)
+        assert np.linalg.norm(fa - fb) / np.linalg.norm(fa) < 0.05
