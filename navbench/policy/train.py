@@ -646,8 +646,11 @@ def _train_loop(cfg, policy, aux_head, opt, rng, source: Collector | WorkerPool,
         frames_total += new_frames
         t_collect = time.time() - t0
         policy.train()
-        seq_len = buffer.frames / len(buffer.episodes) if cfg.full_episodes else cfg.chunk_len
-        n_updates = max(1, round(new_frames * cfg.epochs_per_iteration / (seq_len * cfg.batch_chunks)))
+        if not buffer.episodes:  # whole episodes, none ended yet: they carry over into the next collection
+            n_updates = 0
+        else:
+            seq_len = buffer.frames / len(buffer.episodes) if cfg.full_episodes else cfg.chunk_len
+            n_updates = max(1, round(new_frames * cfg.epochs_per_iteration / (seq_len * cfg.batch_chunks)))
         losses, accs = [], []
         t0 = time.time()
         for u in range(n_updates):
@@ -660,7 +663,8 @@ def _train_loop(cfg, policy, aux_head, opt, rng, source: Collector | WorkerPool,
         val = (evaluate(policy, cfg.val_episodes, cfg.success_distance, cfg.val_max_steps) if cfg.val_episodes > 0
                else {"val_sr": float("nan"), "val_spl": float("nan")})
         last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}",
-                "loss": float(np.mean(losses)), "acc": float(np.mean(accs)), **stats, **val,
+                "loss": float(np.mean(losses)) if losses else float("nan"),
+                "acc": float(np.mean(accs)) if accs else float("nan"), **stats, **val,
                 "collect_s": t_collect, "train_s": t_train, "updates": n_updates, "buffer_frames": buffer.frames,
                 "wall_s": time.time() - t_start}
         log_every(log_row(log_path, last, digits=3))

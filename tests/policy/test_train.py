@@ -1,5 +1,6 @@
 """Imitation training: data collection labels with the oracle, and a few updates reduce the loss."""
 
+import csv
 import dataclasses
 
 import numpy as np
@@ -9,7 +10,7 @@ import torch
 from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
                                  prepare_depth)
 from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, acting_config, iteration_lr, make_aux_head,
-                                   make_envs, train_step)
+                                   make_envs, train, train_step)
 
 
 def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
@@ -312,3 +313,14 @@ def test_act_bf16_collects_the_same_expert_episodes_with_bfloat16_rounded_featur
         fa, fb = a["feat"].astype(np.float32), b["feat"].astype(np.float32)
         assert b["feat"].dtype == np.float16 and not np.array_equal(fa, fb)
         assert np.linalg.norm(fa - fb) / np.linalg.norm(fa) < 0.05
+
+
+def test_an_iteration_in_which_no_whole_episode_ends_makes_no_update_and_the_run_goes_on(tmp_path):
+    # 8 envs x 10 steps an iteration against 30-step episodes: they first end in the third collection
+    cfg = TrainConfig(num_envs=8, iterations=3, frames_per_iteration=80, max_episode_steps=30, val_episodes=0,
+                      batch_chunks=2, random_action_prob=0.0)
+    last = train(cfg, tmp_path / "dagger.pth", state_dir=tmp_path / "state", log_every=lambda _: None)
+    with open(tmp_path / "dagger.log.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["updates"] for r in rows[:2]] == ["0", "0"] and rows[0]["loss"] == "nan"  # nothing handed over yet
+    assert last["iteration"] == 3 and last["updates"] >= 1 and last["frames"] == 240
