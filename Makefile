@@ -120,7 +120,8 @@ P2H_ENCODER_FLAGS ?=
 # committed logs of sessions 27 and 30 were collected in one process, the default.
 P2H_WORKERS ?= 1
 # P2H_PPO_FLAGS adds options to both PPO stages (e.g. --act-bf16, which P2H_DAGGER_FLAGS also takes: bfloat16
-# for the acting policy's encoder in rollouts; session 32).
+# for the acting policy's encoder in rollouts). Session 32 ran P2H_WORKERS=2 P2H_ITERS=48 P2H_ENCODER_FLAGS=--bf16
+# "P2H_DAGGER_FLAGS=--bf16 --act-bf16" P2H_PPO_FLAGS=--act-bf16 in 107 minutes (model card).
 P2H_PPO_FLAGS ?=
 train-pointnav-2h: setup
 	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)
