@@ -18,7 +18,7 @@ def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(PolicyNetConfig())
     envs = make_envs(cfg.num_envs, "train", seed=0)
-    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
+    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=acting_config(cfg))
     segments, stats = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, frames, beta=beta)
     for env in envs:
         env.close()
@@ -296,16 +296,7 @@ def test_act_bf16_collects_the_same_expert_episodes_with_bfloat16_rounded_featur
     # The expert acts (beta = 1, no random actions), so the episodes are the same; only the stored encoder
     # outputs change, by bf16's rounding.
     cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=40)
-    runs = {}
-    for act_bf16 in (False, True):
-        c = dataclasses.replace(cfg, act_bf16=act_bf16)
-        torch.manual_seed(0)
-        policy = PointNavResNetPolicy(PolicyNetConfig())
-        envs = make_envs(2, "train", seed=0)
-        learner = PointNavAgentPolicy(policy, num_envs=2, config=acting_config(c))
-        runs[act_bf16], _ = Collector(envs, c, np.random.default_rng(0)).collect(learner, 80, beta=1.0)
-        for env in envs:
-            env.close()
+    runs = {act_bf16: _collect(dataclasses.replace(cfg, act_bf16=act_bf16), frames=80)[1] for act_bf16 in (False, True)}
     assert len(runs[False]) == len(runs[True]) >= 2
     for a, b in zip(runs[False], runs[True]):
         np.testing.assert_array_equal(a["label"], b["label"])
