@@ -36,6 +36,7 @@ import torch.nn.functional as F
 
 from navbench.policy.checkpoint import load_checkpoint, save_checkpoint, save_train_state
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
+from navbench.policy.precision import native_bf16
 from navbench.policy.progress import log_row
 from navbench.policy.train import cosine_rate, make_envs, reset_maybe_tight, worker_shares
 from navbench.policy.workers import WorkerPool
@@ -113,7 +114,11 @@ class PPOConfig:
     # by an approximate KL of 0.02-0.03 per update (clip fraction ~0.09) where the frozen-encoder updates
     # move it by ~5e-4: too far for fine-tuning a policy that already succeeds on ~94% of its rollouts.
     encoder_lr_scale: float = 0.1
-    bf16: bool = True
+    # bfloat16 autocast around each update's forward pass. The default is on where the CPU has AVX512-BF16 or
+    # AMX and off elsewhere: there bf16 is emulated, and an update ran 1.2x slower than in fp32 on session
+    # 33's AVX2-only EPYC (navbench.policy.precision). Every committed PPO run was trained with it on; --bf16
+    # keeps it on where the CPU lacks them.
+    bf16: bool = dataclasses.field(default_factory=native_bf16)
     # bfloat16 autocast around the rollout's encoder pass (TrainConfig.act_bf16 says why); the LSTM, the logits
     # that become the PPO ratio's old log-probabilities and the value stay fp32. Off by default.
     act_bf16: bool = False
