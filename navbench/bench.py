@@ -8,7 +8,9 @@ with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one l
 ``geodesic_cached_us`` (a geodesic query whose goal set's field is cached), ``geodesic_field_ms``
 (building the field for a new goal set), ``scene_load_s`` (mesh load + navigability build, no cache),
 ``geodesic_field_ms_20x20m`` (the same on a 20 x 20 m floor with walls, 400 x 400 cells),
-``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``.
+``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``. ``cpu`` names
+the processor (model, family, widest vector extension) and, with the policy, ``native_bf16`` says whether it
+has AVX512-BF16 or AMX: the machine class is not one CPU, and an AVX2-only one runs every figure 2-3x slower.
 """
 
 from __future__ import annotations
@@ -31,6 +33,27 @@ from navbench.scene.asset import load_scene
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid, NavGridConfig
 from navbench.scene.pose import quat_from_yaw
+
+
+def cpu_description(cpuinfo: str | None = None) -> str:
+    """'<model name>, family <n>, <AVX-512|AVX2|...>' from /proc/cpuinfo (or the given text); 'unknown' elsewhere."""
+    if cpuinfo is None:
+        try:
+            cpuinfo = Path("/proc/cpuinfo").read_text()
+        except OSError:
+            return "unknown"
+    fields: dict[str, str] = {}
+    for line in cpuinfo.splitlines():
+        key, sep, value = line.partition(":")
+        if sep and key.strip() not in fields:  # the first processor's entry; the others repeat it
+            fields[key.strip()] = value.strip()
+    flags = set(fields.get("flags", "").split())
+    vector = next((name for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"))
+                   if flag in flags), "no AVX")
+    if "avx512_bf16" in flags or "amx_bf16" in flags:
+        vector += " with BF16"
+    model = fields.get("model name", "unknown")
+    return f"{model}, family {fields['cpu family']}, {vector}" if "cpu family" in fields else f"{model}, {vector}"
 
 
 @dataclass(frozen=True)
@@ -143,13 +166,13 @@ def field_ms_20x20m(repeats: int = 5) -> float:
     return float(np.median(times) * 1e3)
 
 
-def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str]:
+def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str | bool]:
     scene = Path(cfg.scene) if cfg.scene else default_scene()
     t0 = time.perf_counter()
     asset = load_scene(scene)
     grid = NavGrid.from_mesh(asset.mesh, NavGridConfig())
-    result: dict[str, float | str] = {"scene": str(scene), "scene_triangles": int(len(asset.mesh.faces)),
-                                      "scene_load_s": time.perf_counter() - t0}
+    result: dict[str, float | str | bool] = {"scene": str(scene), "scene_triangles": int(len(asset.mesh.faces)),
+                                      "scene_load_s": time.perf_counter() - t0, "cpu": cpu_description()}
     result["grid_shape"] = "x".join(map(str, grid.navigable.shape))
     result.update(geodesic_figures(grid, cfg.seconds))
     result["geodesic_field_ms_20x20m"] = field_ms_20x20m()
@@ -160,14 +183,16 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str]:
     result["rgbd_steps_per_s_2proc"] = multiprocess_steps_per_s(scene, rgbd, cfg.seconds)
     result["scaling_2proc"] = result["rgbd_steps_per_s_2proc"] / result["rgbd_steps_per_s"]
     if cfg.policy:
+        from navbench.policy.precision import native_bf16
         from navbench.policy.speed import measure_policy_speed
         result.update(measure_policy_speed(seconds=cfg.seconds))
+        result["native_bf16"] = native_bf16()
     result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
 
 
 def format_report(r: dict) -> str:
-    lines = [f"scene: {r['scene']} ({r['scene_triangles']} triangles, grid {r['grid_shape']})"]
+    lines = [f"scene: {r['scene']} ({r['scene_triangles']} triangles, grid {r['grid_shape']})", f"cpu: {r['cpu']}"]
     labels = {
         "rgbd_steps_per_s": "env steps/s, RGB-D 224x224",
         "depth_steps_per_s": "env steps/s, depth only",
