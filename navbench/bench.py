@@ -48,8 +48,8 @@ def cpu_description(cpuinfo: str | None = None) -> str:
         if sep and key.strip() not in fields:  # the first processor's entry; the others repeat it
             fields[key.strip()] = value.strip()
     flags = set(fields.get("flags", "").split())
-    vector = next((name for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"))
-                   if flag in flags), "no AVX")
+    widest = (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"))
+    vector = next((name for flag, name in widest if flag in flags), "no AVX")
     if "avx512_bf16" in flags or "amx_bf16" in flags:
         vector += " with BF16"
     model = fields.get("model name", "unknown")
@@ -172,7 +172,7 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str | bool]
     asset = load_scene(scene)
     grid = NavGrid.from_mesh(asset.mesh, NavGridConfig())
     result: dict[str, float | str | bool] = {"scene": str(scene), "scene_triangles": int(len(asset.mesh.faces)),
-                                      "scene_load_s": time.perf_counter() - t0, "cpu": cpu_description()}
+                                             "scene_load_s": time.perf_counter() - t0, "cpu": cpu_description()}
     result["grid_shape"] = "x".join(map(str, grid.navigable.shape))
     result.update(geodesic_figures(grid, cfg.seconds))
     result["geodesic_field_ms_20x20m"] = field_ms_20x20m()

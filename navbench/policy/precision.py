@@ -28,5 +28,6 @@ def emulated_bf16_warning(flags: list[str]) -> str | None:
     """The one-line warning for bf16 ``flags`` asked for on a CPU that emulates bf16 (None if native or none)."""
     if not flags or native_bf16():
         return None
-    return (f"warning: {' and '.join(flags)} on a CPU without AVX512-BF16 or AMX ({torch.backends.cpu.get_cpu_capability()}): "
-            "bfloat16 is emulated here and runs slower than fp32, ~10x for the ResNet (navbench.policy.precision)")
+    capability = torch.backends.cpu.get_cpu_capability()
+    return (f"warning: {' and '.join(flags)} on a CPU without AVX512-BF16 or AMX ({capability}): bfloat16 is "
+            "emulated here and runs slower than fp32, ~10x for the ResNet (navbench.policy.precision)")
