@@ -495,8 +495,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="pointnav/ppo: probability that a rollout episode starts from a random cell beside an "
                          "obstacle (within 0.1 m of the navigable edge) instead of its own start (default 0: off)")
     tr.add_argument("--bf16", action=argparse.BooleanOptionalAction, default=None,
-                    help="bfloat16 autocast in the updates (encoder and pointnav: default off; ppo: default on "
-                         "where the CPU has AVX512-BF16 or AMX, else off; it covers the encoder with --train-encoder)")
+                    help="bfloat16 autocast in the updates (encoder and pointnav: default off; ppo: only the encoder's "
+                         "pass with --train-encoder, default on where the CPU has AVX512-BF16 or AMX, else off)")
     tr.add_argument("--act-bf16", action="store_true", default=None,
                     help="pointnav/ppo: bfloat16 autocast for the acting policy's encoder in rollouts (default off)")
     tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")

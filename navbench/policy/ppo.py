@@ -114,10 +114,11 @@ class PPOConfig:
     # by an approximate KL of 0.02-0.03 per update (clip fraction ~0.09) where the frozen-encoder updates
     # move it by ~5e-4: too far for fine-tuning a policy that already succeeds on ~94% of its rollouts.
     encoder_lr_scale: float = 0.1
-    # bfloat16 autocast around each update's forward pass. The default is on where the CPU has AVX512-BF16 or
-    # AMX and off elsewhere: there bf16 is emulated, and an update ran 1.2x slower than in fp32 on session
-    # 33's AVX2-only EPYC (navbench.policy.precision). Every committed PPO run was trained with it on; --bf16
-    # keeps it on where the CPU lacks them.
+    # bfloat16 autocast around the encoder's pass in the update, which exists only with train_encoder: with the
+    # encoder frozen (the default, and every committed PPO run) the update reads the rollout's stored features
+    # and this changes nothing. On where the CPU has AVX512-BF16 or AMX, off elsewhere, where bf16 is emulated
+    # (an encoder-stage update took 7.0 s against 0.66 s in fp32 on session 33's AVX2-only EPYC;
+    # navbench.policy.precision). --bf16 turns it on anywhere.
     bf16: bool = dataclasses.field(default_factory=native_bf16)
     # bfloat16 autocast around the rollout's encoder pass (TrainConfig.act_bf16 says why); the LSTM, the logits
     # that become the PPO ratio's old log-probabilities and the value stay fp32. Off by default.
