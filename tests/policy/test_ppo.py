@@ -136,19 +136,27 @@ def test_a_run_without_init_or_state_to_resume_is_refused_by_name(tmp_path):
                   log_every=lambda _: None)
 
 
-def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_towards_it():
+def _frozen_encoder_policy() -> PointNavResNetPolicy:
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(PolicyNetConfig())
     policy.net.visual_encoder.requires_grad_(False)
-    envs = make_envs(2, "train", 5)
+    return policy
+
+
+def _rollout(policy: PointNavResNetPolicy, cfg: PPOConfig) -> dict[str, torch.Tensor]:
+    """One rollout of ``cfg.num_envs`` train envs seeded alike every call."""
+    envs = make_envs(cfg.num_envs, "train", 5)
     try:
-        off = Rollout(envs, PPOConfig(num_envs=2, rollout_steps=4), policy, torch.Generator().manual_seed(0)).collect()
-        assert "label" not in off
-        cfg = PPOConfig(num_envs=2, rollout_steps=8, bc_weight=1.0, lr=1e-3, ppo_epochs=1, num_minibatches=1)
-        data = Rollout(envs, cfg, policy, torch.Generator().manual_seed(0)).collect()
+        return Rollout(envs, cfg, policy, torch.Generator().manual_seed(0)).collect()
     finally:
         for e in envs:
             e.close()
+
+def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_towards_it():
+    policy = _frozen_encoder_policy()
+    assert "label" not in _rollout(policy, PPOConfig(num_envs=2, rollout_steps=4))
+    cfg = PPOConfig(num_envs=2, rollout_steps=8, bc_weight=1.0, lr=1e-3, ppo_epochs=1, num_minibatches=1)
+    data = _rollout(policy, cfg)
     assert data["label"].shape == data["action"].shape and int(data["label"].max()) <= 3
     data["adv"].zero_()  # no advantage: only the imitation term can move the actor
     opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=1e-3)
@@ -160,18 +168,10 @@ def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_toward
                                        rng=np.random.default_rng(0))
 
 
-
 def test_bf16_changes_nothing_in_a_frozen_encoder_update():
     # --bf16 covers only the encoder's pass, which a frozen-encoder update (stored features) does not make
-    torch.manual_seed(0)
-    policy = PointNavResNetPolicy(PolicyNetConfig())
-    policy.net.visual_encoder.requires_grad_(False)
-    envs = make_envs(2, "train", 5)
-    try:
-        data = Rollout(envs, PPOConfig(num_envs=2, rollout_steps=4), policy, torch.Generator().manual_seed(0)).collect()
-    finally:
-        for e in envs:
-            e.close()
+    policy = _frozen_encoder_policy()
+    data = _rollout(policy, PPOConfig(num_envs=2, rollout_steps=4))
     assert "feat" in data and "depth" not in data
     weights = {}
     for bf16 in (False, True):
