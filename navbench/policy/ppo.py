@@ -115,7 +115,7 @@ class PPOConfig:
     # move it by ~5e-4: too far for fine-tuning a policy that already succeeds on ~94% of its rollouts.
     encoder_lr_scale: float = 0.1
     # bfloat16 autocast around the encoder's pass in the update, which exists only with train_encoder: with the
-    # encoder frozen (the default, and every committed PPO run) the update reads the rollout's stored features
+    # encoder frozen (the default; every PPO stage of both recipes) the update reads the rollout's stored features
     # and this changes nothing. On where the CPU has AVX512-BF16 or AMX, off elsewhere, where bf16 is emulated
     # (an encoder-stage update took 7.0 s against 0.66 s in fp32 on session 33's AVX2-only EPYC;
     # navbench.policy.precision). --bf16 turns it on anywhere.
