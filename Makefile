@@ -146,12 +146,13 @@ train-pointnav-2h: setup
 # The 2-hour recipe's file measured as the model card measures every candidate: on `select` (where files are
 # chosen) and on PointNav val, with argmax actions and with the shipped decoding (least-taken movements drawn
 # at revisits, seed 0), then the recipe's wall time from train-pointnav-2h's timestamps. ~8 minutes.
-LEASTTRIED := --sample-actions --sample-on-revisit --least-tried --seed 0
+# LT_FLAGS: the shipped decoding (session 28), also in results-pointnav and results-objectnav-leasttried.
+LT_FLAGS := --sample-actions --sample-on-revisit --least-tried --seed 0
 eval-pointnav-2h: setup
-	$(BIN)/navbench run --task pointnav --split select --checkpoint $(P2H_DIR)/s4.pth $(LEASTTRIED) \
+	$(BIN)/navbench run --task pointnav --split select --checkpoint $(P2H_DIR)/s4.pth $(LT_FLAGS) \
 	  --out $(P2H_DIR)/eval_select_leasttried -q
 	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/s4.pth --out $(P2H_DIR)/eval_val_argmax -q
-	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/s4.pth $(LEASTTRIED) \
+	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/s4.pth $(LT_FLAGS) \
 	  --out $(P2H_DIR)/eval_val_leasttried -q
 	$(BIN)/navbench table $(P2H_DIR)/eval_select_leasttried $(P2H_DIR)/eval_val_argmax $(P2H_DIR)/eval_val_leasttried --long
 	@if [ -f $(P2H_DIR)/start_s ] && [ -f $(P2H_DIR)/end_s ]; then \
@@ -166,8 +167,8 @@ results-pointnav: setup
 	  --out results/runs/pointnav-sampled_t0.5_val -q
 	$(BIN)/navbench run --task pointnav --split val --agent pointnav --sample-actions --sample-on-revisit --seed 0 \
 	  --out results/runs/pointnav-sampled-revisit_val -q
-	$(BIN)/navbench run --task pointnav --split val --agent pointnav --sample-actions --sample-on-revisit --least-tried \
-	  --seed 0 --out results/runs/pointnav-sampled-revisit-leasttried_val -q
+	$(BIN)/navbench run --task pointnav --split val --agent pointnav $(LT_FLAGS) \
+	  --out results/runs/pointnav-sampled-revisit-leasttried_val -q
 	$(BIN)/navbench table results/runs/oracle_pointnav_val results/runs/optimistic_pointnav_val results/runs/pointnav_val \
 	  results/runs/pointnav-sampled_t0.5_val results/runs/pointnav-sampled-revisit_val \
 	  results/runs/pointnav-sampled-revisit-leasttried_val --long > results/pointnav.md
@@ -191,7 +192,6 @@ results-objectnav: setup
 # Both ObjectNav agents driving with session 28's PointNav decoding (draws among the least-taken movements
 # at revisited poses) instead of the argmax: not the default, because with it the memory agent's SPL is
 # under 1.5x the frontier's on val_seen_synonyms (model card, "Driving the ObjectNav agents"). ~25 min.
-LT_FLAGS := --sample-actions --sample-on-revisit --least-tried --seed 0
 results-objectnav-leasttried: setup
 	for s in $(OBJNAV_SPLITS); do \
 	  $(BIN)/navbench run --split $$s --agent memory $(LT_FLAGS) $(LIMIT_ARG) \
