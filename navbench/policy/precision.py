@@ -3,9 +3,9 @@
 PyTorch runs ``torch.autocast("cpu", dtype=torch.bfloat16)`` on any x86 CPU, but only CPUs with
 AVX512-BF16 or AMX have bf16 instructions; elsewhere oneDNN emulates them. Measured on a 2-core AMD EPYC
 with AVX2 only (session 33, torch 2.13.0, bf16 against fp32): an encoder-stage update (the ResNet's
-forward and backward) 7.0 s against 0.66 s; a PPO update on cached features (the LSTM and heads,
-1,024 frames) 1.51 s against 1.23 s; policy inference at batch 8 45 frames/s against 227, both in
-channels_last (``benchmarks/policy_speed.py --all``).
+forward and backward) 7.0 s against 0.66 s; policy inference at batch 8 45 frames/s against 227, both in
+channels_last (``benchmarks/policy_speed.py --all``). (A frozen-encoder PPO update makes no bf16 pass at all:
+PPOConfig.bf16 covers only the encoder's pass with train_encoder.)
 
     python -c "from navbench.policy.precision import native_bf16; print(native_bf16())"
 """

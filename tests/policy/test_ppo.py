@@ -1,5 +1,6 @@
 """PPO fine-tuning: habitat's PointNav reward, GAE, the critic warm-up, resumable runs and the expert term."""
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -152,6 +153,7 @@ def _rollout(policy: PointNavResNetPolicy, cfg: PPOConfig) -> dict[str, torch.Te
         for e in envs:
             e.close()
 
+
 def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_towards_it():
     policy = _frozen_encoder_policy()
     assert "label" not in _rollout(policy, PPOConfig(num_envs=2, rollout_steps=4))
@@ -175,15 +177,14 @@ def test_bf16_changes_nothing_in_a_frozen_encoder_update():
     assert "feat" in data and "depth" not in data
     weights = {}
     for bf16 in (False, True):
-        learner = PointNavResNetPolicy(PolicyNetConfig())
-        learner.load_state_dict(policy.state_dict())
-        learner.net.visual_encoder.requires_grad_(False)
+        learner = copy.deepcopy(policy)  # frozen encoder included
         opt = torch.optim.Adam([p for p in learner.parameters() if p.requires_grad], lr=1e-3)
         ppo_update(learner, opt, data, PPOConfig(bf16=bf16, ppo_epochs=1, num_minibatches=1), actor=True,
                    rng=np.random.default_rng(0))
         weights[bf16] = learner.state_dict()
     assert any(not torch.equal(weights[False][k], v) for k, v in policy.state_dict().items())  # the update moved it
     assert all(torch.equal(weights[False][k], weights[True][k]) for k in weights[False])
+
 
 class _Episodes:
     """A stand-in env for the replay logic: fresh draws are numbered, a replay resets to the one given."""
