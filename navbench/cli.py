@@ -292,9 +292,8 @@ def cmd_train(args) -> int:
     from navbench.policy.precision import emulated_bf16_warning
     # ppo's --bf16 reaches only the encoder pass of a --train-encoder update (PPOConfig.bf16): without it
     # nothing runs in bf16, and warning that it would be slow would be wrong.
-    inert = ("bf16",) if args.what == "ppo" and args.freeze_visual is not False else ()
-    warning = emulated_bf16_warning([f"--{n.replace('_', '-')}" for n in ("bf16", "act_bf16")
-                                     if getattr(args, n) and n not in inert])
+    bf16_flags = ("act_bf16",) if args.what == "ppo" and args.freeze_visual is not False else ("bf16", "act_bf16")
+    warning = emulated_bf16_warning([f"--{n.replace('_', '-')}" for n in bf16_flags if getattr(args, n)])
     if warning:
         print(warning, file=sys.stderr)
     if args.what == "encoder":
