@@ -126,16 +126,22 @@ P2H_WORKERS ?= 1
 # P2H_WORKERS=2 P2H_ITERS=20 "P2H_PPO_FLAGS=--updates 125" in fp32 on an AVX2-only EPYC: 119 minutes (the last
 # --updates counts).
 P2H_PPO_FLAGS ?=
+# P2H_EPOCHS: epochs per iteration of the cosine DAgger stage. P2H_PPO1=0 skips the first PPO stage, and the
+# tight-start DAgger then starts from s1.pth. Session 36 ran P2H_WORKERS=2 P2H_ITERS=39 P2H_EPOCHS=12 P2H_PPO1=0
+# "P2H_PPO_FLAGS=--updates 125" in fp32 on the AVX2-only EPYC: 120 minutes, val 95.5 / 78.5 (model card).
+P2H_EPOCHS ?= 24
+P2H_PPO1 ?= 1
 train-pointnav-2h: setup
 	@mkdir -p $(P2H_DIR) && date -u +%s > $(P2H_DIR)/start_s
 	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)
 	$(BIN)/navbench train pointnav --init $(P2H_DIR)/encoder.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --iterations $(P2H_ITERS) --frames-per-iteration 8000 --lr 5e-4 \
-	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 \
+	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration $(P2H_EPOCHS) --val-episodes 0 --collision-weight 3 \
 	  --endgame-weight 3 --seed 60 --out $(P2H_DIR)/s1.pth --state-dir $(P2H_DIR)/s1_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
-	$(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
-	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
-	$(BIN)/navbench train pointnav --init $(P2H_DIR)/s2.pth --train-split train_large --expert geodesic \
+	if [ "$(P2H_PPO1)" != 0 ]; then $(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large \
+	  --updates 250 --bc-weight 0.1 --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state \
+	  --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS); fi
+	$(BIN)/navbench train pointnav --init $(P2H_DIR)/$(if $(filter 0,$(P2H_PPO1)),s1,s2).pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 1.5625e-5 \
 	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --tight-starts 0.3 --seed 62 \
 	  --out $(P2H_DIR)/s3.pth --state-dir $(P2H_DIR)/s3_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
