@@ -109,7 +109,8 @@ train-pointnav: setup
 
 # Session 27's 2-hour recipe (87 minutes alone on the AVX-512 BF16 EPYC; not shipped, see the model
 # card): the encoder stage, one cosine-rate DAgger stage on train_large, PPO with the expert's labels,
-# DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth; P2H_ITERS sets the DAgger stage's length.
+# DAgger with tight starts, PPO again. Writes $(P2H_DIR)/s4.pth (s3.pth with P2H_PPO2=0, below); P2H_ITERS
+# sets the DAgger stage's length.
 # P2H_DAGGER_FLAGS adds options to both DAgger stages, P2H_ENCODER_FLAGS to the encoder stage (e.g. --bf16:
 # bfloat16 updates; session 30 ran the recipe with both on a family-25 EPYC: 131 minutes, model card).
 P2H_ITERS ?= 40
@@ -129,8 +130,13 @@ P2H_PPO_FLAGS ?=
 # P2H_EPOCHS: epochs per iteration of the cosine DAgger stage. P2H_PPO1=0 skips the first PPO stage, and the
 # tight-start DAgger then starts from s1.pth. Session 36 ran P2H_WORKERS=2 P2H_ITERS=39 P2H_EPOCHS=12 P2H_PPO1=0
 # "P2H_PPO_FLAGS=--updates 125" in fp32 on the AVX2-only EPYC: 120 minutes, val 95.5 / 78.5 (model card).
+# P2H_PPO2=0 skips the last PPO stage, and s3.pth is then the recipe's file (eval-pointnav-2h takes the same
+# switch). A skipped stage is left out of the recipe, so `make -n` shows the stages that run.
 P2H_EPOCHS ?= 24
 P2H_PPO1 ?= 1
+P2H_PPO2 ?= 1
+P2H_S3_INIT := $(if $(filter 0,$(P2H_PPO1)),s1,s2)
+P2H_LAST := $(if $(filter 0,$(P2H_PPO2)),s3,s4)
 train-pointnav-2h: setup
 	@mkdir -p $(P2H_DIR) && date -u +%s > $(P2H_DIR)/start_s
 	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)
@@ -138,15 +144,18 @@ train-pointnav-2h: setup
 	  --expert-success-distance 0.1 --iterations $(P2H_ITERS) --frames-per-iteration 8000 --lr 5e-4 \
 	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration $(P2H_EPOCHS) --val-episodes 0 --collision-weight 3 \
 	  --endgame-weight 3 --seed 60 --out $(P2H_DIR)/s1.pth --state-dir $(P2H_DIR)/s1_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
-	if [ "$(P2H_PPO1)" != 0 ]; then $(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large \
-	  --updates 250 --bc-weight 0.1 --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state \
-	  --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS); fi
-	$(BIN)/navbench train pointnav --init $(P2H_DIR)/$(if $(filter 0,$(P2H_PPO1)),s1,s2).pth --train-split train_large --expert geodesic \
+ifneq ($(P2H_PPO1),0)
+	$(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
+	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
+endif
+	$(BIN)/navbench train pointnav --init $(P2H_DIR)/$(P2H_S3_INIT).pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 1.5625e-5 \
 	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --tight-starts 0.3 --seed 62 \
 	  --out $(P2H_DIR)/s3.pth --state-dir $(P2H_DIR)/s3_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
+ifneq ($(P2H_PPO2),0)
 	$(BIN)/navbench train ppo --init $(P2H_DIR)/s3.pth --train-split train_large --updates 250 --bc-weight 0.1 \
 	  --seed 63 --out $(P2H_DIR)/s4.pth --state-dir $(P2H_DIR)/s4_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
+endif
 	@date -u +%s > $(P2H_DIR)/end_s
 
 # The 2-hour recipe's file measured as the model card measures every candidate: on `select` (where files are
@@ -155,10 +164,10 @@ train-pointnav-2h: setup
 # LT_FLAGS: the shipped decoding (session 28), also in results-pointnav and results-objectnav-leasttried.
 LT_FLAGS := --sample-actions --sample-on-revisit --least-tried --seed 0
 eval-pointnav-2h: setup
-	$(BIN)/navbench run --task pointnav --split select --checkpoint $(P2H_DIR)/s4.pth $(LT_FLAGS) \
+	$(BIN)/navbench run --task pointnav --split select --checkpoint $(P2H_DIR)/$(P2H_LAST).pth $(LT_FLAGS) \
 	  --out $(P2H_DIR)/eval_select_leasttried -q
-	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/s4.pth --out $(P2H_DIR)/eval_val_argmax -q
-	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/s4.pth $(LT_FLAGS) \
+	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/$(P2H_LAST).pth --out $(P2H_DIR)/eval_val_argmax -q
+	$(BIN)/navbench run --task pointnav --split val --checkpoint $(P2H_DIR)/$(P2H_LAST).pth $(LT_FLAGS) \
 	  --out $(P2H_DIR)/eval_val_leasttried -q
 	$(BIN)/navbench table $(P2H_DIR)/eval_select_leasttried $(P2H_DIR)/eval_val_argmax $(P2H_DIR)/eval_val_leasttried --long
 	@if [ -f $(P2H_DIR)/start_s ] && [ -f $(P2H_DIR)/end_s ]; then \

@@ -12,24 +12,39 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
 
 
-def recipe(*variables: str) -> list[str]:
-    out = subprocess.run(["make", "-n", "-C", str(ROOT), "train-pointnav-2h", "P2H_DIR=x", *variables],
+def commands(target: str, *variables: str) -> list[str]:
+    out = subprocess.run(["make", "-n", "-C", str(ROOT), target, "P2H_DIR=x", *variables],
                          capture_output=True, text=True, check=True).stdout
     # one navbench command per entry: join the backslash-continued lines
-    return [c for c in out.replace("\\\n", " ").splitlines() if "navbench train" in c]
+    return [c for c in out.replace("\\\n", " ").splitlines() if "navbench " in c]
+
+
+def stages(*variables: str) -> list[tuple[str, str, str]]:
+    """(kind, --init, --out) of each training command, in order; the encoder stage has no --init."""
+    out = []
+    for c in commands("train-pointnav-2h", *variables):
+        init = re.search(r"--init (\S+)", c)
+        out.append((re.search(r"navbench train (\w+)", c).group(1), init.group(1) if init else "",
+                    re.search(r"--out (\S+)", c).group(1)))
+    return out
 
 
 def test_default_recipe_runs_both_ppo_stages_with_24_epochs():
-    cmds = recipe()
-    assert len(cmds) == 5
-    assert "--epochs-per-iteration 24" in cmds[1]
-    assert cmds[2].startswith('if [ "1" != 0 ]') and "--out x/s2.pth" in cmds[2]
-    assert "--init x/s2.pth" in cmds[3] and "--tight-starts" in cmds[3]
+    assert stages() == [("encoder", "", "x/encoder.pth"), ("pointnav", "x/encoder.pth", "x/s1.pth"),
+                        ("ppo", "x/s1.pth", "x/s2.pth"), ("pointnav", "x/s2.pth", "x/s3.pth"),
+                        ("ppo", "x/s3.pth", "x/s4.pth")]
+    assert "--epochs-per-iteration 24" in commands("train-pointnav-2h")[1]
+    assert all("--checkpoint x/s4.pth" in c for c in commands("eval-pointnav-2h") if "navbench run" in c)
 
 
-def test_ppo1_0_skips_the_first_ppo_stage_and_starts_tight_dagger_from_s1():
-    cmds = recipe("P2H_PPO1=0", "P2H_EPOCHS=12", "P2H_ITERS=39")
-    assert re.search(r"--iterations 39 .*--epochs-per-iteration 12", cmds[1])
-    assert cmds[2].startswith('if [ "0" != 0 ]')  # the shell skips it
-    assert "--init x/s1.pth" in cmds[3] and "--tight-starts" in cmds[3]
-    assert "--init x/s3.pth" in cmds[4] and "--out x/s4.pth" in cmds[4]
+def test_ppo1_0_leaves_out_the_first_ppo_stage_and_starts_tight_dagger_from_s1():
+    assert [s[1:] for s in stages("P2H_PPO1=0")[2:]] == [("x/s1.pth", "x/s3.pth"), ("x/s3.pth", "x/s4.pth")]
+    assert re.search(r"--iterations 39 .*--epochs-per-iteration 12",
+                     commands("train-pointnav-2h", "P2H_ITERS=39", "P2H_EPOCHS=12")[1])
+
+
+def test_ppo2_0_leaves_out_the_last_ppo_stage_and_evaluates_s3():
+    assert stages("P2H_PPO1=0", "P2H_PPO2=0")[-1] == ("pointnav", "x/s1.pth", "x/s3.pth")
+    assert stages("P2H_PPO2=0")[-1] == ("pointnav", "x/s2.pth", "x/s3.pth")
+    runs = [c for c in commands("eval-pointnav-2h", "P2H_PPO2=0") if "navbench run" in c]
+    assert len(runs) == 3 and all("--checkpoint x/s3.pth" in c for c in runs)
