@@ -131,7 +131,8 @@ P2H_PPO_FLAGS ?=
 # tight-start DAgger then starts from s1.pth. Session 36 ran P2H_WORKERS=2 P2H_ITERS=39 P2H_EPOCHS=12 P2H_PPO1=0
 # "P2H_PPO_FLAGS=--updates 125" in fp32 on the AVX2-only EPYC: 120 minutes, val 95.5 / 78.5 (model card).
 # P2H_PPO2=0 skips the last PPO stage, and s3.pth is then the recipe's file (eval-pointnav-2h takes the same
-# switch). A skipped stage is left out of the recipe, so `make -n` shows the stages that run.
+# switch). A skipped stage is left out of the recipe, so `make -n` shows the stages that run. Session 37 ran
+# P2H_WORKERS=2 P2H_ITERS=47 P2H_EPOCHS=12 P2H_PPO1=0 P2H_PPO2=0 there: 119 minutes, val 95.0 / 77.8 (model card).
 P2H_EPOCHS ?= 24
 P2H_PPO1 ?= 1
 P2H_PPO2 ?= 1
