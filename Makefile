@@ -134,6 +134,9 @@ P2H_PPO_FLAGS ?=
 # switch). A skipped stage is left out of the recipe, so `make -n` shows the stages that run. Session 37 ran
 # P2H_WORKERS=2 P2H_ITERS=47 P2H_EPOCHS=12 P2H_PPO1=0 P2H_PPO2=0 there: 119 minutes, val 95.0 / 77.8 (model card).
 P2H_EPOCHS ?= 24
+# P2H_S1_FLAGS adds options to the cosine DAgger stage only (P2H_DAGGER_FLAGS goes to both DAgger stages, and
+# the tight-start stage's own --tight-starts 0.3 would be overridden by one given there).
+P2H_S1_FLAGS ?=
 P2H_PPO1 ?= 1
 P2H_PPO2 ?= 1
 P2H_S3_INIT := $(if $(filter 0,$(P2H_PPO1)),s1,s2)
@@ -144,7 +147,8 @@ train-pointnav-2h: setup
 	$(BIN)/navbench train pointnav --init $(P2H_DIR)/encoder.pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --iterations $(P2H_ITERS) --frames-per-iteration 8000 --lr 5e-4 \
 	  --lr-schedule cosine --lr-min 1.5e-5 --epochs-per-iteration $(P2H_EPOCHS) --val-episodes 0 --collision-weight 3 \
-	  --endgame-weight 3 --seed 60 --out $(P2H_DIR)/s1.pth --state-dir $(P2H_DIR)/s1_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
+	  --endgame-weight 3 --seed 60 --out $(P2H_DIR)/s1.pth --state-dir $(P2H_DIR)/s1_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS) \
+	  $(P2H_S1_FLAGS)
 ifneq ($(P2H_PPO1),0)
 	$(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
 	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)

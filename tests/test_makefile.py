@@ -49,3 +49,10 @@ def test_ppo2_0_leaves_out_the_last_ppo_stage_and_evaluates_s3():
     assert stages("P2H_PPO2=0")[-1] == ("pointnav", "x/s2.pth", "x/s3.pth")
     runs = [c for c in commands("eval-pointnav-2h", "P2H_PPO2=0") if "navbench run" in c]
     assert len(runs) == 3 and all("--checkpoint x/s3.pth" in c for c in runs)
+
+
+def test_s1_flags_reach_the_cosine_dagger_stage_only():
+    cmds = commands("train-pointnav-2h", "P2H_S1_FLAGS=--tight-starts 0.2", "P2H_PPO1=0", "P2H_PPO2=0")
+    s1, s3 = [c for c in cmds if "navbench train pointnav" in c]
+    assert s1.rstrip().endswith("--tight-starts 0.2")
+    assert s3.count("--tight-starts") == 1 and "--tight-starts 0.3" in s3
