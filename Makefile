@@ -135,7 +135,8 @@ P2H_PPO_FLAGS ?=
 # P2H_WORKERS=2 P2H_ITERS=47 P2H_EPOCHS=12 P2H_PPO1=0 P2H_PPO2=0 there: 119 minutes, val 95.0 / 77.8 (model card).
 P2H_EPOCHS ?= 24
 # P2H_S1_FLAGS adds options to the cosine DAgger stage only (P2H_DAGGER_FLAGS goes to both DAgger stages, and
-# the tight-start stage's own --tight-starts 0.3 would be overridden by one given there).
+# the tight-start stage's own --tight-starts 0.3 would be overridden by one given there). Session 38 ran session
+# 37's command with "P2H_S1_FLAGS=--tight-starts 0.2": 116 minutes, val 94.0 / 78.6 (model card).
 P2H_S1_FLAGS ?=
 P2H_PPO1 ?= 1
 P2H_PPO2 ?= 1
