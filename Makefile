@@ -117,6 +117,10 @@ P2H_ITERS ?= 40
 P2H_DIR ?= runs/p2h
 P2H_DAGGER_FLAGS ?=
 P2H_ENCODER_FLAGS ?=
+# P2H_S1_FLAGS adds options to the cosine DAgger stage only (P2H_DAGGER_FLAGS goes to both DAgger stages, and
+# the tight-start stage's own --tight-starts 0.3 would be overridden by one given there). Session 38 ran session
+# 37's command (below) with "P2H_S1_FLAGS=--tight-starts 0.2": 116 minutes, val 94.0 / 78.6 (model card).
+P2H_S1_FLAGS ?=
 # Rollout processes of the DAgger and PPO stages (--workers): 2 collects ~1.4x faster on 2 cores. Session 31 ran
 # the recipe with P2H_WORKERS=2 and both bf16 flags on a family-25 EPYC in 110 minutes (model card). The
 # committed logs of sessions 27 and 30 were collected in one process, the default.
@@ -134,10 +138,6 @@ P2H_PPO_FLAGS ?=
 # switch). A skipped stage is left out of the recipe, so `make -n` shows the stages that run. Session 37 ran
 # P2H_WORKERS=2 P2H_ITERS=47 P2H_EPOCHS=12 P2H_PPO1=0 P2H_PPO2=0 there: 119 minutes, val 95.0 / 77.8 (model card).
 P2H_EPOCHS ?= 24
-# P2H_S1_FLAGS adds options to the cosine DAgger stage only (P2H_DAGGER_FLAGS goes to both DAgger stages, and
-# the tight-start stage's own --tight-starts 0.3 would be overridden by one given there). Session 38 ran session
-# 37's command with "P2H_S1_FLAGS=--tight-starts 0.2": 116 minutes, val 94.0 / 78.6 (model card).
-P2H_S1_FLAGS ?=
 P2H_PPO1 ?= 1
 P2H_PPO2 ?= 1
 P2H_S3_INIT := $(if $(filter 0,$(P2H_PPO1)),s1,s2)
