@@ -29,13 +29,18 @@ def stages(*variables: str) -> list[tuple[str, str, str]]:
     return out
 
 
+def eval_checkpoints(*variables: str) -> list[str]:
+    """The --checkpoint of each `navbench run` in eval-pointnav-2h, in order."""
+    return [re.search(r"--checkpoint (\S+)", c).group(1) for c in commands("eval-pointnav-2h", *variables)
+            if "navbench run" in c]
+
+
 def test_default_recipe_runs_both_ppo_stages_with_24_epochs():
     assert stages() == [("encoder", "", "x/encoder.pth"), ("pointnav", "x/encoder.pth", "x/s1.pth"),
                         ("ppo", "x/s1.pth", "x/s2.pth"), ("pointnav", "x/s2.pth", "x/s3.pth"),
                         ("ppo", "x/s3.pth", "x/s4.pth")]
     assert "--epochs-per-iteration 24" in commands("train-pointnav-2h")[1]
-    runs = [c for c in commands("eval-pointnav-2h") if "navbench run" in c]
-    assert len(runs) == 3 and all("--checkpoint x/s4.pth" in c for c in runs)
+    assert eval_checkpoints() == ["x/s4.pth"] * 3
 
 
 def test_ppo1_0_leaves_out_the_first_ppo_stage_and_starts_tight_dagger_from_s1():
@@ -47,8 +52,7 @@ def test_ppo1_0_leaves_out_the_first_ppo_stage_and_starts_tight_dagger_from_s1()
 def test_ppo2_0_leaves_out_the_last_ppo_stage_and_evaluates_s3():
     assert stages("P2H_PPO1=0", "P2H_PPO2=0")[-1] == ("pointnav", "x/s1.pth", "x/s3.pth")
     assert stages("P2H_PPO2=0")[-1] == ("pointnav", "x/s2.pth", "x/s3.pth")
-    runs = [c for c in commands("eval-pointnav-2h", "P2H_PPO2=0") if "navbench run" in c]
-    assert len(runs) == 3 and all("--checkpoint x/s3.pth" in c for c in runs)
+    assert eval_checkpoints("P2H_PPO2=0") == ["x/s3.pth"] * 3
 
 
 def test_s1_flags_reach_the_cosine_dagger_stage_only():
