@@ -120,6 +120,8 @@ P2H_ENCODER_FLAGS ?=
 # P2H_S1_FLAGS adds options to the cosine DAgger stage only (P2H_DAGGER_FLAGS goes to both DAgger stages, and
 # the tight-start stage's own --tight-starts 0.3 would be overridden by one given there). Session 38 ran session
 # 37's command (below) with "P2H_S1_FLAGS=--tight-starts 0.2": 116 minutes, val 94.0 / 78.6 (model card).
+# Session 39 added P2H_ITERS=110 P2H_ENCODER_FLAGS=--bf16 "P2H_DAGGER_FLAGS=--bf16 --act-bf16" on an AVX-512-BF16
+# EPYC: s1.pth at 118 minutes, val 95.0 / 79.8, select 99.5 / 83.7; s3.pth at 132 minutes (model card).
 P2H_S1_FLAGS ?=
 # Rollout processes of the DAgger and PPO stages (--workers): 2 collects ~1.4x faster on 2 cores. Session 31 ran
 # the recipe with P2H_WORKERS=2 and both bf16 flags on a family-25 EPYC in 110 minutes (model card). The
