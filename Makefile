@@ -136,14 +136,20 @@ P2H_PPO_FLAGS ?=
 # P2H_EPOCHS: epochs per iteration of the cosine DAgger stage. P2H_PPO1=0 skips the first PPO stage, and the
 # tight-start DAgger then starts from s1.pth. Session 36 ran P2H_WORKERS=2 P2H_ITERS=39 P2H_EPOCHS=12 P2H_PPO1=0
 # "P2H_PPO_FLAGS=--updates 125" in fp32 on the AVX2-only EPYC: 120 minutes, val 95.5 / 78.5 (model card).
-# P2H_PPO2=0 skips the last PPO stage, and s3.pth is then the recipe's file (eval-pointnav-2h takes the same
-# switch). A skipped stage is left out of the recipe, so `make -n` shows the stages that run. Session 37 ran
-# P2H_WORKERS=2 P2H_ITERS=47 P2H_EPOCHS=12 P2H_PPO1=0 P2H_PPO2=0 there: 119 minutes, val 95.0 / 77.8 (model card).
+# P2H_PPO2=0 skips the last PPO stage, and the file before it (s3.pth) is then the recipe's file
+# (eval-pointnav-2h takes the same switches). A skipped stage is left out of the recipe, so `make -n` shows
+# the stages that run. Session 37 ran P2H_WORKERS=2 P2H_ITERS=47 P2H_EPOCHS=12 P2H_PPO1=0 P2H_PPO2=0 there:
+# 119 minutes, val 95.0 / 77.8 (model card).
+# P2H_TIGHT=0 skips the tight-start DAgger stage (s3), and the last PPO stage then starts from the file before
+# it; with P2H_PPO1=0 P2H_PPO2=0 as well the recipe ends at s1.pth. Session 39's s3 cost 14 minutes and took
+# select from 99.5 / 83.7 to 96.5 / 81.2 (model card).
 P2H_EPOCHS ?= 24
 P2H_PPO1 ?= 1
+P2H_TIGHT ?= 1
 P2H_PPO2 ?= 1
 P2H_S3_INIT := $(if $(filter 0,$(P2H_PPO1)),s1,s2)
-P2H_LAST := $(if $(filter 0,$(P2H_PPO2)),s3,s4)
+P2H_S4_INIT := $(if $(filter 0,$(P2H_TIGHT)),$(P2H_S3_INIT),s3)
+P2H_LAST := $(if $(filter 0,$(P2H_PPO2)),$(P2H_S4_INIT),s4)
 train-pointnav-2h: setup
 	@mkdir -p $(P2H_DIR) && date -u +%s > $(P2H_DIR)/start_s
 	$(BIN)/navbench train encoder --out $(P2H_DIR)/encoder.pth --state-dir $(P2H_DIR)/encoder_state $(P2H_ENCODER_FLAGS)
@@ -156,12 +162,14 @@ ifneq ($(P2H_PPO1),0)
 	$(BIN)/navbench train ppo --init $(P2H_DIR)/s1.pth --train-split train_large --updates 250 --bc-weight 0.1 \
 	  --seed 61 --out $(P2H_DIR)/s2.pth --state-dir $(P2H_DIR)/s2_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
 endif
+ifneq ($(P2H_TIGHT),0)
 	$(BIN)/navbench train pointnav --init $(P2H_DIR)/$(P2H_S3_INIT).pth --train-split train_large --expert geodesic \
 	  --expert-success-distance 0.1 --beta0 0.1 --iterations 10 --frames-per-iteration 8000 --lr 1.5625e-5 \
 	  --epochs-per-iteration 24 --val-episodes 0 --collision-weight 3 --endgame-weight 3 --tight-starts 0.3 --seed 62 \
 	  --out $(P2H_DIR)/s3.pth --state-dir $(P2H_DIR)/s3_state --workers $(P2H_WORKERS) $(P2H_DAGGER_FLAGS)
+endif
 ifneq ($(P2H_PPO2),0)
-	$(BIN)/navbench train ppo --init $(P2H_DIR)/s3.pth --train-split train_large --updates 250 --bc-weight 0.1 \
+	$(BIN)/navbench train ppo --init $(P2H_DIR)/$(P2H_S4_INIT).pth --train-split train_large --updates 250 --bc-weight 0.1 \
 	  --seed 63 --out $(P2H_DIR)/s4.pth --state-dir $(P2H_DIR)/s4_state --workers $(P2H_WORKERS) $(P2H_PPO_FLAGS)
 endif
 	@date -u +%s > $(P2H_DIR)/end_s

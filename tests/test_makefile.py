@@ -60,3 +60,12 @@ def test_s1_flags_reach_the_cosine_dagger_stage_only():
     s1, s3 = [c for c in cmds if "navbench train pointnav" in c]
     assert s1.rstrip().endswith("--tight-starts 0.2")
     assert s3.count("--tight-starts") == 1 and "--tight-starts 0.3" in s3
+
+
+def test_tight_0_leaves_out_the_tight_start_stage():
+    # with both PPO stages off the recipe ends at the cosine stage's file, and that file is evaluated
+    assert stages("P2H_PPO1=0", "P2H_TIGHT=0", "P2H_PPO2=0")[-1] == ("pointnav", "x/encoder.pth", "x/s1.pth")
+    assert eval_checkpoints("P2H_PPO1=0", "P2H_TIGHT=0", "P2H_PPO2=0") == ["x/s1.pth"] * 3
+    # the last PPO stage starts from the file before the skipped stage
+    assert [s[1:] for s in stages("P2H_TIGHT=0")[2:]] == [("x/s1.pth", "x/s2.pth"), ("x/s2.pth", "x/s4.pth")]
+    assert stages("P2H_PPO1=0", "P2H_TIGHT=0")[-1] == ("ppo", "x/s1.pth", "x/s4.pth")
