@@ -8,7 +8,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-objectnav \
-	results-objectnav-leasttried tables-objectnav results-memory train-pointnav train-pointnav-2h \
+	results-objectnav-leasttried tables-objectnav results-memory results-pointnav-2h train-pointnav train-pointnav-2h \
 	eval-pointnav-2h
 
 $(BIN)/python:
@@ -142,7 +142,10 @@ P2H_PPO_FLAGS ?=
 # 119 minutes, val 95.0 / 77.8 (model card).
 # P2H_TIGHT=0 skips the tight-start DAgger stage (s3), and the last PPO stage then starts from the file before
 # it; with P2H_PPO1=0 P2H_PPO2=0 as well the recipe ends at s1.pth. Session 39's s3 cost 14 minutes and took
-# select from 99.5 / 83.7 to 96.5 / 81.2 (model card).
+# select from 99.5 / 83.7 to 96.5 / 81.2 (model card). Session 40 ran P2H_WORKERS=2 P2H_ITERS=106 P2H_EPOCHS=12
+# P2H_PPO1=0 P2H_TIGHT=0 P2H_PPO2=0 P2H_ENCODER_FLAGS=--bf16 "P2H_DAGGER_FLAGS=--bf16 --act-bf16"
+# "P2H_S1_FLAGS=--tight-starts 0.2 --max-episode-steps 500" on the AVX-512-BF16 EPYC: s1.pth at 105.5 minutes,
+# val 97.0 / 81.7 (policies/pointnav_2h.pth, model card "Session 40").
 P2H_EPOCHS ?= 24
 P2H_PPO1 ?= 1
 P2H_TIGHT ?= 1
@@ -178,7 +181,8 @@ endif
 # chosen) and on PointNav val, with argmax actions and with the shipped decoding (least-taken movements drawn
 # at revisits, seed 0), then the recipe's wall time from train-pointnav-2h's timestamps. ~8 minutes.
 # LT_FLAGS: the shipped decoding (session 28), also in results-pointnav and results-objectnav-leasttried.
-LT_FLAGS := --sample-actions --sample-on-revisit --least-tried --seed 0
+LT_DECODING := --sample-actions --sample-on-revisit --least-tried
+LT_FLAGS := $(LT_DECODING) --seed 0
 eval-pointnav-2h: setup
 	$(BIN)/navbench run --task pointnav --split select --checkpoint $(P2H_DIR)/$(P2H_LAST).pth $(LT_FLAGS) \
 	  --out $(P2H_DIR)/eval_select_leasttried -q
@@ -203,6 +207,20 @@ results-pointnav: setup
 	$(BIN)/navbench table results/runs/oracle_pointnav_val results/runs/optimistic_pointnav_val results/runs/pointnav_val \
 	  results/runs/pointnav-sampled_t0.5_val results/runs/pointnav-sampled-revisit_val \
 	  results/runs/pointnav-sampled-revisit-leasttried_val --long > results/pointnav.md
+
+# The 2-hour recipe's file (session 40: `s1.pth` of train-pointnav-2h with P2H_TIGHT=0, written 105.5 minutes
+# after the start; policies/README.md "Session 40") on PointNav val, by argmax and with the shipped decoding at
+# seeds 0-4. ~8 minutes.
+results-pointnav-2h: setup
+	$(BIN)/navbench run --task pointnav --split val --checkpoint policies/pointnav_2h.pth \
+	  --out results/runs/pointnav_2h_val -q
+	for s in 0 1 2 3 4; do \
+	  $(BIN)/navbench run --task pointnav --split val --checkpoint policies/pointnav_2h.pth \
+	    $(LT_DECODING) --seed $$s --out results/runs/pointnav_2h-leasttried-seed$${s}_val -q || exit 1; \
+	done
+	{ echo "policies/pointnav_2h.pth on PointNav val. Rows: argmax actions, then the least-tried decoding with seeds 0-4."; \
+	  echo; $(BIN)/navbench table results/runs/pointnav_2h_val \
+	  $(foreach s,0 1 2 3 4,results/runs/pointnav_2h-leasttried-seed$(s)_val) --long; } > results/pointnav_2h.md
 
 # ObjectNav tables (the paper's Table 2 on our data), oracle perception: the frontier baseline, the
 # memory agent without re-ranking and the memory agent on every episode of the three OVON-style val

@@ -14,11 +14,13 @@ from navbench.paths import RESULTS_DIR
                                               ("pointnav-sampled_t0.5_val", make_pointnav),
                                               ("pointnav-sampled-revisit_val", make_pointnav),
                                               ("pointnav-sampled-revisit-leasttried_val", make_pointnav),
+                                              ("pointnav_2h-leasttried-seed0_val", make_pointnav),
                                               ("oracle_val_unseen", make_oracle),
                                               ("optimistic_pointnav_val", make_optimistic),
                                               ("memory_val_unseen", make_memory),
                                               ("memory-sampled-revisit-leasttried_val_unseen", make_memory)])
-def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path):
+def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path, monkeypatch):
+    monkeypatch.chdir(RESULTS_DIR.parent)  # a --checkpoint in a run's config is relative to the project root
     ref_dir = RESULTS_DIR / "runs" / run_name
     cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
                        if k in RunConfig.__dataclass_fields__})
