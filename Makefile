@@ -180,7 +180,8 @@ endif
 # The 2-hour recipe's file measured as the model card measures every candidate: on `select` (where files are
 # chosen) and on PointNav val, with argmax actions and with the shipped decoding (least-taken movements drawn
 # at revisits, seed 0), then the recipe's wall time from train-pointnav-2h's timestamps. ~8 minutes.
-# LT_FLAGS: the shipped decoding (session 28), also in results-pointnav and results-objectnav-leasttried.
+# LT_FLAGS: the shipped decoding (session 28), also in results-pointnav and results-objectnav-leasttried;
+# LT_DECODING is the same without its seed (results-pointnav-2h draws with seeds 0-4).
 LT_DECODING := --sample-actions --sample-on-revisit --least-tried
 LT_FLAGS := $(LT_DECODING) --seed 0
 eval-pointnav-2h: setup
@@ -210,7 +211,7 @@ results-pointnav: setup
 
 # The 2-hour recipe's file (session 40: `s1.pth` of train-pointnav-2h with P2H_TIGHT=0, written 105.5 minutes
 # after the start; policies/README.md "Session 40") on PointNav val, by argmax and with the shipped decoding at
-# seeds 0-4. ~8 minutes.
+# seeds 0-4. ~12 minutes.
 results-pointnav-2h: setup
 	$(BIN)/navbench run --task pointnav --split val --checkpoint policies/pointnav_2h.pth \
 	  --out results/runs/pointnav_2h_val -q
