@@ -212,16 +212,17 @@ results-pointnav: setup
 # The 2-hour recipe's file (session 40: `s1.pth` of train-pointnav-2h with P2H_TIGHT=0, written 105.5 minutes
 # after the start; policies/README.md "Session 40") on PointNav val, by argmax and with the shipped decoding at
 # seeds 0-4. ~12 minutes.
+PN2H := policies/pointnav_2h.pth
+PN2H_SEEDS := 0 1 2 3 4
 results-pointnav-2h: setup
-	$(BIN)/navbench run --task pointnav --split val --checkpoint policies/pointnav_2h.pth \
-	  --out results/runs/pointnav_2h_val -q
-	for s in 0 1 2 3 4; do \
-	  $(BIN)/navbench run --task pointnav --split val --checkpoint policies/pointnav_2h.pth \
+	$(BIN)/navbench run --task pointnav --split val --checkpoint $(PN2H) --out results/runs/pointnav_2h_val -q
+	for s in $(PN2H_SEEDS); do \
+	  $(BIN)/navbench run --task pointnav --split val --checkpoint $(PN2H) \
 	    $(LT_DECODING) --seed $$s --out results/runs/pointnav_2h-leasttried-seed$${s}_val -q || exit 1; \
 	done
-	{ echo "policies/pointnav_2h.pth on PointNav val. Rows: argmax actions, then the least-tried decoding with seeds 0-4."; \
+	{ echo "$(PN2H) on PointNav val. Rows: argmax actions, then the least-tried decoding with seeds $(PN2H_SEEDS)."; \
 	  echo; $(BIN)/navbench table results/runs/pointnav_2h_val \
-	  $(foreach s,0 1 2 3 4,results/runs/pointnav_2h-leasttried-seed$(s)_val) --long; } > results/pointnav_2h.md
+	  $(foreach s,$(PN2H_SEEDS),results/runs/pointnav_2h-leasttried-seed$(s)_val) --long; } > results/pointnav_2h.md
 
 # ObjectNav tables (the paper's Table 2 on our data), oracle perception: the frontier baseline, the
 # memory agent without re-ranking and the memory agent on every episode of the three OVON-style val
