@@ -1,7 +1,11 @@
 """Result tables as navigation papers print them: one row per agent, SR and SPL in percent.
 
-    navbench table runs/oracle_val_seen runs/oracle_val_unseen --format markdown|csv|latex
-    navbench table runs/frontier_val_unseen runs/memory_val_unseen --first 20   # on the same 20 episodes
+    navbench table runs/objectnav/val_seen/oracle runs/objectnav/val_unseen/oracle --format markdown|csv|latex
+    navbench table runs/objectnav/val_unseen/frontier runs/objectnav/val_unseen/memory --first 20  # same 20 episodes
+
+Every row carries the run's identity from its ``config.json``: the checkpoint and decoding of agents
+that drive with the PointNav policy, the seed, and the perception of agents that localise objects
+("-" where a column does not apply to the agent).
 """
 
 from __future__ import annotations
@@ -58,9 +62,37 @@ def first_summary(run_dir: str | Path, first: int) -> dict[str, Any]:
     return {**summary, **aggregate(first_records(run_dir, first), by=by)}
 
 
-def summary_row(s: dict[str, Any]) -> dict[str, Any]:
+IDENTITY = ("checkpoint", "decoding", "seed", "perception")
+POLICY_AGENTS = ("pointnav", "memory", "frontier")  # agents that drive with the PointNav policy
+DEFAULT_CHECKPOINT = "pointnav_navbench"
+
+
+def run_identity(run_dir: str | Path) -> dict[str, Any]:
+    """What makes a run what it is, beyond its agent and split: the table's identity columns."""
+    path = Path(run_dir) / "config.json"
+    try:
+        cfg = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise TableError(f"{path}: no config.json (is this a navbench run directory?)") from None
+    except json.JSONDecodeError as exc:
+        raise TableError(f"{path}: corrupt config ({exc})") from None
+    o, agent = cfg.get("agent_options", {}), cfg.get("agent")
+    ident = {k: "-" for k in IDENTITY}
+    ident["seed"] = cfg.get("seed", 0)
+    if agent in POLICY_AGENTS:
+        ident["checkpoint"] = Path(o["checkpoint"]).name.split(".")[0] if o.get("checkpoint") else DEFAULT_CHECKPOINT
+        ident["decoding"] = o.get("decoding", "argmax")
+        if ident["decoding"] == "sample" and o.get("temperature", 1.0) != 1.0:
+            ident["decoding"] = f"sample T={o['temperature']:g}"
+    if agent in ("memory", "frontier"):
+        noise = o.get("noise", "none")
+        ident["perception"] = o.get("perception", "oracle") + ("" if noise == "none" else f", noise {noise}")
+    return ident
+
+
+def summary_row(s: dict[str, Any], identity: dict[str, Any] | None = None) -> dict[str, Any]:
     return {
-        "agent": s.get("agent"), "task": s.get("task"), "split": s.get("split") or "custom",
+        "agent": s.get("agent"), **(identity or {}), "task": s.get("task"), "split": s.get("split") or "custom",
         "episodes": s.get("num_episodes"),
         "SR": 100 * s["success"], "SPL": 100 * s["spl"], "SoftSPL": 100 * s["soft_spl"],
         "DTG": s["distance_to_goal"],
@@ -70,26 +102,28 @@ def summary_row(s: dict[str, Any]) -> dict[str, Any]:
 def runs_frame(run_dirs: list[str | Path], wide: bool = True, first: int | None = None) -> pd.DataFrame:
     """Long form (one row per run) or wide form (rows = agent, columns = (split, SR/SPL)); with
     ``first``, every run is scored on the first ``first`` episodes of its split only."""
-    df = pd.DataFrame([summary_row(load_summary(d) if first is None else first_summary(d, first))
+    df = pd.DataFrame([summary_row(load_summary(d) if first is None else first_summary(d, first), run_identity(d))
                        for d in run_dirs])
     if not wide or df["split"].nunique() <= 1:
         return df
-    wide_df = df.pivot_table(index="agent", columns="split", values=["SR", "SPL"], aggfunc="first", sort=False)
+    wide_df = df.pivot_table(index=["agent", *IDENTITY], columns="split", values=["SR", "SPL"], aggfunc="first",
+                             sort=False)
     wide_df = wide_df.swaplevel(0, 1, axis=1)
     splits = list(dict.fromkeys(df["split"]))
     return wide_df.reindex(columns=[(sp, m) for sp in splits for m in ("SR", "SPL")])
 
 
 def render(df: pd.DataFrame, fmt: str = "markdown") -> str:
+    if isinstance(df.columns, pd.MultiIndex):  # wide form: flat "split SR" headers, identity as columns
+        df = df.copy()
+        df.columns = [f"{a} {b}" for a, b in df.columns]
+        df = df.reset_index()
     if fmt == "markdown":
-        if isinstance(df.columns, pd.MultiIndex):
-            df = df.copy()
-            df.columns = [f"{a} {b}" for a, b in df.columns]
-        return df.to_markdown(floatfmt=".1f")
+        return df.to_markdown(floatfmt=".1f", index=False)
     if fmt == "csv":
-        return df.to_csv(float_format="%.2f")
+        return df.to_csv(float_format="%.2f", index=False)
     if fmt == "latex":
-        return df.style.format(precision=1).to_latex(hrules=True)
+        return df.style.hide(axis="index").format(precision=1).to_latex(hrules=True)
     raise TableError(f"unknown format {fmt!r}: choose from {', '.join(FORMATS)}")
 
 
