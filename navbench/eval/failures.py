@@ -1,6 +1,6 @@
 """Per-category SR/SPL and a failure breakdown of ObjectNav runs, from their ``episodes.jsonl``.
 
-    python -m navbench.eval.failures results/runs/memory_val_unseen [...] > results/objectnav_failures.md
+    python -m navbench.eval.failures results/runs/objectnav/val_unseen/memory [...] > results/objectnav_failures.md
 
 A failed episode is classified from its record (and the agent's decision log when it has one):
 - ``wrong instance``: STOP called more than 2 m (geodesic) from every goal view point, i.e. the agent

@@ -1,8 +1,8 @@
 """The memory/efficiency table (the paper's Table 4): what each keyframe setting stores and costs, and
 the SR/SPL the memory agent reaches with it, from memory-agent run directories.
 
-    python -m navbench.eval.memory_table [--first N] results/runs/memory_val_unseen \
-        results/runs/memory-allframes_val_unseen ...
+    python -m navbench.eval.memory_table [--first N] results/runs/objectnav/val_unseen/memory \
+        results/runs/objectnav/val_unseen/memory-allframes ...
 
 Per run: the stored frames and bytes, the build time (pre-scan + keyframes + index, as measured when
 the scene's memory was built) averaged over the run's scenes, the mean localisation query latency,
