@@ -914,8 +914,8 @@ def generate_dataset(out_dir: str | Path, n_train: int = 8, n_val: int = 4, seed
 
 
 # The PointNav policy's extra training houses (envs/houses_policy_train): disjoint from the bundled
-# houses (seed 1, not 0), never used by any evaluation split. Eight train houses are too few for an
-# imitation-learned policy: the shipped policy scored SR 80 on its own train episodes and 59.5 on val.
+# houses (seed 1, not 0), never used by any evaluation split: the eight bundled train houses are too
+# few for an imitation-learned policy to generalise to unseen houses.
 POLICY_TRAIN_HOUSES = {"dir": "houses_policy_train", "n_train": 40, "seed": 1}
 # Houses for choosing among trained PointNav policies (checkpoints, seeds, decoding) without looking at
 # the reported val split: disjoint from the bundled houses and the training houses (seed 2), in `val/`
