@@ -16,6 +16,8 @@ memory from a stale one.
 
 This module sits below :mod:`navbench.localize`: it takes any encoder object with the small
 :class:`KeyframeEncoder` shape (the localiser's backends have it), never imports one.
+
+    navbench memory build --scene houses/val/house_008.glb [--perception oracle] [--out DIR]
 """
 
 from __future__ import annotations

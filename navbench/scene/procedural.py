@@ -20,6 +20,10 @@ schema of :mod:`navbench.scene.asset`, plus ``scene_id``, ``seed``, room ``type`
 
 Everything is drawn from one ``numpy`` generator seeded with ``seed`` and no set/dict iteration order
 or float formatting depends on anything else, so the same seed gives byte-identical GLB and JSON.
+
+    navbench generate scenes            # the bundled houses (envs/houses), seed 0
+    navbench generate policy-train      # + envs/houses_policy_train and its train_large episodes
+    navbench generate policy-select     # + envs/houses_policy_select and its select episodes
 """
 
 from __future__ import annotations
