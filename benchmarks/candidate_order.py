@@ -5,7 +5,7 @@ memory) returns two or more candidates, the true geodesic distance from the star
 (its centre snapped to the navigability grid) is read off the grid, a privileged measurement the agent
 never sees. Reported: the sum over those episodes of the geodesic excess of the candidate each ordering
 puts first over the geodesically nearest one (0 = always the nearest), and the number of episodes
-where that excess is over 1 m. No policy runs; ~1 minute per split.
+where that excess is over 1 m. No policy runs.
 
     .venv/bin/python benchmarks/candidate_order.py --split val_seen_synonyms
 """

@@ -6,8 +6,8 @@ settings of the report: noise none/default x fusion on/off.
 
     .venv/bin/python benchmarks/localize_speed.py [--split goat_val] [--k 5] [--out results/localize]
 
-Numbers on a shared 2-core box vary +-20 % run to run (and more when other jobs run); the summary
-reports process CPU time per query beside wall time for that reason.
+Wall-clock numbers on a shared machine vary from run to run, so the summary reports process CPU
+time per query beside wall time.
 """
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
 """Scene-switch cost and memory: reset a depth-only PointNav env into a new house again and again.
 
     python benchmarks/scene_switch.py                     # 150 switches over the train_large houses
-    python benchmarks/scene_switch.py --ballast 2000000   # with 2M live Python objects, as in training
+    python benchmarks/scene_switch.py --ballast 2000000   # with 2M live Python objects, like a trainer
 
-DAgger collection on the 48 train_large houses switches scene on nearly every episode, so the cost
-of a switch (closing the old GL context, loading the new scene and navigability grid, a new context)
-is paid ~70 times per iteration. Prints ms per switch and the process's RSS after the first and the
+DAgger collection on the train_large houses switches scene on nearly every episode, so the cost of a
+switch (closing the old GL context, loading the new scene and navigability grid, a new context) is
+paid many times per iteration. Prints ms per switch and the process's RSS after the first and the
 last third of the switches: RSS that keeps growing after every house has been visited once is a leak
 (GL buffers or contexts not freed).
 """

@@ -5,7 +5,7 @@ the navigability grid (Euclidean distance transform; 0.05 m cells; the grid is a
 agent's 0.18 m radius, so a clearance of 0.1 m leaves 0.28 m between the body's centre and the
 obstacle). A privileged measurement: no agent sees the grid. It separates the starts wedged beside
 furniture or in a slit between furniture and a wall, where depth reads 0 (nearer than 0.5 m) on the
-blocked side, from the rest. No policy runs; seconds per split.
+blocked side, from the rest. No policy runs.
 
     .venv/bin/python benchmarks/start_clearance.py results/runs/pointnav_val results/runs/memory_val_unseen
 """

@@ -8,9 +8,10 @@ with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one l
 ``geodesic_cached_us`` (a geodesic query whose goal set's field is cached), ``geodesic_field_ms``
 (building the field for a new goal set), ``scene_load_s`` (mesh load + navigability build, no cache),
 ``geodesic_field_ms_20x20m`` (the same on a 20 x 20 m floor with walls, 400 x 400 cells),
-``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``. ``cpu`` names
-the processor (model, family, widest vector extension) and, with the policy, ``native_bf16`` says whether it
-has AVX512-BF16 or AMX: the machine class is not one CPU, and AVX2-only ones have run these figures 1.5-3.5x slower.
+``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``. ``cpu``
+names the processor (model, family, widest vector extension) and, with the policy, ``native_bf16``
+says whether it has AVX512-BF16 or AMX: the figures depend strongly on the vector extensions, so a
+number means little without the CPU it was measured on.
 """
 
 from __future__ import annotations

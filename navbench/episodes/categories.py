@@ -18,9 +18,9 @@ UNSEEN_CATEGORIES: tuple[str, ...] = (
     "towel", "stool", "nightstand", "microwave", "counter", "rug",
 )
 
-# Names a person would use for the same thing; none is the name of any category the scenes contain
-# ("armchair" was one until it turned out to be a scene category of its own: agents that found an
-# armchair for "armchair" were scored as finding the wrong instance).
+# Names a person would use for the same thing. None may be the name of a category the scenes contain
+# ("armchair" for chair would be): an agent that found that object would be scored as finding the
+# wrong instance.
 SYNONYMS: dict[str, tuple[str, ...]] = {
     "chair": ("seat", "dining chair"),
     "table": ("dining table", "kitchen table"),

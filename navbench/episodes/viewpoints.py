@@ -6,7 +6,7 @@ object's bounding box in the floor plane and, with the camera at agent height tu
 object, at least ``min_visible_fraction`` of points sampled on the object's surface are inside the
 field of view and not hidden by other geometry. Visibility is decided by casting one ray per sample
 point through the scene mesh (Embree): it is the same test a rendered instance-id image would make
-at the samples, about a thousand times cheaper than rendering every cell. The stored ``iou`` is that
+at the samples, far cheaper than rendering every cell. The stored ``iou`` is that
 visible fraction.
 """
 

@@ -7,6 +7,8 @@ average), so a type with more subtasks does not weigh more.
 Perception is chosen by name from :data:`PERCEPTION`: each entry builds a :class:`Perception` for one
 scene from the scene's annotations (the oracle needs them), a :class:`NoiseProfile` and the local model
 directories (:class:`ModelDirs`; real models are never downloaded).
+
+    navbench localize --split goat_val --perception oracle --noise none [--no-fusion] --out DIR
 """
 
 from __future__ import annotations

@@ -92,8 +92,8 @@ class LocalizerConfig:
     fusion: bool = True  # multi-view fusion + HDBSCAN (False: single-view ablation)
     min_points: int = 10  # a segmented view with fewer backprojected points is dropped
     # Image queries retrieve with the goal image's embedding, its caption's, or both summed: the
-    # whole-image embedding also matches the goal's surroundings (measured on goat_val with the
-    # oracle: "image" alone misses small objects on busy walls that the caption finds).
+    # whole-image embedding also matches the goal's surroundings, so alone it misses small objects on
+    # busy walls that the caption finds.
     image_retrieval: Literal["image", "caption", "both"] = "both"
     geometry: GeometryConfig = field(default_factory=GeometryConfig)
     grouping: GroupingConfig = field(default_factory=GroupingConfig)

@@ -16,6 +16,8 @@ memory from a stale one.
 
 This module sits below :mod:`navbench.localize`: it takes any encoder object with the small
 :class:`KeyframeEncoder` shape (the localiser's backends have it), never imports one.
+
+    navbench memory build --scene houses/val/house_008.glb [--perception oracle] [--out DIR]
 """
 
 from __future__ import annotations
@@ -79,8 +81,7 @@ class PrescanConfig:
     room_margin: float = 0.3  # viewpoints keep this far inside the room's AABB (xz)
     # Rooms longer than this along x or z get several viewpoints (one per part of a grid of parts at
     # most this long): from the centre of a 7 m room the far corners lie beyond the localiser's 4 m
-    # view filter. On goat_val (oracle, no noise) SR@5 went from 0.987 (one viewpoint per room) to
-    # 1.0 with 5 m, for 1.6x the keyframes; 4 m added keyframes without raising SR further.
+    # view filter, while those of a 5 m part lie within it (3.5 m) from the part's centre.
     viewpoint_spacing: float = 5.0
     success_distance: float = 0.25  # a viewpoint counts as reached this close (geodesic)
     max_leg_actions: int = 400  # give up on a viewpoint after this many actions
@@ -307,7 +308,7 @@ def config_from_json(d: dict[str, Any]) -> PrescanConfig:
 
 
 def encoder_modality(encoder: KeyframeEncoder) -> str:
-    # Encoders that predate the attribute (any object with the phase-1 Encoder protocol) read RGB.
+    # An encoder without a ``modality`` attribute (any plain Encoder) reads RGB.
     modality = getattr(encoder, "modality", "rgb")
     if modality not in MODALITIES:
         raise PrescanError(f"encoder {encoder!r} has unknown modality {modality!r}")
@@ -380,7 +381,7 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
     other = sum(p.stat().st_size for p in out_dir.rglob("*") if p.is_file())
     json_bytes = 0
     # The build time is read once: a time that changed between the passes could change the text's
-    # length on the last one (a 1-byte mismatch the tests caught in CI).
+    # length on the last one and leave the recorded byte count wrong.
     seconds = time.perf_counter() - start
     for _ in range(4):
         stats = MemoryStats(len(poses), len(store), other + json_bytes, seconds, visited, missed)

@@ -95,9 +95,8 @@ class LSTMStateEncoder(nn.Module):
         bounds = [0, *cuts, steps]
         outs = []
         # One step at a time (acting), the cell's arithmetic in plain matrix products (_step): oneDNN's LSTM
-        # kernel takes 2.1 ms for a single step at batch 1 on a 2-core EPYC where these take 0.8 (1.3 vs 2.2
-        # ms at batch 8); outputs agree to ~1e-7. Sequences (training) keep nn.LSTM: oneDNN is faster there
-        # (0.20 vs 0.28 s for 80 x 16 forward+backward in fp32, and far faster under bf16 autocast).
+        # kernel is several times slower than these for a single step (outputs agree to ~1e-7).
+        # Sequences (training) keep nn.LSTM: oneDNN is faster there, especially under bf16 autocast.
         single = steps == 1 and not torch.is_autocast_enabled("cpu")
         for start, end in zip(bounds[:-1], bounds[1:]):
             state = torch.where(masks[start].view(1, -1, 1), state, state.new_zeros(()))
@@ -157,9 +156,9 @@ class PointNavNet(nn.Module):
     def encode_depth(self, depth: torch.Tensor) -> torch.Tensor:
         """(B, H, W, 1) depth -> (B, C*h*w) flattened visual encoder output (before ``visual_fc``)."""
         # (B, H, W, 1) -> (B, 1, H, W) with NCHW strides. A permute gives the same memory but NHWC strides,
-        # and avg_pool2d then takes its channels_last kernel, ~2.5x slower for one channel on an AVX2-only
-        # CPU (2.3 vs 0.9 ms at batch 8); the result is bit-identical. squeeze(-1), not [..., 0]: a frame
-        # with more than one channel must still fail here rather than lose its other channels.
+        # and avg_pool2d then takes its channels_last kernel, much slower for one channel (the result is
+        # bit-identical). squeeze(-1), not [..., 0]: a frame with more than one channel must still fail
+        # here rather than lose its other channels.
         return self.visual_encoder(depth.squeeze(-1).unsqueeze(1)).flatten(1)
 
     def core(self, visual: torch.Tensor, pointgoal: torch.Tensor, prev_actions: torch.Tensor,

@@ -23,10 +23,8 @@ class GroupNorm(nn.GroupNorm):
     """``nn.GroupNorm`` (the same parameters and state_dict keys) that normalises in fp32 under autocast.
 
     Why: given a bfloat16 input and fp32 weights (what autocast hands it), PyTorch runs its mixed-precision
-    channels_last kernel, which on the AVX-512-BF16 EPYC (session 30) took 2-3x as long as the fp32 one,
-    forward and backward, and cancelled what bf16 convolutions save. Normalising in fp32 and handing back
-    the input's dtype keeps those savings (the encoder's forward+backward at batch 64: 0.39 s fp32, 0.35 s
-    bf16, 0.28 s bf16 with this).
+    channels_last kernel, which is slower than the fp32 one, forward and backward, and cancels what bf16
+    convolutions save. Normalising in fp32 and handing back the input's dtype keeps those savings.
     When the input has the weights' dtype (fp32 runs, outside autocast) it is exactly ``nn.GroupNorm``.
     """
 

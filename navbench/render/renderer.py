@@ -1,20 +1,18 @@
 """Fast headless rendering of a :class:`~navbench.scene.asset.SceneAsset`: RGB, depth and instance ids.
 
-A thin layer over pyrender on OSMesa (default) or EGL, shaped by what was measured on a 2-core CPU
-box (see ``shared/platform-notes.md``):
+A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores:
 
-* Unlit ``RenderFlags.FLAT`` shading of the scene's vertex colours (lighting is 3-5x slower and our
-  scenes carry their shading in the colours); ``RenderFlags.DEPTH_ONLY`` when only depth is asked.
+* Unlit ``RenderFlags.FLAT`` shading of the scene's vertex colours (lighting costs several times
+  more, and our scenes carry their shading in the colours); ``RenderFlags.DEPTH_ONLY`` when only
+  depth is asked.
 * One ``OffscreenRenderer`` for the life of a :class:`Renderer`; only the camera node moves.
-* Per-node overhead dominates at 224x224 (~0.25 ms of Python and GL calls per drawn node), so
+* Per-node overhead (Python and GL calls per drawn node) dominates at agent resolutions, so
   static geometry is merged into spatial chunks of at most ``max_chunk_faces`` triangles, made by
   recursive median splits of the xz plane; chunks whose bounding box lies entirely outside the
   view frustum are hidden for that frame (conservative test against the six frustum planes).
-  Measured on house-like scenes: 4 m tiles (15-30 nodes) ran at half the rate of one merged node
-  on a 21k-triangle house; on a 217k-triangle house 4-8 chunks with culling were on par with one
-  node (most chunks of a compact house are in view), so the default keeps houses of up to 60k
-  triangles in one node and culling pays only on large scans. Geometry is indexed (shared
-  vertices, triangles in file order): ~1.3x faster than one vertex per corner.
+  Most chunks of a compact house are in view, so the default keeps houses of up to 60k triangles
+  in one node and culling pays only on large scans. Geometry is indexed (shared vertices,
+  triangles in file order), which draws faster than one vertex per corner.
 * Instance ids come from a second set of chunk nodes whose vertex colours encode ``id + 1`` as a
   24-bit RGB integer (structure and background decode to -1). It is drawn, FLAT and single-sampled,
   only when ids are asked for; depth+ids without RGB is one pass.
@@ -96,9 +94,9 @@ def _patch_shader_cache() -> None:
     pyrender keys compiled programs by ``(OpenGL.contextdata.getContext(), shaders, defines)``.
     Under OSMesa ``getContext()`` returns a new ctypes pointer object on every call, and ctypes
     pointers hash by identity, so the lookup never hits: every draw compiles a new program and the
-    cache grows without bound (measured 8x slower, 138 programs after six frames). The wrapper looks
-    programs up under a key built from the context's integer address instead and re-files what the
-    original method compiled under that key, so ``clear()`` still deletes every program exactly once.
+    cache grows without bound. The wrapper looks programs up under a key built from the context's
+    integer address instead and re-files what the original method compiled under that key, so
+    ``clear()`` still deletes every program exactly once.
     """
     cache_cls = pyrender.shader_program.ShaderProgramCache
     if getattr(cache_cls.get_program, "_navbench_patched", False):
@@ -378,10 +376,10 @@ class Renderer:
         if self._gl is not None:
             gl, self._gl = self._gl, None
             # What OffscreenRenderer.delete() does, minus the full gc.collect() it ends with on every
-            # call: in a process holding a policy and a replay buffer that takes ~0.2 s, paid on every
-            # scene switch (a fifth of a DAgger iteration's collection time on 48 houses). The GL
-            # buffers and context are freed here; the old scene's cyclic Python garbage is collected on
-            # every 16th close instead, which keeps RSS nearly flat (benchmarks/scene_switch.py).
+            # call, which is slow in a process holding many Python objects (a policy, a replay buffer)
+            # and would be paid on every scene switch. The GL buffers and context are freed here; the
+            # old scene's cyclic Python garbage is collected on every 16th close instead, which keeps
+            # RSS flat (benchmarks/scene_switch.py checks both).
             gl._platform.make_current()
             gl._renderer.delete()
             gl._platform.delete_context()
@@ -462,7 +460,7 @@ def spatial_chunks(points_xz: np.ndarray, max_faces: int) -> list[np.ndarray]:
         idx = stack.pop()
         if len(idx) <= max_faces:
             # Back in file order: neighbouring triangles share vertices, which llvmpipe's vertex
-            # cache exploits; spatially sorted order measured ~2.5x slower on a 200k scene.
+            # cache exploits; a spatially sorted order draws markedly slower.
             chunks.append(np.sort(idx))
             continue
         pts = points_xz[idx]

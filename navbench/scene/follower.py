@@ -58,7 +58,7 @@ class GreedyFollower:
         self._plan_yaw = 0.0
         self._yaw0 = 0.0  # heading the current plan's offsets are relative to
         # Turns between the heading at the last next_action and the heading its plan takes (0 after a
-        # FORWARD or STOP): training weighs the steps of a long turn (policies/README.md, session 15).
+        # FORWARD or STOP): imitation training gives the steps of a long turn more weight.
         self.turns_ahead = 0
 
     @property

@@ -295,8 +295,8 @@ class NavGrid:
         """Distance (m) from each free cell centre to the nearest obstacle or floor edge; 0 elsewhere.
 
         Near obstacles it is the distance to the outlines of the head-band footprints, sampled at
-        most one cell apart (at the agent radius, ~3.6 cells away, that is exact to ~cs/30). Cell-level distances would place a wall up to
-        half a cell off and bias every geodesic that turns round it. Far from obstacles (where it
+        most one cell apart (at the agent radius, ~3.6 cells away, that is exact to ~cs/30). Cell-level
+        distances would place a wall up to half a cell off and bias every geodesic that turns round it. Far from obstacles (where it
         cannot decide navigability) it is the distance to the nearest blocked cell centre. A floor's
         edge lies between its last floor cell centre and the first floorless one: half a cell nearer
         than the floorless cell.

@@ -20,6 +20,10 @@ schema of :mod:`navbench.scene.asset`, plus ``scene_id``, ``seed``, room ``type`
 
 Everything is drawn from one ``numpy`` generator seeded with ``seed`` and no set/dict iteration order
 or float formatting depends on anything else, so the same seed gives byte-identical GLB and JSON.
+
+    navbench generate scenes            # the bundled houses (envs/houses), seed 0
+    navbench generate policy-train      # + envs/houses_policy_train and its train_large episodes
+    navbench generate policy-select     # + envs/houses_policy_select and its select episodes
 """
 
 from __future__ import annotations
@@ -914,8 +918,8 @@ def generate_dataset(out_dir: str | Path, n_train: int = 8, n_val: int = 4, seed
 
 
 # The PointNav policy's extra training houses (envs/houses_policy_train): disjoint from the bundled
-# houses (seed 1, not 0), never used by any evaluation split. Eight train houses are too few for an
-# imitation-learned policy: the shipped policy scored SR 80 on its own train episodes and 59.5 on val.
+# houses (seed 1, not 0), never used by any evaluation split: the eight bundled train houses are too
+# few for an imitation-learned policy to generalise to unseen houses.
 POLICY_TRAIN_HOUSES = {"dir": "houses_policy_train", "n_train": 40, "seed": 1}
 # Houses for choosing among trained PointNav policies (checkpoints, seeds, decoding) without looking at
 # the reported val split: disjoint from the bundled houses and the training houses (seed 2), in `val/`

@@ -6,7 +6,7 @@
 
 Images are H x W x 3 uint8 RGB numpy arrays throughout. Real backends import ``transformers`` lazily
 (in their constructors), so ``import navbench`` never needs the ``models`` extra; oracle backends
-(phase 2) implement the same protocols from the renderer's instance ids.
+(:mod:`.oracle`) implement the same protocols from the renderer's instance ids.
 """
 
 from __future__ import annotations
