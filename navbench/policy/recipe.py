@@ -153,7 +153,7 @@ def run_recipe(recipe: Recipe, out_dir: Path, resume: bool = False, only: str | 
         if only is None or stage.name == only:
             if stage.trainer != "encoder" and previous is None:
                 raise ValueError(f"stage {stage.name!r} starts from a trained policy: give --init PATH")
-            if previous is not None and not previous.is_file() and not resume:
+            if only is not None and previous is not None and not previous.is_file():
                 raise FileNotFoundError(f"{previous}: stage {stage.name!r} starts from it; run the stage "
                                         "before it first")
             print(f"stage {stage.name} ({stage.trainer}) -> {stage_out}", file=sys.stderr)
