@@ -14,10 +14,10 @@ frame comes with dense targets that follow from the frame alone:
   scored only on cells inside the horizontal field of view.
 
 Frames are rendered at uniformly random navigable positions and headings of the bundled train houses
-(depth only, exactly the env's sensor via :func:`navbench.env.sensors.normalize_depth`), stored 2x2
-pooled as uint8 (the network's own first step is that 2x2 pool). The network trained is ``net.visual_encoder`` + ``net.visual_fc``
-plus a training-only linear head on the 512-d ``visual_fc`` output (not in the shipped state_dict).
-Horizontal flips (targets mirrored) double the data. The result is a habitat-layout checkpoint whose
+(depth only, exactly the env's sensor via :func:`navbench.env.sensors.normalize_depth`), stored 2x2 pooled as
+uint8 (the network's own first step is that 2x2 pool). The network trained is ``net.visual_encoder`` +
+``net.visual_fc`` plus a training-only linear head on the 512-d ``visual_fc`` output (not in the shipped
+state_dict). Horizontal flips (targets mirrored) double the data. The result is a habitat-layout checkpoint whose
 other weights are at their initialisation, the ``--init`` of the DAgger stage.
 """
 

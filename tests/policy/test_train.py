@@ -249,7 +249,8 @@ def test_the_monitor_scores_select_episodes_never_val(monkeypatch):
 
     asked = []
     real = train_module.split_file
-    monkeypatch.setattr(train_module, "split_file", lambda task, split: asked.append((task, split)) or real(task, split))
+    monkeypatch.setattr(train_module, "split_file",
+                        lambda task, split: asked.append((task, split)) or real(task, split))
     torch.manual_seed(0)
     result = evaluate(PointNavResNetPolicy(PolicyNetConfig()), episodes=1, max_steps=3)
     assert asked == [("pointnav", "select")]
