@@ -130,7 +130,7 @@ class EnvSlots:
             env.close()
 
 
-class Collector(Protocol):
+class RolloutCollector(Protocol):
     """What :class:`Collection` drives: ``policy`` acts, ``collect(*args)`` steps the envs."""
 
     policy: torch.nn.Module
@@ -164,7 +164,7 @@ class Collection:
     gives the same data whatever the timing.
     """
 
-    def __init__(self, local: Collector | None = None, pool: WorkerPool | None = None, cls: type | None = None):
+    def __init__(self, local: RolloutCollector | None = None, pool: WorkerPool | None = None, cls: type | None = None):
         self.local, self.pool, self.cls = local, pool, cls
         self._encoder_sent = False
 
