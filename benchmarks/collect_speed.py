@@ -1,4 +1,4 @@
-"""DAgger collection speed: frames per second of ``Collector.collect`` with the shipped policy.
+"""DAgger collection speed: frames per second of ``navbench.policy.train.Collector.collect`` with the shipped policy.
 
     python benchmarks/collect_speed.py                       # 4,000 frames after a 400-frame warm-up
     python benchmarks/collect_speed.py --frames 8000 --beta 0.1 --repeat 3
@@ -22,7 +22,8 @@ import torch
 from navbench.paths import POLICIES_DIR
 from navbench.policy.checkpoint import load_checkpoint
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy
-from navbench.policy.train import Collector, TrainConfig, make_envs
+from navbench.policy.rollout import make_envs
+from navbench.policy.train import Collector, TrainConfig
 
 
 class TimedLearner(PointNavAgentPolicy):
@@ -47,13 +48,14 @@ def main() -> None:
     torch.set_num_threads(2)
     policy = load_checkpoint(POLICIES_DIR / "pointnav_navbench.pth")
     cfg = TrainConfig(train_split=args.split, expert_success_distance=0.1, collision_weight=3, endgame_weight=3)
-    collector = Collector(make_envs(cfg.num_envs, cfg.train_split, 60), cfg, np.random.default_rng(0))
+    collector = Collector(make_envs(cfg.num_envs, cfg.train_split, 60), cfg, np.random.default_rng(0), policy)
     learner = TimedLearner(policy, num_envs=cfg.num_envs, config=InferenceConfig(channels_last=False))
-    collector.collect(learner, 400, args.beta)
+    collector.learner = lambda: learner  # the same acting policy, timed, on every call
+    collector.collect(400, args.beta)
     for _ in range(args.repeat):
         learner.seconds = 0.0
         t = time.perf_counter()
-        collector.collect(learner, args.frames, args.beta)
+        collector.collect(args.frames, args.beta)
         dt = time.perf_counter() - t
         print(json.dumps({"frames_per_s": round(args.frames / dt, 1), "seconds": round(dt, 2),
                           "policy_share": round(learner.seconds / dt, 3)}))

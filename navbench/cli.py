@@ -3,7 +3,8 @@
     navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
-    navbench train encoder|pointnav|ppo [--out PATH] [--resume]
+    navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
+    navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
     navbench bench [--json]
@@ -288,29 +289,6 @@ def cmd_generate(args) -> int:
     return 0
 
 
-def cmd_train(args) -> int:
-    from navbench.policy.precision import emulated_bf16_warning
-    # ppo's --bf16 reaches only the encoder pass of a --train-encoder update (PPOConfig.bf16): without it
-    # nothing runs in bf16, and warning that it would be slow would be wrong.
-    bf16_flags = ("act_bf16",) if args.what == "ppo" and args.freeze_visual is not False else ("bf16", "act_bf16")
-    warning = emulated_bf16_warning([f"--{n.replace('_', '-')}" for n in bf16_flags if getattr(args, n)])
-    if warning:
-        print(warning, file=sys.stderr)
-    if args.what == "encoder":
-        from navbench.policy.pretrain import main_args
-        args.out = args.out or "runs/pointnav/encoder.pth"
-        args.state_dir = args.state_dir or "runs/pointnav/encoder_state"
-    elif args.what == "ppo":
-        from navbench.policy.ppo import main_args
-        args.out = args.out or "runs/pointnav/policy_ppo.pth"
-        args.state_dir = args.state_dir or "runs/pointnav/ppo_state"
-    else:
-        from navbench.policy.train import main_args
-        args.out = args.out or "policies/pointnav_navbench.pth"
-        args.state_dir = args.state_dir or "runs/train_pointnav"
-    return main_args(args)
-
-
 def cmd_memory(args) -> int:
     from navbench.localize.backends.oracle import NoiseProfile
     from navbench.localize.benchmark import PERCEPTION, ModelDirs
@@ -428,83 +406,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)
 
-    tr = sub.add_parser("train", help="pre-train the PointNav depth encoder (encoder), train the policy "
-                                      "by DAgger imitation of a shortest-path expert (pointnav) or fine-tune "
-                                      "it with PPO on the PointNav reward (ppo)")
-    tr.add_argument("what", choices=("encoder", "pointnav", "ppo"))
-    tr.add_argument("--out", help="checkpoint (default runs/pointnav/encoder.pth | policies/pointnav_navbench.pth | "
-                                  "runs/pointnav/policy_ppo.pth)")
-    tr.add_argument("--state-dir", help="resumable training state (default runs/pointnav/encoder_state | "
-                                        "runs/train_pointnav | runs/pointnav/ppo_state)")
-    tr.add_argument("--resume", action="store_true")
-    tr.add_argument("--iterations", type=int)
-    tr.add_argument("--frames-per-iteration", type=int)
-    tr.add_argument("--num-envs", type=int)
-    tr.add_argument("--workers", type=int, help="pointnav/ppo: rollout processes sharing the envs (default 1: in "
-                                                "this process; 2 collects ~1.4x faster on 2 cores)")
-    tr.add_argument("--val-episodes", type=int)
-    tr.add_argument("--epochs-per-iteration", type=float)
-    tr.add_argument("--train-encoder", dest="freeze_visual", action="store_false", default=None,
-                    help="train the visual encoder too (pointnav: truncated chunks + free-space auxiliary loss; "
-                         "ppo: re-encoded depth, bf16 autocast)")
-    tr.add_argument("--truncated", dest="full_episodes", action="store_false", default=None,
-                    help="train on chunks of --chunk-len steps instead of whole episodes")
-    tr.add_argument("--no-prev-action", dest="prev_action", action="store_false", default=None,
-                    help="zero and freeze the previous-action embedding (against copycat policies)")
-    tr.add_argument("--expert-margin", type=float, help="extra clearance (m) the geodesic expert keeps")
-    tr.add_argument("--expert-success-distance", type=float,
-                    help="where the expert says STOP (default 0.2 m; ppo --bc-weight: 0.1 m)")
-    tr.add_argument("--expert", choices=("optimistic", "geodesic"), help="label source (default geodesic)")
-    tr.add_argument("--beta0", type=float, help="oracle share of executed actions in the first iteration")
-    tr.add_argument("--beta-min", type=float, help="floor of the oracle share (default 0.1; 0 = pure learner rollouts)")
-    tr.add_argument("--random-action-prob", type=float,
-                    help="share of random non-STOP actions in rollouts (default 0.08)")
-    tr.add_argument("--max-episode-steps", type=int)
-    tr.add_argument("--buffer-frames", type=int, help="aggregated DAgger buffer cap in frames, oldest episodes "
-                                                      "dropped first (default 250000)")
-    tr.add_argument("--train-split", help="PointNav split to roll out in (default train; train_large adds the "
-                                          "40 houses of `navbench generate policy-train`)")
-    tr.add_argument("--chunk-len", type=int)
-    tr.add_argument("--batch-chunks", type=int)
-    tr.add_argument("--lr", type=float)
-    tr.add_argument("--lr-schedule", choices=("constant", "cosine"),
-                    help="learning rate over the iterations (ppo: the updates after the critic warm-up): "
-                         "constant (default) or cosine from --lr to --lr-min")
-    tr.add_argument("--lr-min", type=float, help="the cosine schedule's last rate (default 1e-5; ppo: 0)")
-    tr.add_argument("--collision-weight", type=float, help="loss weight of steps after a blocked FORWARD (default 1)")
-    tr.add_argument("--endgame-weight", type=float, help="loss weight of steps within 0.75 m of the goal (default 1)")
-    tr.add_argument("--turnaround-weight", type=float,
-                    help="loss weight of steps where the expert still has 3 or more turns to make (default 1)")
-    tr.add_argument("--init", help="start from this checkpoint's weights (e.g. to continue the shipped policy)")
-    tr.add_argument("--seed", type=int)
-    tr.add_argument("--updates", type=int, help="encoder: gradient updates; ppo: PPO updates (rollouts)")
-    tr.add_argument("--rollout-steps", type=int, help="ppo: steps per env and update (default 128)")
-    tr.add_argument("--critic-warmup", type=int, help="ppo: first updates that train only the value head (default 30)")
-    tr.add_argument("--entropy-coef", type=float, help="ppo: entropy bonus (default 1e-3)")
-    tr.add_argument("--waste-weight", type=float,
-                    help="ppo: penalty per metre walked beyond the progress made (default 0: habitat's reward)")
-    tr.add_argument("--success-spl", action="store_true", default=None,
-                    help="ppo: scale the success bonus by the episode's SPL (default: a flat 2.5)")
-    tr.add_argument("--collision-penalty", type=float,
-                    help="ppo: reward penalty per refused MOVE_FORWARD (default 0: habitat's reward)")
-    tr.add_argument("--encoder-lr-scale", type=float,
-                    help="ppo --train-encoder: the encoder's rate as a fraction of the actor's (default 0.1)")
-    tr.add_argument("--bc-weight", type=float,
-                    help="ppo: weight of a cross-entropy term to the geodesic expert's actions (default 0: off)")
-    tr.add_argument("--replay-failures", type=float,
-                    help="ppo: probability that a finished episode is followed by a replay of an earlier failed one "
-                         "(default 0: off)")
-    tr.add_argument("--tight-starts", type=float,
-                    help="pointnav/ppo: probability that a rollout episode starts from a random cell beside an "
-                         "obstacle (within 0.1 m of the navigable edge) instead of its own start (default 0: off)")
-    tr.add_argument("--bf16", action=argparse.BooleanOptionalAction, default=None,
-                    help="bfloat16 autocast in the updates (encoder and pointnav: default off; ppo: only the encoder's "
-                         "pass with --train-encoder, default on where the CPU has AVX512-BF16 or AMX, else off)")
-    tr.add_argument("--act-bf16", action="store_true", default=None,
-                    help="pointnav/ppo: bfloat16 autocast for the acting policy's encoder in rollouts (default off)")
-    tr.add_argument("--frames-per-scene", type=int, help="encoder: rendered frames per train house")
-    tr.add_argument("--batch-size", type=int, help="encoder: frames per update")
-    tr.set_defaults(func=cmd_train)
+    from navbench.policy.recipe import add_train_parser
+    add_train_parser(sub)
 
     mem = sub.add_parser("memory", help="build a scene's keyframe memory (pre-scan, keyframes, index)")
     mem.add_argument("what", choices=("build",))

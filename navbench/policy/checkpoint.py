@@ -61,6 +61,16 @@ def save_train_state(path: Path, state: dict[str, Any]) -> None:
     tmp.replace(path)
 
 
+def load_train_state(path: Path, policy: torch.nn.Module, opt: torch.optim.Optimizer, counter: str
+                     ) -> tuple[int, int, float]:
+    """Restore ``policy`` and ``opt`` from a state :func:`save_train_state` wrote; returns (``state[counter]``,
+    frames, wall seconds): where the run stopped."""
+    st = torch.load(path, weights_only=False)
+    policy.load_state_dict(st["policy"])
+    opt.load_state_dict(st["optimizer"])
+    return st[counter], st["frames"], st["wall_s"]
+
+
 def save_checkpoint(
     path: str | Path, policy: PointNavResNetPolicy, config: Mapping[str, Any], fp16: bool = True
 ) -> Path:

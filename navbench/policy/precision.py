@@ -1,11 +1,9 @@
 """Whether this CPU computes bfloat16 natively, and the warning a training run prints when it does not.
 
-PyTorch runs ``torch.autocast("cpu", dtype=torch.bfloat16)`` on any x86 CPU, but only CPUs with
-AVX512-BF16 or AMX have bf16 instructions; elsewhere oneDNN emulates them. Measured on a 2-core AMD EPYC
-with AVX2 only (session 33, torch 2.13.0, bf16 against fp32): an encoder-stage update (the ResNet's
-forward and backward) 7.0 s against 0.66 s; policy inference at batch 8 45 frames/s against 227, both in
-channels_last (``benchmarks/policy_speed.py --all``). (A frozen-encoder PPO update makes no bf16 pass at all:
-PPOConfig.bf16 covers only the encoder's pass with train_encoder.)
+PyTorch runs ``torch.autocast("cpu", dtype=torch.bfloat16)`` on any x86 CPU, but only CPUs with AVX512-BF16 or
+AMX have bf16 instructions; elsewhere oneDNN emulates them and the ResNet runs several times slower than in fp32
+(``benchmarks/policy_speed.py --all`` measures it). ``navbench train`` warns before a stage whose bf16 options
+(encoder ``--bf16``, dagger ``--bf16``/``--act-bf16``, ppo ``--act-bf16``) would run emulated.
 
     python -c "from navbench.policy.precision import native_bf16; print(native_bf16())"
 """
@@ -30,4 +28,4 @@ def emulated_bf16_warning(flags: list[str]) -> str | None:
         return None
     capability = torch.backends.cpu.get_cpu_capability()
     return (f"warning: {' and '.join(flags)} on a CPU without AVX512-BF16 or AMX ({capability}): bfloat16 is "
-            "emulated here and runs slower than fp32, ~10x for the ResNet (navbench.policy.precision)")
+            "emulated here and runs slower than fp32 (navbench.policy.precision)")

@@ -1,12 +1,12 @@
 """Pre-train the PointNav policy's depth encoder on geometry the navigability grid gives for free.
 
+    navbench train --config configs/pointnav/2h.toml                # the recipes' first stage, `encoder`
     navbench train encoder --out runs/pointnav/encoder.pth          # resumable: add --resume
-    navbench train pointnav --init runs/pointnav/encoder.pth ...    # then the recurrent policy (train.py)
+    navbench train dagger --init runs/pointnav/encoder.pth ...      # then the recurrent policy (train.py)
 
 Why: imitation labels (one of four actions, often ambiguous) are a weak signal for a ResNet that
-starts from random weights, and on 2 CPU cores the budget is ~150 encoder samples/s. Policies trained
-that way drove into walls they should have seen. Here every frame comes with dense targets that
-follow from the frame alone:
+starts from random weights, and on 2 CPU cores few encoder samples per second fit the budget. Here every
+frame comes with dense targets that follow from the frame alone:
 
 - ``free``: how far the agent could walk straight along 13 headings across the field of view
   (-36..36 deg), by :meth:`NavGrid.try_step` with the agent's radius, capped at ``ray_range``;
@@ -14,10 +14,10 @@ follow from the frame alone:
   scored only on cells inside the horizontal field of view.
 
 Frames are rendered at uniformly random navigable positions and headings of the bundled train houses
-(depth only, exactly the env's sensor via :func:`navbench.env.sensors.normalize_depth`), stored 2x2
-pooled as uint8 like the DAgger buffer. The network trained is ``net.visual_encoder`` + ``net.visual_fc``
-plus a training-only linear head on the 512-d ``visual_fc`` output (not in the shipped state_dict).
-Horizontal flips (targets mirrored) double the data. The result is a habitat-layout checkpoint whose
+(depth only, exactly the env's sensor via :func:`navbench.env.sensors.normalize_depth`), stored 2x2 pooled as
+uint8 (the network's own first step is that 2x2 pool). The network trained is ``net.visual_encoder`` +
+``net.visual_fc`` plus a training-only linear head on the 512-d ``visual_fc`` output (not in the shipped
+state_dict). Horizontal flips (targets mirrored) double the data. The result is a habitat-layout checkpoint whose
 other weights are at their initialisation, the ``--init`` of the DAgger stage.
 """
 
@@ -27,7 +27,6 @@ import dataclasses
 import json
 import math
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -38,38 +37,13 @@ from navbench.env.config import EnvConfig
 from navbench.env.sensors import normalize_depth
 from navbench.paths import SCENES_DIR
 from navbench.policy.checkpoint import save_checkpoint, save_train_state
+from navbench.policy.config import PretrainConfig
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.progress import log_row
 from navbench.render.renderer import CameraConfig, Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
-
-
-@dataclass(frozen=True)
-class PretrainConfig:
-    frames_per_scene: int = 6_000
-    heldout_frames: int = 1_500  # the last frames of the shuffled set, never trained on
-    updates: int = 2_500
-    batch_size: int = 64
-    lr: float = 1e-3
-    min_lr: float = 1e-5
-    warmup: int = 100
-    weight_decay: float = 1e-4
-    patch_weight: float = 1.0
-    ray_headings_deg: tuple[float, ...] = tuple(float(a) for a in np.linspace(-36.0, 36.0, 13))
-    ray_range: float = 4.0
-    patch_cells: int = 16
-    patch_cell_size: float = 0.25
-    log_every: int = 100
-    save_every: int = 250
-    seed: int = 0
-    threads: int = 2
-    # torch.autocast(cpu, bfloat16) around each update's forward pass (fp32 weights, held-out loss in fp32).
-    # Off by default so the committed logs reproduce. Why: the convolutions' forward+backward is most of this
-    # stage's cost, and on CPUs with AVX512-BF16 or AMX they run ~2x faster in bf16 (the whole update 1.4x on
-    # session 30's EPYC); elsewhere bf16 is emulated and slower.
-    bf16: bool = False
 
 
 # ------------------------------------------------------------------------------------------- targets
@@ -269,8 +243,8 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
     return last
 
 
-def main_args(args) -> int:
-    fields = PretrainConfig.__dataclass_fields__
-    cfg = PretrainConfig(**{k: v for k, v in vars(args).items() if k in fields and v is not None})
-    print(json.dumps(pretrain(cfg, Path(args.out), Path(args.state_dir), resume=args.resume)))
-    return 0
+def main(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool) -> dict[str, float]:
+    """``navbench train encoder``: pre-train, print the last log row as JSON."""
+    result = pretrain(cfg, out, state_dir, resume=resume)
+    print(json.dumps(result))
+    return result

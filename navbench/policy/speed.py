@@ -1,5 +1,8 @@
 """Throughput of the PointNav policy on this machine (random weights; speed does not depend on them).
 
+    navbench bench                          # reports measure_policy_speed()
+    python benchmarks/policy_speed.py --all
+
 ``measure_policy_speed`` is what ``navbench bench`` reports; ``benchmarks/policy_speed.py`` wraps it.
 Inference goes through :class:`PointNavAgentPolicy` so the figures include the per-step numpy <->
 torch and state bookkeeping an agent pays.

@@ -1,11 +1,11 @@
 """Stateful rollout workers: each process owns some of the training envs and a copy of the policy.
 
-Collection (render, expert, the acting policy's forward pass) is ~65% of the 2-hour training recipe, and
-in one process only the policy's convolutions use both cores: pyrender/OSMesa gains little from llvmpipe's
-second thread (the platform notes: two single-threaded processes render ~2x as fast), and the expert and
-the env loop are Python. Two processes with one llvmpipe thread and one torch thread each, on session 31's
-family-25 EPYC: a DAgger iteration of 4,000 frames collected in 16.6 s against 22.5 s in one process, a
-PPO rollout of 1,024 frames in 4.0 s against 5.7 s (~1.4x).
+    navbench train dagger --workers 2 ...    # navbench.policy.rollout.Collection starts the pool
+
+Collection (render, expert, the acting policy's forward pass) is most of a DAgger iteration, and in one process
+only the policy's convolutions use both cores: pyrender/OSMesa gains little from llvmpipe's second thread, and the
+expert and the env loop are Python. Two processes with one llvmpipe thread and one torch thread each keep both
+cores busy.
 
 Unlike the evaluation runner's task pool, a training worker must keep its envs, its episodes in flight and
 its recurrent states between calls, so each worker is a pinned process that builds one object with

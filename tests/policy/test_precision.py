@@ -1,11 +1,15 @@
-"""bf16 is used by default only where the CPU computes it natively, and asking for it elsewhere warns."""
+"""Asking for bf16 on a CPU that emulates it warns, for exactly the options that compute in bf16."""
 
 import pytest
 import torch
 
 import navbench.policy.ppo as ppo
+import navbench.policy.pretrain as pretrain
+import navbench.policy.train as train
 from navbench.cli import main
 from navbench.policy.precision import emulated_bf16_warning, native_bf16
+
+TRAINERS = {"encoder": pretrain, "dagger": train, "ppo": ppo}
 
 
 def _cpu(monkeypatch, avx512_bf16: bool, amx: bool) -> None:
@@ -18,8 +22,6 @@ def _cpu(monkeypatch, avx512_bf16: bool, amx: bool) -> None:
 def test_native_bf16_follows_the_cpu_probes(monkeypatch, avx512_bf16, amx, native):
     _cpu(monkeypatch, avx512_bf16, amx)
     assert native_bf16() is native
-    assert ppo.PPOConfig().bf16 is native  # PPO's default precision follows the CPU
-    assert ppo.PPOConfig(bf16=True).bf16 and not ppo.PPOConfig(bf16=False).bf16  # an explicit choice stands
 
 
 def test_a_torch_without_the_probes_counts_as_emulating(monkeypatch):
@@ -38,19 +40,35 @@ def test_the_warning_names_the_flags_only_on_an_emulating_cpu(monkeypatch):
     assert emulated_bf16_warning(["--bf16"]) is None
 
 
-@pytest.mark.parametrize(("flags", "warned"), [(["--bf16", "--train-encoder"], True), (["--act-bf16"], True),
-                                                (["--bf16"], False), (["--no-bf16"], False), ([], False)])
-def test_train_warns_on_stderr_before_training(monkeypatch, capsys, flags, warned):
-    # ppo's --bf16 alone is not warned about: a frozen-encoder update makes no bf16 pass (test_ppo.py)
-    _cpu(monkeypatch, False, False)
+def _fake_trainers(monkeypatch) -> list:
     started = []
+    for name, module in TRAINERS.items():
+        monkeypatch.setattr(module, "main", lambda cfg, *args, name=name: started.append((name, cfg)))
+    return started
 
-    def fake_training(args) -> int:
-        started.append(args.bf16)
-        return 0
 
-    monkeypatch.setattr(ppo, "main_args", fake_training)
-    assert main(["train", "ppo", "--out", "unused.pth", *flags]) == 0
-    assert len(started) == 1  # the run still starts: the warning does not refuse the user's choice
+@pytest.mark.parametrize(("trainer", "flags", "warned"), [
+    ("encoder", ["--bf16"], True), ("encoder", [], False),
+    ("dagger", ["--bf16"], True), ("dagger", ["--act-bf16"], True), ("dagger", ["--no-bf16"], False),
+    ("ppo", ["--act-bf16"], True), ("ppo", [], False)])
+def test_train_warns_on_stderr_before_training(monkeypatch, capsys, trainer, flags, warned):
+    _cpu(monkeypatch, False, False)
+    started = _fake_trainers(monkeypatch)
+    assert main(["train", trainer, "--out", "unused.pth", *flags]) == 0
+    assert [name for name, _ in started] == [trainer]  # the run still starts: the warning refuses nothing
+    assert ("bfloat16 is emulated here" in capsys.readouterr().err) is warned
+
+
+def test_ppo_has_no_bf16_update_option(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["train", "ppo", "--bf16"])
+    assert exit_.value.code == 2 and "--bf16" in capsys.readouterr().err
+
+
+def test_a_recipe_warns_before_each_bf16_stage(monkeypatch, capsys, tmp_path):
+    _cpu(monkeypatch, False, False)
+    started = _fake_trainers(monkeypatch)
+    assert main(["train", "--config", "configs/pointnav/2h.toml", "--out-dir", str(tmp_path)]) == 0
+    assert [name for name, _ in started] == ["encoder", "dagger"]
     err = capsys.readouterr().err
-    assert ("bfloat16 is emulated here" in err) is warned
+    assert "warning: --bf16 on a CPU" in err and "warning: --bf16 and --act-bf16 on a CPU" in err

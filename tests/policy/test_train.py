@@ -1,4 +1,4 @@
-"""Imitation training: data collection labels with the oracle, and a few updates reduce the loss."""
+"""DAgger training: collection labels every step with the expert, and a few updates reduce the loss."""
 
 import csv
 import dataclasses
@@ -9,8 +9,8 @@ import torch
 
 from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
                                  prepare_depth)
-from navbench.policy.train import (Collector, EpisodeBuffer, TrainConfig, acting_config, iteration_lr, make_aux_head,
-                                   make_envs, train, train_step)
+from navbench.policy.rollout import make_envs
+from navbench.policy.train import Collector, EpisodeBuffer, TrainConfig, evaluate, iteration_lr, train, train_step
 
 
 def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
@@ -18,25 +18,23 @@ def _collect(cfg: TrainConfig, frames: int, beta: float = 1.0):
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(PolicyNetConfig())
     envs = make_envs(cfg.num_envs, "train", seed=0)
-    learner = PointNavAgentPolicy(policy, num_envs=cfg.num_envs, config=acting_config(cfg))
-    segments, stats = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, frames, beta=beta)
+    segments, successes = Collector(envs, cfg, np.random.default_rng(0), policy).collect(frames, beta=beta)
     for env in envs:
         env.close()
-    return policy, segments, stats
+    return policy, segments, successes
 
 
 def test_oracle_rollouts_are_whole_labelled_episodes():
     cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=200)
-    policy, segments, stats = _collect(cfg, frames=400)
+    policy, segments, successes = _collect(cfg, frames=400)
     assert segments, "at least one finished episode"
     for seg in segments:
         assert not seg["mask"][0] and seg["mask"][1:].all()  # starts at the episode's first step
         assert seg["prev"][0] == 0 and (seg["prev"][1:] == seg["label"][:-1]).all()  # beta=1: oracle acts
         assert "depth" not in seg and seg["feat"].dtype == np.float16  # the frozen encoder's outputs
         assert seg["feat"].shape[1:] == (int(np.prod(policy.net.visual_encoder.output_shape)),)
-        assert "free" not in seg  # the auxiliary target is only computed when the encoder trains
         assert seg["label"][-1] == 0 or len(seg["label"]) == cfg.max_episode_steps  # STOP or cut
-    assert stats["rollout_success"] == 1.0  # the oracle reaches every goal it stops at
+    assert successes == [1.0] * len(segments)  # the expert reaches every goal it stops at
 
 
 def _frozen_encoder_batch(cfg: TrainConfig):
@@ -46,12 +44,12 @@ def _frozen_encoder_batch(cfg: TrainConfig):
     buffer = EpisodeBuffer(10_000)
     for seg in segments:
         buffer.add(seg)
-    return policy, buffer.sample(np.random.default_rng(0), cfg.batch_chunks, None)
+    return policy, buffer.sample(np.random.default_rng(0), cfg.batch_episodes)
 
 
 @pytest.mark.parametrize("bf16", [False, True])
 def test_a_few_updates_reduce_the_imitation_loss(bf16):
-    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3, bf16=bf16)
+    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_episodes=4, lr=1e-3, bf16=bf16)
     policy, batch = _frozen_encoder_batch(cfg)
     assert batch["feat"].shape[:2] == batch["label"].shape
     opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr)
@@ -62,7 +60,7 @@ def test_a_few_updates_reduce_the_imitation_loss(bf16):
 
 
 def test_bf16_updates_run_the_forward_pass_in_bfloat16_and_track_fp32():
-    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_chunks=4, lr=1e-3)
+    cfg = TrainConfig(num_envs=2, max_episode_steps=30, batch_episodes=4, lr=1e-3)
     policy, batch = _frozen_encoder_batch(cfg)
     state = {k: v.clone() for k, v in policy.state_dict().items()}
     first, logits_dtype = {}, {}
@@ -100,70 +98,18 @@ def test_stored_features_are_the_encoder_output_and_acting_matches_the_full_forw
         prev, masks = torch.from_numpy(actions), torch.ones(3, dtype=torch.bool)
 
 
-@pytest.mark.parametrize("bf16", [False, True])
-def test_truncated_chunks_train_the_whole_network(bf16):
-    cfg = dataclasses.replace(TrainConfig(num_envs=2, max_episode_steps=20, batch_chunks=2, lr=1e-3),
-                              full_episodes=False, chunk_len=8, freeze_visual=False, bf16=bf16)
-    policy, segments, _ = _collect(cfg, frames=40)
-    buffer = EpisodeBuffer(10_000)
-    for seg in segments:
-        buffer.add(seg)
-    batch = buffer.sample(np.random.default_rng(1), cfg.batch_chunks, cfg.chunk_len)
-    assert batch["depth"].shape == (8, 2, 112, 112) and not batch["mask"][0].any()
-    assert batch["free"].shape == (8, 2, len(cfg.free_space_headings_deg))
-    assert ((batch["free"] >= 0) & (batch["free"] <= 1)).all() and batch["free"].max() > 0
-    before = policy.net.visual_encoder.backbone.conv1[0].weight.clone()
-    aux = make_aux_head(policy, cfg)
-    opt = torch.optim.Adam([*policy.parameters(), *aux.parameters()], lr=cfg.lr)
-    policy.train()
-    losses = [train_step(policy, opt, batch, cfg, aux)[0] for _ in range(6)]
-    assert losses[-1] < losses[0]
-    assert not torch.equal(before, policy.net.visual_encoder.backbone.conv1[0].weight)
+def test_the_expert_reaches_the_goal_of_a_train_episode_and_stops_where_told():
+    from navbench.policy.rollout import make_expert
 
-
-def test_both_experts_reach_the_goal_of_a_val_episode():
-    from navbench.env.config import EnvConfig
-    from navbench.env.pointnav import PointNavEnv
-    from navbench.episodes.io import load_dataset
-    from navbench.paths import split_file
-    from navbench.policy.train import make_expert
-
-    ds = load_dataset(split_file("pointnav", "val"))
-    env = PointNavEnv(ds, config=EnvConfig(rgb=False, depth=True, success_distance=0.2))
-    env.reset(options={"episode": ds.episodes[1]})
-    assert make_expert(env, TrainConfig(expert_success_distance=0.1)).success_distance == 0.1
-    assert make_expert(env, TrainConfig()).success_distance == 0.2
-    results = {}
-    for expert in ("geodesic", "optimistic"):
-        obs, _ = env.reset(options={"episode": ds.episodes[1]})  # 12.6 m geodesic, through doors
-        follower = make_expert(env, TrainConfig(expert=expert))
-        while True:
-            follower.observe(obs["depth"], env.agent_position, env.agent_yaw)
-            obs, _, term, trunc, info = env.step(follower.next_action(env.agent_position, env.agent_rotation))
-            if term or trunc:
-                break
-        results[expert] = info
+    env = make_envs(1, "train", seed=1)[0]
+    assert make_expert(env, 0.1, 0.15).success_distance == 0.1
+    follower = make_expert(env, 0.2, 0.15)
+    while True:
+        _, _, term, trunc, info = env.step(follower.next_action(env.agent_position, env.agent_rotation))
+        if term or trunc:
+            break
     env.close()
-    assert results["geodesic"]["success"] and results["optimistic"]["success"]
-    # knowing only what it has seen can only make the path longer
-    assert results["optimistic"]["path_length"] >= results["geodesic"]["path_length"] - 1e-6
-
-
-def test_silenced_previous_action_changes_nothing_and_stays_zero():
-    from navbench.policy.train import silence_prev_action
-
-    torch.manual_seed(0)
-    policy = PointNavResNetPolicy(PolicyNetConfig())
-    silence_prev_action(policy)
-    emb = policy.net.prev_action_embedding
-    assert not emb.weight.requires_grad and not emb.weight.any()
-    feats = torch.randn(3, 2, 2048)
-    goal, mask = torch.rand(3, 2, 2), torch.ones(3, 2, dtype=torch.bool)
-    hidden = policy.initial_hidden(2)
-    a = policy.forward_features(feats, goal, torch.zeros(3, 2, dtype=torch.long), mask, hidden)[0]
-    b = policy.forward_features(feats, goal, torch.full((3, 2), 2, dtype=torch.long), mask, hidden)[0]
-    assert torch.equal(a, b)
-    assert "net.prev_action_embedding.weight" in policy.state_dict()  # habitat's layout is kept
+    assert info["success"] and info["distance_to_goal"] < 0.2
 
 
 def test_whole_episode_batches_group_similar_lengths():
@@ -174,20 +120,19 @@ def test_whole_episode_batches_group_similar_lengths():
                     "weight": np.ones(L, np.float32)})
     rng = np.random.default_rng(0)
     for _ in range(20):
-        batch = buffer.sample(rng, 3, None)
+        batch = buffer.sample(rng, 3)
         lengths = batch["weight"].sum(0)
         assert batch["label"].shape[0] == lengths.max()  # padded to the longest of the three only
         assert batch["weight"].sum() == lengths.sum()  # padding weighs nothing
-    assert {int(buffer.sample(np.random.default_rng(s), 3, None)["label"].shape[0]) for s in range(30)} \
+    assert {int(buffer.sample(np.random.default_rng(s), 3)["label"].shape[0]) for s in range(30)} \
         == {7, 50, 52, 200}
 
 
 def test_buffer_drops_its_oldest_episodes_beyond_the_cap_set_on_the_command_line():
     from navbench.cli import build_parser
-    from navbench.policy.train import config_from_args
 
-    args = build_parser().parse_args(["train", "pointnav", "--buffer-frames", "100", "--lr", "1e-4"])
-    cfg = config_from_args(args)
+    args = build_parser().parse_args(["train", "dagger", "--buffer-frames", "100", "--lr", "1e-4"])
+    cfg = TrainConfig(buffer_frames=args.buffer_frames, lr=args.lr, iterations=args.iterations)
     assert (cfg.buffer_frames, cfg.lr, cfg.iterations) == (100, 1e-4, TrainConfig().iterations)
     buffer = EpisodeBuffer(cfg.buffer_frames)
     for i, L in enumerate((40, 30, 50, 20)):
@@ -196,15 +141,13 @@ def test_buffer_drops_its_oldest_episodes_beyond_the_cap_set_on_the_command_line
     assert [int(e["label"][0]) for e in buffer.episodes] == [1, 2, 3] and buffer.frames == 100
 
 
-def test_learner_freezes_what_the_config_says():
+def test_the_learner_trains_everything_but_the_visual_encoder():
     from navbench.policy.train import build_learner
 
-    policy, aux = build_learner(TrainConfig())  # defaults: frozen encoder, previous action used
-    assert aux is None and not any(p.requires_grad for p in policy.net.visual_encoder.parameters())
-    assert policy.net.prev_action_embedding.weight.requires_grad and policy.net.visual_fc[1].weight.requires_grad
-    policy, aux = build_learner(TrainConfig(freeze_visual=False, prev_action=False))
-    assert aux is not None and all(p.requires_grad for p in policy.net.visual_encoder.parameters())
-    assert not policy.net.prev_action_embedding.weight.requires_grad
+    policy = build_learner(TrainConfig())
+    assert not any(p.requires_grad for p in policy.net.visual_encoder.parameters())
+    others = [p for n, p in policy.named_parameters() if not n.startswith("net.visual_encoder.")]
+    assert others and all(p.requires_grad for p in others)
 
 
 def test_steps_after_a_blocked_forward_weigh_collision_weight():
@@ -237,26 +180,6 @@ def test_steps_near_the_goal_weigh_endgame_weight():
     assert np.array_equal(weights, np.where(near, 4.0, 1.0).astype(np.float32))
 
 
-def test_steps_of_a_long_expert_turn_weigh_turnaround_weight():
-    # Expert-driven episodes start at random headings, so some begin with a turn of 3 or more steps. A
-    # step weighs turnaround_weight exactly when the expert's plan still had >= 3 turns to go: it is a
-    # turn, and the expert (driving, no random actions) turns the same way again at the next step.
-    cfg = TrainConfig(num_envs=2, max_episode_steps=120, random_action_prob=0.0, turnaround_weight=4.0,
-                      inflection_weight=1.0)
-    _, segments, _ = _collect(cfg, frames=480)
-    weighted = 0
-    for seg in segments:
-        assert set(np.unique(seg["weight"])) <= {1.0, 4.0}
-        for t in np.flatnonzero(seg["weight"] == 4.0):
-            assert seg["label"][t] in (2, 3)
-            assert seg["label"][t + 1] == seg["label"][t]
-            weighted += 1
-    assert weighted > 0, "some episode must start facing away from its path for this test to mean anything"
-    unweighted = _collect(TrainConfig(num_envs=2, max_episode_steps=120, random_action_prob=0.0,
-                                      inflection_weight=1.0), frames=480)[1]
-    assert all((seg["weight"] == 1.0).all() for seg in unweighted)
-
-
 def test_cosine_schedule_runs_from_lr_to_lr_min_and_constant_stays():
     cfg = TrainConfig(iterations=5, lr=4e-4, lr_min=2e-5, lr_schedule="cosine")
     rates = [iteration_lr(cfg, i) for i in range(cfg.iterations)]
@@ -269,7 +192,7 @@ def test_cosine_schedule_runs_from_lr_to_lr_min_and_constant_stays():
 
 
 def test_tight_starts_keep_the_goal_and_start_beside_an_obstacle():
-    from navbench.policy.train import TIGHT_CLEARANCE, TIGHT_MIN_DISTANCE, reset_maybe_tight
+    from navbench.policy.rollout import TIGHT_CLEARANCE, TIGHT_MIN_DISTANCE, reset_maybe_tight
 
     env = make_envs(1, "train", seed=3)[0]
     rng = np.random.default_rng(0)
@@ -312,10 +235,23 @@ def test_act_bf16_collects_the_same_expert_episodes_with_bfloat16_rounded_featur
 
 def test_an_iteration_in_which_no_whole_episode_ends_makes_no_update_and_the_run_goes_on(tmp_path):
     # 8 envs x 10 steps an iteration against 30-step episodes: they first end in the third collection
-    cfg = TrainConfig(num_envs=8, iterations=3, frames_per_iteration=80, max_episode_steps=30, val_episodes=0,
-                      batch_chunks=2, random_action_prob=0.0)
+    cfg = TrainConfig(num_envs=8, iterations=3, frames_per_iteration=80, max_episode_steps=30, monitor_episodes=0,
+                      batch_episodes=2, random_action_prob=0.0)
     last = train(cfg, tmp_path / "dagger.pth", state_dir=tmp_path / "state", log_every=lambda _: None)
     with open(tmp_path / "dagger.log.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert [r["updates"] for r in rows[:2]] == ["0", "0"] and rows[0]["loss"] == "nan"  # nothing handed over yet
     assert last["iteration"] == 3 and last["updates"] >= 1 and last["frames"] == 240
+
+
+def test_the_monitor_scores_select_episodes_never_val(monkeypatch):
+    import navbench.policy.train as train_module
+
+    asked = []
+    real = train_module.split_file
+    monkeypatch.setattr(train_module, "split_file",
+                        lambda task, split: asked.append((task, split)) or real(task, split))
+    torch.manual_seed(0)
+    result = evaluate(PointNavResNetPolicy(PolicyNetConfig()), episodes=1, max_steps=3)
+    assert asked == [("pointnav", "select")]
+    assert set(result) == {"select_sr", "select_spl"}

@@ -8,12 +8,10 @@ import numpy as np
 import pytest
 import torch
 
-from navbench.policy.checkpoint import save_checkpoint
-from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
-                                 prepare_depth)
-from navbench.policy.ppo import PooledRollout, PPOConfig, RolloutWorker, train_ppo
-from navbench.policy.train import (Collector, CollectorWorker, TrainConfig, collect_in_workers, make_envs, train,
-                                   worker_shares)
+from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
+from navbench.policy.ppo import PPOConfig, Rollout
+from navbench.policy.rollout import Collection, make_envs, worker_shares
+from navbench.policy.train import Collector, TrainConfig, build_learner
 from navbench.policy.workers import WorkerError, WorkerPool
 
 
@@ -61,16 +59,18 @@ def test_expert_rollouts_split_over_two_workers_are_those_of_one_process():
     # seed, and two workers with one env each must hand over exactly the episodes one process collects.
     cfg = TrainConfig(num_envs=2, random_action_prob=0.0, max_episode_steps=100, workers=2)
     torch.manual_seed(0)
-    policy = PointNavResNetPolicy(PolicyNetConfig()).eval()
-    envs = make_envs(2, "train", seed=0)
-    learner = PointNavAgentPolicy(policy, num_envs=2, config=InferenceConfig(channels_last=False))
-    local, _ = Collector(envs, cfg, np.random.default_rng(0)).collect(learner, 240, beta=1.0)
-    for env in envs:
-        env.close()
-    shares = worker_shares(2, 2)
-    with WorkerPool(CollectorWorker, [(cfg, first, n, 0, [0, w]) for w, (first, n) in enumerate(shares)]) as pool:
-        pooled, stats = collect_in_workers(pool, policy, 240, beta=1.0)
-    assert len(local) >= 2 and stats["rollout_success"] == 1.0
+    policy = build_learner(cfg).eval()
+    local_source = Collection(Collector(make_envs(2, "train", seed=0), cfg, np.random.default_rng(0), policy))
+    try:
+        local, _ = local_source.collect(policy, 240, 1.0)
+    finally:
+        local_source.close()
+    pooled_source = Collection.in_workers(Collector, cfg, 0, [[0, 0], [0, 1]])
+    try:
+        pooled, successes = pooled_source.collect(policy, 240, 1.0)
+    finally:
+        pooled_source.close()
+    assert len(local) >= 2 and successes == [1.0] * len(pooled)
     by_key = {_key(s): s for s in local}
     assert sorted(by_key) == sorted(_key(s) for s in pooled)
     for seg in pooled:  # the worker encoded the same frames with the trainer's weights (batch 1 against 2)
@@ -82,11 +82,12 @@ def test_pooled_ppo_rollout_lays_the_workers_envs_side_by_side_with_the_trainers
     cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=6, workers=2)
     torch.manual_seed(1)
     policy = PointNavResNetPolicy(PolicyNetConfig()).eval()
-    shares = worker_shares(2, 2)
-    with WorkerPool(RolloutWorker, [(cfg, first, n, 7, [0, w]) for w, (first, n) in enumerate(shares)]) as pool:
-        rollout = PooledRollout(pool, policy, cfg)
-        data = rollout.collect()
-        again = rollout.collect()  # the second call sends no encoder weights
+    source = Collection.in_workers(Rollout, cfg, 7, [[0, 0], [0, 1]])
+    try:
+        data, _ = source.collect(policy)
+        again, _ = source.collect(policy)  # the second call sends no encoder weights
+    finally:
+        source.close()
     feat_dim = int(np.prod(policy.net.visual_encoder.output_shape))
     assert data["action"].shape == (6, 2) and data["feat"].shape == (6, 2, feat_dim)
     assert data["hidden0"].shape == (2, *policy.initial_hidden(1).shape[1:]) and not data["hidden0"].any()
@@ -103,14 +104,3 @@ def test_pooled_ppo_rollout_lays_the_workers_envs_side_by_side_with_the_trainers
     np.testing.assert_allclose(data["value"][0].numpy(), value.numpy(), rtol=1e-4, atol=1e-5)
     for env in envs:
         env.close()
-
-
-def test_training_runs_with_two_workers(tmp_path):
-    cfg = TrainConfig(num_envs=2, iterations=1, frames_per_iteration=60, max_episode_steps=30, val_episodes=0,
-                      batch_chunks=2, workers=2)
-    last = train(cfg, tmp_path / "dagger.pth", state_dir=tmp_path / "dagger_state", log_every=lambda _: None)
-    assert last["iteration"] == 1 and last["frames"] > 0 and last["updates"] >= 1
-    init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {}, fp16=False)
-    cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=4, updates=2, critic_warmup=1, workers=2)
-    last = train_ppo(cfg, tmp_path / "ppo.pth", init, state_dir=tmp_path / "ppo_state", log_every=lambda _: None)
-    assert last["update"] == 2 and last["frames"] == 16
