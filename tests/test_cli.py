@@ -68,7 +68,8 @@ def test_memory_ablations_are_recorded_and_labelled_in_one_order():
     _, label = _run("--agent", "memory", "--all-frames", "--keyframe-res", "160x120", "--no-visibility-stop",
                     "--no-tracking", "--no-fusion", "--rerank", "none", "--noise", "heavy", "--decoding", "least-tried",
                     "--seed", "1", "--checkpoint", "policies/pointnav_2h.pth")
-    assert label == "memory-pointnav_2h-least-tried-seed1-noise_heavy-norerank-nofusion-notrack-novisstop-160x120-allframes"
+    assert label == ("memory-pointnav_2h-least-tried-seed1-noise_heavy-norerank-nofusion-notrack-novisstop-160x120-"
+                     "allframes")
 
 
 def test_the_seed_names_a_run_only_when_the_agent_draws():
