@@ -8,6 +8,7 @@ far above or below the camera, detect when they stop making progress, and log th
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -32,6 +33,10 @@ class StepPolicy(Protocol):
     def act(self, depth: np.ndarray, pointgoal: np.ndarray) -> np.ndarray: ...
 
 
+# detect(observations, (world position, yaw)) -> (N, 3) world points of the goal object in this frame
+Detect = Callable[[dict[str, np.ndarray], tuple[np.ndarray, float]], np.ndarray]
+
+
 class Detector(Protocol):
     """The goal text segmented in the current frame, as (N, 3) world points (``LiveDetector``): ``reset``
     hands it the episode (its scene and goal text), ``sensors`` names the image it segments."""
@@ -43,7 +48,7 @@ class Detector(Protocol):
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray: ...
 
 
-def reset_detector(detector: Any, episode: Episode) -> None:
+def reset_detector(detector: Detect | Detector, episode: Episode) -> None:
     """Hand ``episode`` to a detector that takes it (a plain function needs none)."""
     reset = getattr(detector, "reset", None)
     if callable(reset):

@@ -14,10 +14,10 @@ pose (start pose + GPS/compass), and never sees the scene mesh or the navigabili
 4. **Approach** once anything was detected: the goal is the point nearest the agent (xz) of the
    cluster of target points nearest the agent, reached over the map (or, while the map has no path
    there yet, via the frontier minimising path distance + straight-line distance on to it); STOP
-   within ``stop_radius`` (xz) when the target passes the memory agent's visibility test (project
-   the points into the current depth; a point is visible when ``|z - depth| < visible_depth_tol``;
-   pass when >= ``visible_fraction`` of in-view points are). As for the memory agent, the radius
-   grows for targets far above or below the camera (``navbench.agents.base.fov_stop_radius``).
+   within ``stop_radius`` (xz) when the target passes the visibility test both ObjectNav agents use
+   (:mod:`navbench.agents.common`: a point is visible when ``|z - depth| < visible_depth_tol``; pass
+   when >= ``visible_fraction`` of in-view points are). As for the memory agent, the radius grows for
+   targets far above or below the camera.
 5. **STOP** when no reachable frontier remains and nothing was detected.
 
 Locomotion is the injected PointNav policy (the same ``StepPolicy`` as the memory agent). As in
@@ -37,7 +37,6 @@ target cluster) and picks another. Every decision is logged in
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -47,19 +46,14 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from navbench.agents.base import xz_dist, xz_dists
-from navbench.agents.common import (ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch, reset_detector,
-                                    subsample)
+from navbench.agents.common import (Detect, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch,
+                                    reset_detector, subsample)
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.geometry import voxel_downsample
 from navbench.scene.pose import heading_vector
-
-# detect(observations, (world position, yaw)) -> (N, 3) world points of the goal object in this frame; a
-# detector with a ``reset(episode)`` method (``LiveDetector``) is handed each episode first.
-Detect = Callable[[dict[str, np.ndarray], tuple[np.ndarray, float]], np.ndarray]
-
 
 @dataclass(frozen=True)
 class FrontierAgentConfig(ObjectNavAgentConfig):

@@ -48,9 +48,6 @@ from navbench.localize.fusion import GoalCandidate
 from navbench.localize.grouping import nearest_distances
 from navbench.scene.pose import wrap_angle, yaw_towards
 
-__all__ = ["Detector", "MemoryAgent", "MemoryAgentConfig", "StepPolicy", "nearest_first"]
-
-
 @dataclass(frozen=True)
 class MemoryAgentConfig(ObjectNavAgentConfig):
     # Goal tracking: the goal moves to the nearest visible point of the target when that is this far
@@ -160,7 +157,6 @@ def nearest_first(cands: Sequence[GoalCandidate], position: np.ndarray,
         route_m = np.asarray(route(position, cands), np.float64)
     straight = [xz_dist(c.centre, position) for c in cands]
     return sorted(range(len(cands)), key=lambda j: (float(route_m[j]), straight[j])), route_m
-
 
 
 def log_route(metres: float) -> float | None:

@@ -32,7 +32,6 @@ PERCEPTION_DEFAULTS: dict[str, Any] = {"perception": "oracle", "noise": "none"}
 # The memory agent's localisation and stopping ablations (all on = the agent as reported).
 MEMORY_DEFAULTS: dict[str, Any] = {"fusion": True, "rerank": True, "keyframe_res": "full", "all_frames": False,
                                    "goal_tracking": True, "visibility_stop": True}
-MODEL_KEYS = ("siglip2", "qwen_vl", "sam3")  # local model directories of the real perception stack
 KEYFRAME_RES = ("full", "640x480", "160x120")
 
 
@@ -172,27 +171,25 @@ def agent_options(agent: str, checkpoint: str | None = None, decoding: str | Non
     MEMORY_DEFAULTS. Options the agent does not use raise a one-line ValueError (unless at default)."""
     agent_factory(agent)
     opts: dict[str, Any] = {}
-    policy = agent in POLICY_AGENTS
-    if not policy and (checkpoint is not None or decoding is not None or temperature is not None):
+    if agent not in POLICY_AGENTS and (checkpoint is not None or decoding is not None or temperature is not None):
         raise ValueError(f"--checkpoint, --decoding and --temperature apply to the agents that drive with the "
                          f"PointNav policy ({', '.join(POLICY_AGENTS)}), not {agent!r}")
-    if policy:
+    if agent in POLICY_AGENTS:
         from navbench.policy.net import InferenceConfig
-        if checkpoint is not None:
-            opts["checkpoint"] = checkpoint
-        opts["decoding"] = decoding or DEFAULT_DECODING[agent]
-        if temperature is not None and opts["decoding"] != "sample":
-            raise ValueError(f"--temperature applies to decoding 'sample' only, not {opts['decoding']!r}")
-        InferenceConfig(decoding=opts["decoding"], temperature=1.0 if temperature is None else temperature)
-        if opts["decoding"] == "sample":
-            opts["temperature"] = 1.0 if temperature is None else temperature
-    unknown = set(choices) - set(PERCEPTION_DEFAULTS) - set(MEMORY_DEFAULTS)
+        decoding = decoding or DEFAULT_DECODING[agent]
+        if temperature is not None and decoding != "sample":
+            raise ValueError(f"--temperature applies to decoding 'sample' only, not {decoding!r}")
+        inference = InferenceConfig(decoding=decoding, temperature=1.0 if temperature is None else temperature)
+        opts.update({"checkpoint": checkpoint} if checkpoint else {}, decoding=inference.decoding)
+        if inference.decoding == "sample":
+            opts["temperature"] = inference.temperature
+    defaults = {**PERCEPTION_DEFAULTS, **MEMORY_DEFAULTS}
+    unknown = set(choices) - set(defaults)
     if unknown:
         raise ValueError(f"unknown agent option(s): {', '.join(sorted(unknown))}")
-    own = {**PERCEPTION_DEFAULTS, **MEMORY_DEFAULTS} if agent == "memory" else \
-        dict(PERCEPTION_DEFAULTS) if agent == "frontier" else {}
+    own = defaults if agent == "memory" else PERCEPTION_DEFAULTS if agent == "frontier" else {}
     for key, value in choices.items():
-        if key not in own and value != {**PERCEPTION_DEFAULTS, **MEMORY_DEFAULTS}[key]:
+        if key not in own and value != defaults[key]:
             raise ValueError(f"agent option {key!r} does not apply to agent {agent!r}")
     if choices.get("keyframe_res", "full") not in KEYFRAME_RES:
         raise ValueError(f"unknown keyframe resolution {choices['keyframe_res']!r}: choose from "
