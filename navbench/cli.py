@@ -1,6 +1,7 @@
 """The ``navbench`` command: a thin layer over the library.
 
-    navbench run --split val_unseen [--task objectnav] [--agent oracle] [--limit N] [--out DIR] [--resume]
+    navbench run --split val_unseen [--task objectnav] [--agent memory] [--decoding argmax|sample|least-tried]
+                 [--limit N] [--out DIR] [--resume]
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
@@ -16,11 +17,13 @@ the file and the problem and exits with code 2.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 from pathlib import Path
 
+from navbench.agents.registry import (AGENTS, DEFAULT_DECODING, agent_factory, agent_options, prebuild_memories,
+                                      run_label, scan_config)
+from navbench.agents.registry import make_oracle, make_pointnav  # noqa: F401  (importable from here too)
 from navbench.env.config import SUCCESS_DISTANCE
 from navbench.paths import EPISODES_DIR, SCENES_DIR, split_file
 
@@ -30,132 +33,19 @@ OBJECTNAV_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")
 OVON_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")  # navbench's ObjectNav splits
 
 
-# ------------------------------------------------------------------------------------ agent choices
-# Top-level functions (not lambdas) so worker processes can unpickle them.
-def make_oracle(cfg):
-    from navbench.agents.oracle import OracleAgent
-    return OracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(()))
-
-
-def make_optimistic(cfg):
-    from navbench.agents.oracle import OptimisticOracleAgent
-    if cfg.task != "pointnav":
-        raise ValueError("agent 'optimistic' plans to a single goal point: use it with --task pointnav")
-    return OptimisticOracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(("depth",)))
-
-
-def make_random(cfg):
-    from navbench.agents.random_agent import RandomAgent
-    return RandomAgent(cfg.success_distance, seed=cfg.seed)
-
-
-def _inference_config(cfg):
-    """How the PointNav policy picks actions (argmax unless --sample-actions), for every agent that drives with it."""
-    from navbench.policy.net import InferenceConfig
-    o = cfg.agent_options
-    return InferenceConfig(sample=o.get("sample_actions", False), temperature=o.get("temperature", 1.0),
-                           sample_on_revisit=o.get("sample_on_revisit", False), least_tried=o.get("least_tried", False))
-
-
-def make_pointnav(cfg):
-    from navbench.agents.pointnav import PointNavAgent
-    return PointNavAgent(cfg.agent_options.get("checkpoint"), _inference_config(cfg),
-                         num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
-
-
-def scan_config(keyframe_res: str, all_frames: bool):
-    """The pre-scan for a ``--keyframe-res`` choice: the agent's 224x224 camera stored as rendered or
-    downsampled to 160x120, or a 640x480 phone-like scan camera; ``all_frames`` keeps every frame."""
-    from navbench.memory.prescan import PrescanConfig
-    scan = {"full": PrescanConfig(), "160x120": PrescanConfig(store_resolution=(160, 120)),
-            "640x480": PrescanConfig(width=640, height=480)}[keyframe_res]
-    return dataclasses.replace(scan, keyframes=not all_frames)
-
-
-def _perception_config(cfg):
-    from navbench.agents.perceive import PerceptionConfig
-    from navbench.localize.benchmark import ModelDirs
-
-    o = cfg.agent_options
-    scan = scan_config(o.get("keyframe_res", "full"), o.get("all_frames", False))
-    models = ModelDirs(**{k: Path(v) for k, v in o.get("models", {}).items()})
-    return PerceptionConfig(perception=o.get("perception", "oracle"), noise=o.get("noise", "none"),
-                            fusion=o.get("fusion", True), rerank=o.get("rerank", True), prescan=scan,
-                            memory_root=o.get("memory_root"), models=models)
-
-
-def _step_policy(cfg):
-    from navbench.agents.pointnav import DEFAULT_CHECKPOINT
-    from navbench.policy.checkpoint import load_checkpoint
-    from navbench.policy.net import PointNavAgentPolicy
-    return PointNavAgentPolicy(load_checkpoint(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT),
-                               config=_inference_config(cfg))
-
-
-def make_memory(cfg):
-    from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
-    from navbench.agents.perceive import LiveDetector, SceneLocalizer
-    o = cfg.agent_options
-    agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
-                                  visibility_stop=o.get("visibility_stop", True),
-                                  recovery_turns=MemoryAgentConfig.recovery_turns if o.get("recovery", True) else 0,
-                                  goal_standoff=MemoryAgentConfig.goal_standoff if o.get("standoff", True) else 0.0,
-                                  view_detour=o.get("detour", True),
-                                  recovery_probes=MemoryAgentConfig.recovery_probes if o.get("probe", True) else 0,
-                                  route_guidance=o.get("guidance", True))
-    pcfg = _perception_config(cfg)
-    # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
-    # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
-    env_cfg = cfg.env_config(("depth",))
-    verify = LiveDetector(cfg.scene_dir, pcfg, env_cfg) if o.get("verify", True) else None
-    localizer = SceneLocalizer(cfg.scene_dir, pcfg)
-    route = localizer.route_lengths if o.get("route", True) else None
-    return MemoryAgent(localizer, _step_policy(cfg), agent_cfg, env_cfg, verify=verify, route=route,
-                       route_path=localizer.route_path, seed=cfg.seed)
-
-
-def make_frontier(cfg):
-    from navbench.agents.frontier import FrontierAgent, FrontierAgentConfig
-    from navbench.agents.perceive import LiveDetector
-    env_cfg = cfg.env_config(FrontierAgentConfig().sensors)
-    return FrontierAgent(LiveDetector(cfg.scene_dir, _perception_config(cfg), env_cfg), _step_policy(cfg),
-                         FrontierAgentConfig(), env_cfg, seed=cfg.seed)
-
-
-AGENTS = {"oracle": make_oracle, "optimistic": make_optimistic, "random": make_random, "pointnav": make_pointnav,
-          "memory": make_memory, "frontier": make_frontier}
-
-
-def prebuild_memories(cfg) -> None:
-    """Build the memory agent's per-scene memories once, in this process, before workers start: two
-    workers must never build the same cache directory at the same time."""
-    from navbench.agents.perceive import scene_memory
-    from navbench.env.base import resolve_scene_path
-    from navbench.episodes.io import load_dataset
-    from navbench.eval.runner import select_episodes
-
-    pcfg = _perception_config(cfg)
-    scenes = dict.fromkeys(e.scene_id for e in select_episodes(load_dataset(cfg.episodes), cfg.limit, cfg.per_scene))
-    for scene_id in scenes:
-        m = scene_memory(resolve_scene_path(scene_id, Path(cfg.scene_dir)), pcfg)
-        st = m.stats
-        print(f"memory {scene_id}: {st.keyframes}/{st.frames} keyframes, {st.bytes / 1e6:.2f} MB, "
-              f"built in {st.build_seconds:.2f} s" + ("" if m.built_now else " (cached)"), file=sys.stderr)
-
-
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
-    from navbench.eval.runner import RunConfig, run
+    from navbench.episodes.io import load_dataset
+    from navbench.eval.runner import RunConfig, run, select_episodes
     from navbench.eval.table import summary_markdown
 
-    if args.agent is not None and args.agent not in AGENTS:
-        raise ValueError(f"unknown agent {args.agent!r}: choose from {', '.join(AGENTS)}")
+    if args.agent is not None:
+        agent_factory(args.agent)  # an unknown name fails before anything loads
     task = args.task
     if args.episodes:
         episodes = Path(args.episodes)
         split = args.split
         if task is None:
-            from navbench.episodes.io import load_dataset
             task = load_dataset(episodes).task
         default_sd = SUCCESS_DISTANCE[task]
     else:
@@ -180,8 +70,8 @@ def cmd_run(args) -> int:
         envs_per_worker=args.envs_per_worker or (8 if args.agent == "pointnav" else 1),
         agent_options=_agent_options(args),
     )
-    cfg.label = _label(args, cfg)
-    out = Path(args.out or Path("runs") / f"{cfg.label}_{task}_{split or episodes.stem}")
+    cfg.label = run_label(cfg.agent, cfg.agent_options, cfg.seed)
+    out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label))
 
     def progress(rec, n, total):
         if args.quiet:
@@ -190,75 +80,26 @@ def cmd_run(args) -> int:
         print(f"[{n}/{total}] {rec['scene_id']} ep {rec['episode_id']}: {status}", file=sys.stderr, flush=True)
 
     if args.agent == "memory":
-        prebuild_memories(cfg)
+        prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit, cfg.per_scene))
     summary = run(cfg, AGENTS[args.agent], out, resume=args.resume, progress=progress)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
     return 0
 
 
+def run_dir(task: str, split: str, label: str) -> Path:
+    """A run's default directory: runs/<task>/<split>/<label> (split: a user's episode file's stem)."""
+    return Path("runs") / task / split / label
+
+
 def _agent_options(args) -> dict:
-    """Everything that changes an agent's behaviour, recorded in the run's config.json."""
-    opts = {"checkpoint": args.checkpoint}
-    if args.sample_actions:  # recorded only when on: argmax runs keep their config
-        if args.agent not in ("pointnav", "memory", "frontier"):
-            raise ValueError(f"--sample-actions applies to the agents that drive with the PointNav policy "
-                             f"(pointnav, memory, frontier), not {args.agent!r}")
-        opts["sample_actions"] = True
-    if args.temperature is not None:
-        if not args.sample_actions:
-            raise ValueError("--temperature sets how --sample-actions draws: give both")
-        if not args.temperature > 0:
-            raise ValueError(f"--temperature must be > 0, got {args.temperature}")
-        opts["temperature"] = args.temperature
-    if args.sample_on_revisit:
-        if not args.sample_actions:
-            raise ValueError("--sample-on-revisit sets when --sample-actions draws: give both")
-        opts["sample_on_revisit"] = True
-    if args.least_tried:
-        if not args.sample_on_revisit:
-            raise ValueError("--least-tried sets what --sample-on-revisit draws from: give both")
-        opts["least_tried"] = True
-    if args.agent in ("memory", "frontier"):
-        opts.update(perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
-                    rerank=args.rerank != "none", keyframe_res=args.keyframe_res, all_frames=args.all_frames,
-                    goal_tracking=not args.no_tracking, visibility_stop=not args.no_visibility_stop,
-                    verify=not args.no_verify, recovery=not args.no_recovery, standoff=not args.no_standoff,
-                    detour=not args.no_detour, route=not args.no_route, probe=not args.no_probe,
-                    guidance=not args.no_guidance,
-                    models={k: v for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
-                                              ("sam3", args.sam3)) if v})
-    return {k: v for k, v in opts.items() if v is not None}
-
-
-def _label(args, cfg) -> str:
-    """Table row name: the agent plus any ablation that changes it (e.g. memory-norerank-noise_default)."""
-    o = cfg.agent_options
-    parts = [args.agent]
-    if args.agent in ("memory", "frontier"):
-        parts += [tag for tag, on in (("norerank", not o["rerank"]), ("nofusion", not o["fusion"]),
-                                      ("notrack", not o["goal_tracking"]), ("novisstop", not o["visibility_stop"]),
-                                      ("noverify", not o.get("verify", True)),
-                                      ("norecover", not o.get("recovery", True)),
-                                      ("nostandoff", not o.get("standoff", True)),
-                                      ("nodetour", not o.get("detour", True)), ("noroute", not o.get("route", True)),
-                                      ("noprobe", not o.get("probe", True)),
-                                      ("noguidance", not o.get("guidance", True)),
-                                      ("allframes", o["all_frames"]))
-                  if on]
-        if o["noise"] != "none":
-            parts.append(f"noise_{o['noise']}")
-        if o["keyframe_res"] != "full":
-            parts.append(o["keyframe_res"])
-        if o["perception"] != "oracle":
-            parts.append(o["perception"])
-    if o.get("sample_actions"):
-        parts.append("sampled" if o.get("temperature", 1.0) == 1.0 else f"sampled_t{o['temperature']:g}")
-        if o.get("sample_on_revisit"):
-            parts.append("revisit")
-        if o.get("least_tried"):
-            parts.append("leasttried")
-    return "-".join(parts)
+    """Everything that changes the agent's behaviour, as its run's config.json records it."""
+    return agent_options(
+        args.agent, checkpoint=args.checkpoint, decoding=args.decoding, temperature=args.temperature,
+        models={"siglip2": args.siglip2, "qwen_vl": args.qwen_vl, "sam3": args.sam3},
+        perception=args.perception, noise=args.noise, fusion=not args.no_fusion, rerank=args.rerank != "none",
+        keyframe_res=args.keyframe_res, all_frames=args.all_frames, goal_tracking=not args.no_tracking,
+        visibility_stop=not args.no_visibility_stop)
 
 
 def cmd_table(args) -> int:
@@ -343,43 +184,27 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--limit", type=int, help="first N episodes only")
     r.add_argument("--per-scene", type=int, help="first K episodes of each scene only (before --limit)")
     r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--out", help="run directory (default runs/AGENT_TASK_SPLIT)")
+    r.add_argument("--out", help="run directory (default runs/TASK/SPLIT/LABEL: the agent, then what differs "
+                                 "from its defaults, e.g. runs/pointnav/val/pointnav-argmax)")
     r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")
     r.add_argument("--success-distance", type=float)
-    r.add_argument("--checkpoint", help="PointNav policy checkpoint in habitat's layout (default: the shipped one)")
-    r.add_argument("--sample-actions", action="store_true",
-                   help="pointnav, memory and frontier agents: sample the PointNav policy's actions "
-                        "(habitat-baselines' evaluation; seeded by --seed and the episode) instead of the argmax")
-    r.add_argument("--temperature", type=float,
-                   help="with --sample-actions: draw from softmax(logits / T) (default 1, the policy's own "
-                        "distribution; lower is closer to the argmax)")
-    r.add_argument("--sample-on-revisit", action="store_true",
-                   help="with --sample-actions: take the argmax, and draw only at a pose the episode has "
-                        "already been in (a refused step, a back-and-forth turn, a loop)")
-    r.add_argument("--least-tried", action="store_true",
-                   help="with --sample-on-revisit: draw only among the movements taken least often at that "
-                        "pose (STOP keeps its probability)")
-    m = r.add_argument_group("memory / frontier agents (perception and ablations)")
+    p_ = r.add_argument_group("PointNav policy (pointnav, memory and frontier agents)")
+    p_.add_argument("--checkpoint", help="policy checkpoint in habitat's layout (default: the shipped one)")
+    p_.add_argument("--decoding", choices=("argmax", "sample", "least-tried"),
+                    help="how actions are chosen from the policy's output: argmax; sample (every action drawn, "
+                         "as habitat-baselines evaluates); least-tried (argmax, but at a pose already visited "
+                         "drawn among the movements taken there least often). Draws are seeded by --seed and "
+                         "the episode. Default: " + ", ".join(f"{k} {v}" for k, v in DEFAULT_DECODING.items()))
+    p_.add_argument("--temperature", type=float,
+                    help="with --decoding sample: draw from softmax(logits / T) (default 1; lower is closer to "
+                         "the argmax)")
+    m = r.add_argument_group("memory / frontier agents: perception (both) and ablations (memory agent)")
     m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
     m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")
     m.add_argument("--rerank", default="vlm", choices=("vlm", "none"), help="'none': skip VLM re-ranking")
     m.add_argument("--no-fusion", action="store_true", help="single-view backprojection (no multi-view fusion)")
     m.add_argument("--no-tracking", action="store_true", help="no dynamic goal tracking")
     m.add_argument("--no-visibility-stop", action="store_true", help="STOP on distance alone")
-    m.add_argument("--no-verify", action="store_true", help="memory agent: no re-detection of the target before STOP")
-    m.add_argument("--no-recovery", action="store_true",
-                   help="memory agent: no recovery manoeuvre when stuck with no candidate left")
-    m.add_argument("--no-standoff", action="store_true",
-                   help="memory agent: the policy drives to the target point itself, not to a point short of it")
-    m.add_argument("--no-detour", action="store_true",
-                   help="memory agent: no detour to a keyframe's view of a target hidden behind a wall")
-    m.add_argument("--no-route", action="store_true",
-                   help="memory agent: order candidates by straight-line distance, not by route over the "
-                        "keyframe poses")
-    m.add_argument("--no-probe", action="store_true",
-                   help="memory agent: a recovery whose first step is refused does not turn on to try other headings")
-    m.add_argument("--no-guidance", action="store_true",
-                   help="memory agent: stuck on a target, do not follow the memory's keyframe route to it")
     m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
     m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     m.add_argument("--siglip2", help="local SigLIP2 model directory")

@@ -1,66 +1,114 @@
-"""The CLI's ablation flags reach the agent's config and name the run."""
-
-from types import SimpleNamespace
+"""`navbench run`'s options: what reaches the agent's config, the per-agent defaults, and the run's name."""
 
 import pytest
 
-from navbench.agents.memory_agent import MemoryAgentConfig
-from navbench.cli import _agent_options, _label, build_parser
+from navbench.agents.registry import (AGENTS, DEFAULT_DECODING, agent_factory, agent_options, decoding_of,
+                                      run_label)
+from navbench.cli import _agent_options, build_parser, main, run_dir
+from navbench.policy.net import DECODINGS
 
 
-def _options(*flags):
-    args = build_parser().parse_args(["run", "--agent", "memory", *flags])
+def _run(*flags):
+    """(options as config.json records them, the run's label) for `navbench run FLAGS`."""
+    args = build_parser().parse_args(["run", *flags])
+    args.agent = args.agent or "pointnav"
     opts = _agent_options(args)
-    return args, opts, _label(args, SimpleNamespace(agent_options=opts))
+    return opts, run_label(args.agent, opts, args.seed)
 
 
-def test_memory_ablation_flags_are_recorded_and_labelled():
-    _, opts, label = _options()
-    assert opts["standoff"] and opts["recovery"] and opts["verify"] and opts["route"] and opts["guidance"]
-    assert label == "memory"
-    _, opts, label = _options("--no-standoff", "--no-recovery", "--rerank", "none", "--no-detour", "--no-route",
-                              "--no-probe", "--no-guidance")
-    assert not opts["standoff"] and not opts["recovery"] and not opts["rerank"] and not opts["detour"]
-    assert not opts["route"] and not opts["probe"] and not opts["guidance"]
-    assert label == "memory-norerank-norecover-nostandoff-nodetour-noroute-noprobe-noguidance"
-    assert MemoryAgentConfig().goal_standoff > 0  # on by default; the flag turns it off
-    assert MemoryAgentConfig().view_detour
+def test_each_policy_agent_has_its_reported_decoding_by_default_and_records_it():
+    # pointnav: its table's headline row is least-tried; the ObjectNav tables are argmax
+    assert DEFAULT_DECODING == {"pointnav": "least-tried", "memory": "argmax", "frontier": "argmax"}
+    opts, label = _run("--task", "pointnav", "--agent", "pointnav")
+    assert opts == {"decoding": "least-tried"} and label == "pointnav"
+    for agent in ("memory", "frontier"):
+        opts, label = _run("--agent", agent)
+        assert opts["decoding"] == "argmax" and "temperature" not in opts and label == agent
+    assert _run("--agent", "oracle") == ({}, "oracle")  # no policy, no decoding
 
 
-def test_sample_actions_is_recorded_only_when_on_and_names_the_run():
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions"])
-    opts = _agent_options(args)
-    assert opts["sample_actions"] and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav-sampled"
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav"])
-    opts = _agent_options(args)  # argmax runs keep the config.json they had before the flag existed
-    assert "sample_actions" not in opts and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav"
-    args = build_parser().parse_args(["run", "--agent", "oracle", "--sample-actions"])
-    with pytest.raises(ValueError, match="PointNav policy"):  # the oracle has no policy to draw from: say so
-        _agent_options(args)
-    _, opts, label = _options("--sample-actions", "--sample-on-revisit", "--least-tried")  # memory drives with it
-    assert opts["least_tried"] and label == "memory-sampled-revisit-leasttried"
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
-                                      "--temperature", "0.5"])
-    opts = _agent_options(args)
-    assert opts["temperature"] == 0.5 and _label(args, SimpleNamespace(agent_options=opts)) == "pointnav-sampled_t0.5"
-    for bad in (["--temperature", "0.5"], ["--sample-actions", "--temperature", "0"]):  # no draws to shape; T > 0
-        args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", *bad])
-        with pytest.raises(ValueError, match="temperature"):
-            _agent_options(args)
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
-                                      "--temperature", "0.5", "--sample-on-revisit"])
-    opts = _agent_options(args)
-    assert opts["sample_on_revisit"]
-    assert _label(args, SimpleNamespace(agent_options=opts)) == "pointnav-sampled_t0.5-revisit"
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-on-revisit"])
-    with pytest.raises(ValueError, match="sample-on-revisit"):
-        _agent_options(args)
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
-                                      "--sample-on-revisit", "--least-tried"])
-    opts = _agent_options(args)
-    assert opts["least_tried"] and _label(args, SimpleNamespace(agent_options=opts)) == \
-        "pointnav-sampled-revisit-leasttried"
-    args = build_parser().parse_args(["run", "--task", "pointnav", "--agent", "pointnav", "--sample-actions",
-                                      "--least-tried"])
-    with pytest.raises(ValueError, match="least-tried"):  # it shapes the revisit draws: without them, say so
-        _agent_options(args)
+def test_decoding_flags_name_the_run_when_they_differ_from_the_agents_default():
+    assert _run("--task", "pointnav", "--decoding", "argmax") == ({"decoding": "argmax"}, "pointnav-argmax")
+    assert _run("--agent", "memory", "--decoding", "least-tried")[1] == "memory-least-tried"
+    opts, label = _run("--task", "pointnav", "--decoding", "sample")
+    assert opts == {"decoding": "sample", "temperature": 1.0} and label == "pointnav-sample"
+    opts, label = _run("--task", "pointnav", "--decoding", "sample", "--temperature", "0.5")
+    assert opts["temperature"] == 0.5 and label == "pointnav-sample_t0.5"
+    for decoding in DECODINGS:  # the CLI offers every decoding the policy has
+        assert _run("--task", "pointnav", "--decoding", decoding)[0]["decoding"] == decoding
+
+
+@pytest.mark.parametrize("flags,match", [
+    (["--task", "pointnav", "--temperature", "0.5"], "temperature"),  # least-tried draws no temperature
+    (["--task", "pointnav", "--decoding", "sample", "--temperature", "0"], "temperature"),
+    (["--agent", "oracle", "--decoding", "sample"], "PointNav policy"),  # the oracle has no policy to draw from
+    (["--agent", "frontier", "--no-fusion"], "fusion"),  # a memory agent ablation
+    (["--task", "pointnav", "--noise", "default"], "noise"),
+])
+def test_options_an_agent_does_not_use_are_refused_in_one_line(flags, match):
+    with pytest.raises(ValueError, match=match) as exc:
+        _run(*flags)
+    assert "\n" not in str(exc.value)
+
+
+def test_removed_flags_are_gone():
+    for flag in ("--sample-actions", "--sample-on-revisit", "--least-tried", "--no-verify", "--no-recovery",
+                 "--no-standoff", "--no-detour", "--no-route", "--no-probe", "--no-guidance"):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args(["run", flag])
+
+
+def test_memory_ablations_are_recorded_and_labelled_in_one_order():
+    opts, label = _run("--agent", "memory")
+    assert opts == {"decoding": "argmax", "perception": "oracle", "noise": "none", "fusion": True, "rerank": True,
+                    "keyframe_res": "full", "all_frames": False, "goal_tracking": True, "visibility_stop": True,
+                    "models": {}}
+    assert _run("--agent", "memory", "--rerank", "none")[1] == "memory-norerank"
+    assert _run("--agent", "memory", "--noise", "default")[1] == "memory-noise_default"
+    _, label = _run("--agent", "memory", "--all-frames", "--keyframe-res", "160x120", "--no-visibility-stop",
+                    "--no-tracking", "--no-fusion", "--rerank", "none", "--noise", "heavy", "--decoding", "least-tried",
+                    "--seed", "1", "--checkpoint", "policies/pointnav_2h.pth")
+    assert label == ("memory-pointnav_2h-least-tried-seed1-noise_heavy-norerank-nofusion-notrack-novisstop-160x120-"
+                     "allframes")
+
+
+def test_the_seed_names_a_run_only_when_the_agent_draws():
+    assert _run("--task", "pointnav", "--checkpoint", "policies/pointnav_2h.pth", "--seed", "3")[1] == \
+        "pointnav-pointnav_2h-seed3"
+    assert _run("--task", "pointnav", "--decoding", "argmax", "--seed", "3")[1] == "pointnav-argmax"
+    assert _run("--agent", "memory", "--seed", "3")[1] == "memory"  # argmax: the seed changes nothing
+    assert _run("--agent", "random", "--seed", "3")[1] == "random-seed3"
+    assert _run("--agent", "oracle", "--seed", "3")[1] == "oracle"
+    assert _run("--task", "pointnav", "--checkpoint", "policies/pointnav_navbench.pth")[1] == "pointnav"
+
+
+def test_registry_lookup_and_run_directory():
+    assert set(AGENTS) == {"oracle", "optimistic", "random", "pointnav", "memory", "frontier"}
+    assert agent_factory("memory") is AGENTS["memory"]
+    with pytest.raises(ValueError, match="unknown agent 'nope': choose from oracle"):
+        agent_factory("nope")
+    assert str(run_dir("pointnav", "val", "pointnav-argmax")) == "runs/pointnav/val/pointnav-argmax"
+
+
+def test_unknown_agent_is_one_line_and_exit_code_2(capsys):
+    assert main(["run", "--agent", "nope"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown agent 'nope'" in err
+
+
+def test_configs_written_before_the_decoding_option_still_say_how_they_decoded():
+    assert decoding_of({}) == ("argmax", 1.0)
+    assert decoding_of({"sample_actions": True, "temperature": 0.5}) == ("sample", 0.5)
+    assert decoding_of({"sample_actions": True, "sample_on_revisit": True, "least_tried": True}) == \
+        ("least-tried", 1.0)
+    with pytest.raises(ValueError, match="least-tried"):
+        decoding_of({"sample_actions": True, "sample_on_revisit": True})
+    assert agent_options("pointnav") == {"decoding": "least-tried"}
+
+
+def test_default_run_directory_is_task_split_label(pointnav_file, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "--episodes", str(pointnav_file), "--agent", "oracle", "--limit", "1", "--workers", "1",
+                 "-q"]) == 0
+    stem = pointnav_file.name.split(".")[0]
+    assert (tmp_path / "runs" / "pointnav" / stem / "oracle" / "episodes.jsonl").is_file()

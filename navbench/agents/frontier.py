@@ -14,10 +14,10 @@ pose (start pose + GPS/compass), and never sees the scene mesh or the navigabili
 4. **Approach** once anything was detected: the goal is the point nearest the agent (xz) of the
    cluster of target points nearest the agent, reached over the map (or, while the map has no path
    there yet, via the frontier minimising path distance + straight-line distance on to it); STOP
-   within ``stop_radius`` (xz) when the target passes the memory agent's visibility test (project
-   the points into the current depth; a point is visible when ``|z - depth| < visible_depth_tol``;
-   pass when >= ``visible_fraction`` of in-view points are). As for the memory agent, the radius
-   grows for targets far above or below the camera (``navbench.agents.base.fov_stop_radius``).
+   within ``stop_radius`` (xz) when the target passes the visibility test both ObjectNav agents use
+   (:mod:`navbench.agents.common`: a point is visible when ``|z - depth| < visible_depth_tol``; pass
+   when >= ``visible_fraction`` of in-view points are). As for the memory agent, the radius grows for
+   targets far above or below the camera.
 5. **STOP** when no reachable frontier remains and nothing was detected.
 
 Locomotion is the injected PointNav policy (the same ``StepPolicy`` as the memory agent). As in
@@ -37,9 +37,7 @@ target cluster) and picks another. Every decision is logged in
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import cv2
 import numpy as np
@@ -47,23 +45,18 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import (PoseTracker, episode_seed, fov_stop_radius, log_value, nearest_to_height, xz_dist,
-                                  xz_dists)
-from navbench.agents.memory_agent import StepPolicy
+from navbench.agents.base import xz_dist, xz_dists
+from navbench.agents.common import (Detect, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch,
+                                    reset_detector, subsample)
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
-from navbench.env.sensors import depth_metres, pointgoal_polar
+from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import Episode
-from navbench.localize.geometry import project, voxel_downsample, world_to_camera
-from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
-from navbench.scene.pose import heading_vector, quat_from_yaw
-
-# detect(observations, (world position, yaw)) -> (N, 3) world points of the goal object in this frame.
-Detector = Callable[[dict[str, np.ndarray], tuple[np.ndarray, float]], np.ndarray]
-
+from navbench.localize.geometry import voxel_downsample
+from navbench.scene.pose import heading_vector
 
 @dataclass(frozen=True)
-class FrontierAgentConfig:
+class FrontierAgentConfig(ObjectNavAgentConfig):
     occupancy: OccupancyConfig = OccupancyConfig()
     initial_turns: int = 12  # 12 x 30 deg: a full look-around before moving
     replan_every: int = 10  # steps between re-choosing the nearest frontier
@@ -73,43 +66,29 @@ class FrontierAgentConfig:
     blacklist_radius: float = 0.75  # m; frontier goals this near a blacklisted one are skipped
     waypoint_lookahead: float = 1.5  # m along the map path; 0 = hand the policy the goal itself (VLFM)
     waypoint_reached: float = 0.5  # m; a waypoint is refreshed once the agent is this near
-    stop_radius: float = 0.9  # m (xz) from the nearest target point
-    visible_depth_tol: float = 0.3
-    visible_fraction: float = 0.05
-    max_projected_points: int = 2000
-    max_stop_overrides: int = 5  # steps within stop_radius without a visible target before stopping anyway
-    fov_stop_margin: float = 0.15  # as the memory agent: a larger radius for targets far above/below the camera
     target_voxel: float = 0.05  # m; accumulated target points are voxel-downsampled to this
     target_cluster_eps: float = 0.5  # m; target points closer than this belong to one object
     min_target_points: int = 1  # clusters with fewer points are ignored (detector noise)
-    stuck_window: int = 30
-    stuck_progress: float = 0.5
     sensors: tuple[str, ...] = ("rgb", "depth", "semantic")  # semantic only for the oracle detector
 
 
-class FrontierAgent:
-    sensors: tuple[str, ...] = ("rgb", "depth", "semantic")
+class FrontierAgent(ObjectNavAgentBase):
+    config: FrontierAgentConfig
 
-    def __init__(self, detect: Detector, policy: StepPolicy, config: FrontierAgentConfig = FrontierAgentConfig(),
+    def __init__(self, detect: Detect, policy: StepPolicy, config: FrontierAgentConfig = FrontierAgentConfig(),
                  env_config: EnvConfig = EnvConfig(), seed: int = 0):
-        self.detect, self.policy, self.config, self.env_config = detect, policy, config, env_config
-        self.seed = seed  # for a policy that draws its actions: each episode draws from (seed, episode)
-        self.sensors = config.sensors
-        cam = CameraConfig(width=env_config.width, height=env_config.height, hfov_deg=env_config.hfov_deg)
-        self.K = intrinsics(cam)
-        self._tan_half_vfov = float(np.tan(cam.yfov / 2.0))
+        super().__init__(policy, config, env_config, seed)
+        self.detect = detect
+        self.sensors: tuple[str, ...] = config.sensors
         self.map = OccupancyMap(config.occupancy)
-        self._pose = PoseTracker()
 
     # ----------------------------------------------------------------------------------- episode
     def reset(self, episode: Episode) -> None:
-        detector_reset = getattr(self.detect, "reset", None)
-        if callable(detector_reset):  # a detector that needs the episode's goal text gets the episode
-            detector_reset(episode)
-        self._pose.reset(episode)
+        reset_detector(self.detect, episode)  # the episode's scene and goal text
         self.map.reset(np.asarray(episode.start_position, np.float64))
-        self.policy.reset(seed=episode_seed(self.seed, episode))
-        self.step = 0
+        self._begin(episode, {"events": [], "frontiers_chosen": 0, "first_detection_step": None,
+                              "stop_reason": None, "bumps": 0})
+        self.watch = StuckWatch(self.config.stuck_window, self.config.stuck_progress)
         self.mode = "look_around"
         self.frontier: Frontier | None = None
         self.frontier_since = 0
@@ -118,46 +97,14 @@ class FrontierAgent:
         self.target_blacklist: list[np.ndarray] = []
         self.goal: np.ndarray | None = None  # current target point when approaching
         self.waypoint: np.ndarray | None = None
-        self.positions: list[np.ndarray] = []
-        self.overrides = 0
+        self.overrides = 0  # steps within the STOP radius without a visible target
         self.last_action: int | None = None
-        self.log: dict[str, Any] = {"events": [], "frontiers_chosen": 0, "first_detection_step": None,
-                                    "stop_reason": None, "bumps": 0}
-
-    def episode_log(self) -> dict[str, Any]:
-        return self.log
-
-    def _event(self, kind: str, **data: Any) -> None:
-        self.log["events"].append({"step": self.step, "event": kind, **{k: log_value(v) for k, v in data.items()}})
 
     # --------------------------------------------------------------------------------- perception
-    def depth_metres(self, obs: dict[str, np.ndarray]) -> np.ndarray:
-        c = self.env_config
-        return depth_metres(obs["depth"], c.min_depth, c.max_depth, c.normalize_depth)
-
     def _depth_normalised(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         c = self.env_config
         d = obs["depth"][..., 0].astype(np.float64)
         return d if c.normalize_depth else np.clip((d - c.min_depth) / (c.max_depth - c.min_depth), 0.0, 1.0)
-
-    def visibility(self, cloud: np.ndarray, depth: np.ndarray, position: np.ndarray, yaw: float
-                   ) -> tuple[int, int]:
-        """(visible points, points in view) of ``cloud`` in the current depth (metres), as the memory agent."""
-        if len(cloud) == 0:
-            return 0, 0
-        if len(cloud) > self.config.max_projected_points:
-            idx = np.random.default_rng(0).permutation(len(cloud))[:self.config.max_projected_points]
-            cloud = cloud[idx]
-        cam_pos = position + np.array([0.0, self.env_config.agent_height, 0.0])
-        w2c = world_to_camera(camera_pose(cam_pos, quat_from_yaw(yaw)))
-        uv, z, in_view = project(cloud, self.K, w2c, depth.shape[1], depth.shape[0])
-        in_view &= (z > self.env_config.min_depth) & (z < self.env_config.max_depth)
-        if not in_view.any():
-            return 0, 0
-        u = np.clip(np.round(uv[in_view, 0]).astype(int), 0, depth.shape[1] - 1)
-        v = np.clip(np.round(uv[in_view, 1]).astype(int), 0, depth.shape[0] - 1)
-        ok = np.abs(z[in_view] - depth[v, u]) < self.config.visible_depth_tol
-        return int(ok.sum()), int(in_view.sum())
 
     def _add_detections(self, points: np.ndarray) -> None:
         points = np.asarray(points, np.float64).reshape(-1, 3)
@@ -192,9 +139,9 @@ class FrontierAgent:
         cfg, env = self.config, self.env_config
         self.step += 1
         position, yaw = self._pose(observations)
-        self.positions.append(position)
-        if self.last_action == MOVE_FORWARD and len(self.positions) > 1 and \
-                xz_dist(position, self.positions[-2]) < 0.25 * env.forward_step:
+        self.watch.add(position)
+        if self.last_action == MOVE_FORWARD and len(self.watch.positions) > 1 and \
+                xz_dist(position, self.watch.positions[-2]) < 0.25 * env.forward_step:
             # A forward step that did not move hit something (perhaps too near or too low for the depth camera):
             # the agent knows that from its own odometry, so it maps an obstacle just ahead.
             self.map.mark_occupied(position + (env.agent_radius + 0.05) * heading_vector(yaw))
@@ -207,7 +154,7 @@ class FrontierAgent:
             if self.step <= cfg.initial_turns:
                 return TURN_LEFT
             self.mode = "explore"
-            self.positions = [position]  # turning in place is not being stuck
+            self.watch.restart(position)  # turning in place is not being stuck
             self._event("look_around_done")
 
         clusters = self.target_clusters()
@@ -215,7 +162,7 @@ class FrontierAgent:
             if self.mode != "approach":
                 self.mode = "approach"
                 self.waypoint = self.frontier = None
-                self.positions = [position]
+                self.watch.restart(position)
                 self._event("approach", clusters=len(clusters))
             return self._approach(observations, clusters, position, yaw)
         if self.mode == "approach":  # every target cluster was abandoned: back to exploring
@@ -225,7 +172,7 @@ class FrontierAgent:
 
     # ------------------------------------------------------------------------------------ explore
     def _explore(self, obs: dict[str, np.ndarray], position: np.ndarray, yaw: float) -> int:
-        if self._stuck(position) and self.frontier is not None:
+        if self.watch.stuck() is not None and self.frontier is not None:
             self._event("stuck_blacklist", frontier=self.frontier.goal)
             self.blacklist.append(self.frontier.goal)
             self.frontier = None
@@ -317,16 +264,13 @@ class FrontierAgent:
             self._event("target", goal=goal, points=len(cluster), clusters=len(clusters))
         self.goal = goal
         dist = xz_dist(position, goal)
-        depth = self.depth_metres(obs)
-        cam_h = self.env_config.agent_height
-        radius = fov_stop_radius(nearest_to_height(cluster, cam_h), cfg.stop_radius, cfg.fov_stop_margin, cam_h,
-                                 self._tan_half_vfov)
-        if dist >= radius:
+        if dist >= self.stop_radius_for(cluster):
             self.overrides = 0
         else:
-            visible, in_view = self.visibility(cluster, depth, position, yaw)
-            if in_view and visible / in_view >= cfg.visible_fraction:
-                self._event("stop", reason="target_visible", distance=dist, visible=visible, in_view=in_view)
+            points = subsample(cluster, cfg.max_projected_points, np.random.default_rng(0))
+            visible, in_view = self.visibility(points, self.depth_metres(obs), position, yaw)
+            if self.passes(visible, in_view):
+                self._event("stop", reason="target_visible", distance=dist, visible=len(visible), in_view=in_view)
                 self.log["stop_reason"] = "target_visible"
                 return STOP
             self.overrides += 1
@@ -338,11 +282,11 @@ class FrontierAgent:
             theta = float(pointgoal_polar(goal, position, yaw)[1])
             if abs(theta) > math.radians(self.env_config.hfov_deg) / 4:
                 return TURN_LEFT if theta > 0 else TURN_RIGHT
-        if self._stuck(position):
+        if self.watch.stuck() is not None:
             self._event("stuck_abandon_target", goal=goal)
             self.target_blacklist.append(goal)
             self.target_points = self.target_points[xz_dists(self.target_points, goal) > cfg.target_cluster_eps]
-            self.positions = [position]
+            self.watch.restart(position)
             self.goal = self.waypoint = None
             self.mode = "explore"
             self.frontier = None
@@ -407,14 +351,3 @@ class FrontierAgent:
         if i == len(path) - 1 and xz_dist(pts[i], goal) < cfg.stop_radius:
             return np.asarray(goal, np.float64)  # the goal is in reach: aim at it (frontier or object point)
         return pts[i]
-
-    def _stuck(self, position: np.ndarray) -> bool:
-        cfg = self.config
-        if len(self.positions) <= cfg.stuck_window:
-            return False
-        progress = xz_dist(position, self.positions[-1 - cfg.stuck_window])
-        if progress < cfg.stuck_progress:
-            self.positions = [position]
-            return True
-        return False
-

@@ -1,12 +1,9 @@
 """``pointnav``: the learned PointNav policy (habitat's PointNavResNetPolicy layout) as a benchmark agent.
 
 Uses the shipped checkpoint ``policies/pointnav_navbench.pth`` unless another file in habitat's layout
-is given (``navbench run --task pointnav --agent pointnav --checkpoint PATH``). Actions are the argmax,
-or with ``--sample-actions`` drawn from the policy's distribution as habitat-baselines' evaluator draws
-them (``--temperature T`` draws from softmax(logits / T); ``--sample-on-revisit`` draws only at a pose
-the episode has already been in and takes the argmax elsewhere; ``--least-tried`` then draws only among
-the movements taken least often at that pose, the decoding the shipped file's figures are reported with),
-from a generator seeded by the run's seed and the episode, so a run is reproducible either way.
+is given (``navbench run --task pointnav --checkpoint PATH``). Actions are decoded as its
+:class:`~navbench.policy.net.InferenceConfig` says (argmax, sampled, or least-tried: see ``decoding``),
+any draws from a generator seeded by the run's seed and the episode, so a run is reproducible.
 """
 
 from __future__ import annotations
@@ -34,7 +31,7 @@ class PointNavAgent:
     def __init__(self, checkpoint: str | Path | None = None, config: InferenceConfig = InferenceConfig(),
                  num_envs: int = 1, seed: int = 0):
         self.checkpoint = Path(checkpoint) if checkpoint else DEFAULT_CHECKPOINT
-        self.num_envs, self.seed = num_envs, seed  # with config.sample, each episode draws from (seed, episode)
+        self.num_envs, self.seed = num_envs, seed  # any draws: each episode's from (seed, episode)
         self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=num_envs, config=config)
 
     def reset(self, episode: Episode) -> None:

@@ -295,6 +295,9 @@ def prepare_depth(depth: np.ndarray | torch.Tensor, size: tuple[int, int] = (224
     return t
 
 
+DECODINGS = ("argmax", "sample", "least-tried")
+
+
 @dataclass(frozen=True)
 class InferenceConfig:
     """Options of :class:`PointNavAgentPolicy`.
@@ -308,34 +311,32 @@ class InferenceConfig:
     reset_goal_dist: float = 0.1  # m; a goal that moves farther than this restarts the recurrent state
     bf16: bool = False  # torch.autocast(cpu, bfloat16) around the forward pass
     channels_last: bool = True  # NHWC memory layout for the convolutions (converts the policy in place)
-    # Sample each action from the policy's distribution instead of taking the argmax, as habitat-baselines'
-    # evaluator does (``actor_critic.act(..., deterministic=False)``). Reproducible through
-    # ``reset(i, seed=)``: each env draws from its own generator, so batching changes no action.
-    sample: bool = False
-    # With ``sample``, draw from softmax(logits / temperature): 1 is the policy's own distribution,
-    # lower values move the draws towards the argmax (which temperature -> 0 becomes).
+    # How actions are chosen from the logits (one of DECODINGS):
+    # - "argmax": the most probable action;
+    # - "sample": every action drawn from softmax(logits / temperature), as habitat-baselines' evaluator
+    #   does (``actor_critic.act(..., deterministic=False)``);
+    # - "least-tried": the argmax, except at a pose the episode has already been in (the same goal vector,
+    #   to 2 cm and 2 degrees, since the last reset), where the action is drawn among the movements taken
+    #   there least often (STOP keeps its own probability). Back at a pose, the argmax tends to repeat
+    #   what brought it there (FORWARD into an obstacle beside the view, turning on the spot in a corner).
+    # Draws are reproducible through ``reset(i, seed=)``: each env draws from its own generator, so
+    # batching changes no action.
+    decoding: str = "argmax"
+    # With "sample": 1 is the policy's own distribution; lower values move the draws towards the argmax.
     temperature: float = 1.0
-    # With ``sample``: draw only at a pose the episode has already been in (the same goal vector, to
-    # 2 cm and 2 degrees, as at an earlier step since the last reset), take the argmax elsewhere. Why:
-    # back at a pose, the argmax tends to repeat what brought it there (12 of stage 26b's 13 argmax
-    # failures on `select` are timeouts), while drawing everywhere lengthens the paths that succeed.
-    sample_on_revisit: bool = False
-    # With ``sample_on_revisit``: at a revisited pose, draw only among the movements taken there least often
-    # (first the untried ones; all three once each has been taken equally often); STOP keeps its own
-    # probability. Why: where a loop closes, the policy's distribution often still favours the action
-    # that closed it (FORWARD into an obstacle beside the view, turning on the spot in a cluttered corner).
-    least_tried: bool = False
 
     def __post_init__(self) -> None:
+        if self.decoding not in DECODINGS:
+            raise ValueError(f"unknown decoding {self.decoding!r}: choose from {', '.join(DECODINGS)}")
         if not self.temperature > 0:  # also refuses NaN
             raise ValueError(f"temperature must be > 0, got {self.temperature}")
-        if self.least_tried and not (self.sample and self.sample_on_revisit):
-            raise ValueError("least_tried sets what sample_on_revisit draws from: set sample and sample_on_revisit")
+        if self.temperature != 1.0 and self.decoding != "sample":
+            raise ValueError(f"temperature applies to decoding 'sample' only, not {self.decoding!r}")
 
 
 class PointNavAgentPolicy:
-    """Stateful, batched inference around :class:`PointNavResNetPolicy`: argmax actions, or with
-    ``config.sample`` actions drawn from each env's seeded generator.
+    """Stateful, batched inference around :class:`PointNavResNetPolicy`: actions decoded as
+    ``config.decoding`` says, any draws from each env's seeded generator.
 
     Keeps per environment the recurrent state, the previous action, whether the next step starts an
     episode, and the last goal position in world coordinates (when the caller provides it).
@@ -363,7 +364,7 @@ class PointNavAgentPolicy:
 
     def reset(self, i: int | None = None, seed: int | list[int] | None = None) -> None:
         """Start a new episode in env ``i`` (all envs when None): clears state, action and goal; with
-        ``seed``, also restarts the generator that ``config.sample`` draws this env's actions from."""
+        ``seed``, also restarts the generator this env's actions are drawn from."""
         self.reset_hidden(i)
         self.goal_world[self._envs(i)] = np.nan
         if seed is not None:
@@ -435,32 +436,40 @@ class PointNavAgentPolicy:
             logits, _, hidden = self.policy.forward_features(visual[None], goal[None], self.prev_actions[None],
                                                              self.masks[None], self.hidden)
         # Outside inference_mode these ops give normal tensors, which reset_hidden may edit in place.
-        if self.config.sample:
-            # inverse CDF with one uniform draw per env: the same draws give the same actions at any batch size
-            probs = torch.softmax(logits[0].double() / self.config.temperature, dim=-1).numpy()
-            u = np.array([rng.random() for rng in self.rngs])
-            if self.config.sample_on_revisit:
-                taken = self._taken_here(goal.numpy())
-                seen = np.array([t.any() for t in taken])
-                if self.config.least_tried:
-                    for k in np.flatnonzero(seen):
-                        p = probs[k].copy()
-                        moves = taken[k][1:]
-                        p[1:][moves > moves.min()] = 0.0
-                        # the movements left take the mass of those masked; STOP keeps its own probability
-                        # (renormalised, a near-zero STOP far from the goal would be drawn often)
-                        if p[1:].sum() > 0:
-                            p[1:] *= (1.0 - p[0]) / p[1:].sum()
-                            probs[k] = p
-            picks = (probs.cumsum(-1) < u[:, None]).sum(-1).clip(max=probs.shape[-1] - 1)
-            if self.config.sample_on_revisit:
-                picks = np.where(seen, picks, logits[0].float().argmax(dim=-1).numpy())
-                for k in range(self.num_envs):
-                    taken[k][int(picks[k])] += 1
-            actions = torch.as_tensor(picks, dtype=torch.long)
-        else:
-            actions = logits[0].float().argmax(dim=-1)
+        actions = self._decode(logits[0], goal)
         self.hidden = hidden.float().clone()
         self.prev_actions = actions.clone()
         self.masks[:] = True
         return actions.numpy().astype(np.int64), visual.float()  # an inference tensor: read it, or copy it
+
+    def _decode(self, logits: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+        """Actions (N,) from the logits (N, A) as ``config.decoding`` says."""
+        decoding = self.config.decoding
+        argmax = logits.float().argmax(dim=-1)
+        if decoding == "argmax":
+            return argmax
+        # inverse CDF with one uniform draw per env and step (drawn whether or not it is used): the same
+        # draws give the same actions at any batch size
+        probs = torch.softmax(logits.double() / self.config.temperature, dim=-1).numpy()
+        u = np.array([rng.random() for rng in self.rngs])
+        if decoding == "sample":
+            return torch.as_tensor(self._pick(probs, u), dtype=torch.long)
+        taken = self._taken_here(goal.numpy())
+        seen = np.array([t.any() for t in taken])
+        for k in np.flatnonzero(seen):
+            p = probs[k].copy()
+            moves = taken[k][1:]
+            p[1:][moves > moves.min()] = 0.0
+            # the movements left take the mass of those masked; STOP keeps its own probability
+            # (renormalised, a near-zero STOP far from the goal would be drawn often)
+            if p[1:].sum() > 0:
+                p[1:] *= (1.0 - p[0]) / p[1:].sum()
+                probs[k] = p
+        picks = np.where(seen, self._pick(probs, u), argmax.numpy())
+        for k in range(self.num_envs):
+            taken[k][int(picks[k])] += 1
+        return torch.as_tensor(picks, dtype=torch.long)
+
+    @staticmethod
+    def _pick(probs: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return (probs.cumsum(-1) < u[:, None]).sum(-1).clip(max=probs.shape[-1] - 1)

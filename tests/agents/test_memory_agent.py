@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from navbench.agents.base import episode_seed
-from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
+from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig, Recovery
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
@@ -75,7 +75,7 @@ def test_visibility_on_synthetic_depth():
 
 
 def test_each_episode_reseeds_the_policy_from_the_run_seed_and_the_episode():
-    # a policy that draws its actions (navbench run --agent memory --sample-actions) then draws the same
+    # a policy that draws its actions (navbench run --agent memory --decoding sample) then draws the same
     # actions for an episode whichever worker, slot or order it runs in
     policy = ScriptedPolicy(MOVE_FORWARD)
     agent = MemoryAgent(lambda ep: [cand(plane_points(-6.0))], policy, MemoryAgentConfig(), ENV, seed=3)
@@ -260,16 +260,13 @@ def test_route_guidance_follows_the_memorys_route_once_when_stuck_then_drives_to
     for _ in range(31):  # stuck again on the same target: no second route, the usual recovery
         agent.act(obs_at(empty, forward=5.8, right=2.0))
     assert [e["event"] for e in agent.episode_log()["events"]][-2:] == ["stuck", "recover"] and len(calls) == 1
-    # off (--no-guidance), or with no route known, stuck means what it meant before
-    for on in (False, True):
-        agent = MemoryAgent(lambda ep: [cand(plane_points(-6.0))], ScriptedPolicy(TURN_LEFT),
-                            MemoryAgentConfig(recovery_probes=0, route_guidance=on), ENV,
-                            route_path=(lambda p, c: np.zeros((0, 3))) if on else route_path)
-        agent.reset(EPISODE)
-        for _ in range(31):
-            agent.act(obs_at(empty))
-        assert [e["event"] for e in agent.episode_log()["events"]] == ["stuck", "recover"]
-    assert len(calls) == 1
+    # with no route known, stuck means recovery
+    agent = MemoryAgent(lambda ep: [cand(plane_points(-6.0))], ScriptedPolicy(TURN_LEFT),
+                        MemoryAgentConfig(recovery_probes=0), ENV, route_path=lambda p, c: np.zeros((0, 3)))
+    agent.reset(EPISODE)
+    for _ in range(31):
+        agent.act(obs_at(empty))
+    assert [e["event"] for e in agent.episode_log()["events"]] == ["stuck", "recover"]
 
 
 def test_oscillation_counts_as_stuck():
@@ -338,15 +335,11 @@ def test_recovery_when_stuck_with_no_candidate_left():
     assert policy.calls == 32 and policy.hidden_resets == 1
     recover = [e for e in agent.episode_log()["events"] if e["event"] == "recover"]
     assert recover == [{"step": 31, "event": "recover", "turn": "right"}]
-    # recovery_turns=0: the agent as written keeps handing the policy the same goal
-    agent, policy = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_turns=0)
-    assert [agent.act(obs_at(open_on_the_right())) for _ in range(37)] == [TURN_LEFT] * 37
-    assert not any(e["event"] == "recover" for e in agent.episode_log()["events"])
 
 
 def test_stuck_again_where_the_last_recovery_started_backs_out_the_way_it_came():
-    def run(**cfg):
-        agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=0, **cfg)
+    def run():
+        agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=0)
         # one step to the right (+x, heading -90 deg), then pinned there whatever the agent does
         actions = [agent.act(obs_at(open_on_the_right()))]
         actions += [agent.act(obs_at(open_on_the_right(), right=0.25)) for _ in range(65)]
@@ -360,8 +353,6 @@ def test_stuck_again_where_the_last_recovery_started_backs_out_the_way_it_came()
     recover = [e for e in agent.episode_log()["events"] if e["event"] == "recover"]
     assert recover == [{"step": 31, "event": "recover", "turn": "right"},
                        {"step": 61, "event": "recover", "turn": "back", "turns": 3}]
-    _, actions = run(back_out=False)  # the ablation repeats the open-side turn
-    assert actions[60:65] == [TURN_RIGHT] * 3 + [MOVE_FORWARD] * 2
 
 
 def drive(agent, steps, free_after_right_turns):
@@ -392,7 +383,7 @@ def test_a_refused_recovery_step_turns_on_until_a_heading_moves():
     assert [e["left"] for e in probes] == [10, 9]
 
 
-def test_probing_is_bounded_and_the_ablation_keeps_the_fixed_manoeuvre():
+def test_probing_is_bounded_and_without_probes_the_manoeuvre_is_fixed():
     R, F = TURN_RIGHT, MOVE_FORWARD
     agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT, recovery_probes=2)
     actions = drive(agent, 41, free_after_right_turns=99)  # nothing ever moves
@@ -404,16 +395,16 @@ def test_probing_is_bounded_and_the_ablation_keeps_the_fixed_manoeuvre():
 
 def test_a_probe_is_judged_even_after_a_candidate_switch_cleared_the_position_history():
     agent, _ = make_agent([cand(plane_points(-6.0))], action=TURN_LEFT)
-    agent.recovery, agent.recovery_turn, agent.probes_left = [MOVE_FORWARD], TURN_RIGHT, 3
+    agent.recovery = Recovery(queue=[MOVE_FORWARD], turn=TURN_RIGHT, probes_left=3)
     assert agent.act(obs_at(open_on_the_right())) == MOVE_FORWARD  # the probe
-    agent.positions.clear()  # as _switch does, e.g. on a rejected target earlier in the next call
+    agent.watch.restart()  # as _switch does, e.g. on a rejected target earlier in the next call
     assert agent.act(obs_at(open_on_the_right())) == TURN_RIGHT  # refused: the next heading
     assert agent.act(obs_at(open_on_the_right())) == MOVE_FORWARD
 
 
 def test_stop_still_wins_during_recovery():
     agent, _ = make_agent([cand(plane_points(-0.7))], action=TURN_LEFT)
-    agent.recovery = [TURN_RIGHT, MOVE_FORWARD]
+    agent.recovery = Recovery(queue=[TURN_RIGHT, MOVE_FORWARD])
     assert agent.act(obs_at(wall_depth(0.7))) == STOP  # target within reach and visible: STOP first
 
 
@@ -530,26 +521,25 @@ def test_a_failed_check_sends_the_policy_to_the_nearest_view_of_the_target():
     assert policy.last_goal[0] == pytest.approx(np.hypot(1.0, 1.5))  # the policy drives to the view
     for _ in range(3):  # still beside the wall: no more failures counted, no rejection
         agent.act(obs_at(wall_depth(0.7)))
-    assert agent.verify_fails == 1 and agent.current == 0
+    assert agent.sighting.verify_fails == 1 and agent.current == 0
     agent.act(obs_at(wall_depth(3.0), forward=-1.4, right=0.9))  # arrived at the view
     assert agent.episode_log()["events"][-1] == {"step": 5, "event": "detour_end", "reason": "reached"}
     # back to the target (seen lately, so the point short of it): 2.28 m away, less the 0.6 m standoff
-    assert agent.detour is None and policy.last_goal[0] == pytest.approx(np.hypot(0.9, 2.1) - 0.6, abs=0.02)
+    assert agent.detour.goal is None and policy.last_goal[0] == pytest.approx(np.hypot(0.9, 2.1) - 0.6, abs=0.02)
 
 
 def test_a_policy_stop_beside_a_target_not_seen_lately_starts_a_detour():
     # Up against the wall the target is behind: hidden, never seen, the policy STOPs on its point.
     pts = plane_points(-0.85)
     agent, policy = make_agent([cand_seen_from(pts, [[0.0, 0.88, -2.0]])], action=STOP)
-    assert agent.act(obs_at(wall_depth(0.5))) == MOVE_FORWARD  # the override still applies
+    assert agent.act(obs_at(wall_depth(0.5))) == MOVE_FORWARD  # the STOP is overridden
     assert agent.episode_log()["events"][-1]["event"] == "detour"
     agent.act(obs_at(wall_depth(0.5)))
     assert policy.last_goal[0] == pytest.approx(2.0)
-    # without views, or with the detour off, the plain override rule alone
-    for agent, _ in (make_agent([cand(pts)], action=STOP),
-                     make_agent([cand_seen_from(pts, [[0.0, 0.88, -2.0]])], action=STOP, view_detour=False)):
-        agent.act(obs_at(wall_depth(0.5)))
-        assert all(e["event"] != "detour" for e in agent.episode_log()["events"])
+    # without views the plain override rule alone
+    agent, _ = make_agent([cand(pts)], action=STOP)
+    agent.act(obs_at(wall_depth(0.5)))
+    assert all(e["event"] != "detour" for e in agent.episode_log()["events"])
 
 
 def test_goal_is_placed_on_the_measured_surface():
@@ -573,23 +563,19 @@ def test_policy_drives_to_a_point_short_of_a_seen_target_then_to_the_target():
     agent.act(obs_at(wall_depth(3.0)))
     assert policy.last_goal[0] == pytest.approx(3.0 - MemoryAgentConfig().goal_standoff, abs=1e-4)
     assert policy.last_goal[1] == pytest.approx(0.0)
-    # standoff off: the true goal
-    agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD, goal_standoff=0.0)
-    agent.act(obs_at(wall_depth(3.0)))
-    assert policy.last_goal[0] == pytest.approx(3.0, abs=1e-4)
     # never seen (hidden behind something nearer): the true goal, wherever it leads the policy
     agent, policy = make_agent([cand(plane_points(-3.0, half=0.05, n=3))], action=MOVE_FORWARD)
     agent.act(obs_at(wall_depth(1.0)))
     assert policy.last_goal[0] == pytest.approx(3.0, abs=1e-4)
     # inside the STOP radius but hidden: the true goal again (no pulled point behind the agent)
     agent, policy = make_agent([cand(plane_points(-0.85, half=0.05, n=3))], action=MOVE_FORWARD)
-    agent.last_pass = 0
+    agent.sighting.last_pass = 0
     assert agent.act(obs_at(wall_depth(0.5))) == MOVE_FORWARD
     assert policy.last_goal[0] == pytest.approx(0.85, abs=1e-4)
 
 
 def test_a_policy_stop_far_from_a_visible_target_is_overridden():
-    # The STOP test is distance and visibility: a visible target 2 m away is not an arrival.
+    # The STOP test is distance and visibility: a visible target 2 m away is not an arrival.
     agent, _ = make_agent([cand(plane_points(-2.0))], action=STOP)
     assert agent.act(obs_at(wall_depth(2.0))) == MOVE_FORWARD
     assert agent.episode_log()["events"][-1]["event"] == "stop_override"
@@ -599,12 +585,12 @@ def test_after_the_overrides_a_stop_on_a_refuted_target_becomes_a_look_around():
     # Hidden up close (the overrides run out) while the detector's recent checks said "not it": no STOP.
     pts = plane_points(-0.85)
     agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(np.zeros((0, 3))), action=STOP)
-    agent.checks = [(0, False), (0, False)]
+    agent.sighting.checks = [(0, False), (0, False)]
     hidden = wall_depth(0.5)
     actions = [agent.act(obs_at(hidden)) for _ in range(7)]
     assert actions[:5] == [MOVE_FORWARD] * 5 and actions[5:] == [TURN_LEFT] * 2
     assert agent.episode_log()["events"][-1]["reason"] == "refuted"
-    # no checks at all (nothing to refute it): the bound holds and the STOP goes through
+    # no checks at all (nothing to refute it): the override bound holds and the STOP goes through
     agent, _ = make_verified_agent([cand(pts)], ScriptedDetector(np.zeros((0, 3))), action=STOP)
     assert [agent.act(obs_at(hidden)) for _ in range(6)][5] == STOP
 

@@ -6,8 +6,9 @@ candidates localised, decisions logged, records written.
 
 import pytest
 
-from navbench.cli import make_frontier, make_memory, prebuild_memories
-from navbench.eval.runner import RunConfig, read_records, run
+from navbench.agents.registry import make_frontier, make_memory, prebuild_memories
+from navbench.episodes.io import load_dataset
+from navbench.eval.runner import RunConfig, read_records, run, select_episodes
 from navbench.paths import POLICIES_DIR, SCENES_DIR
 
 CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
@@ -22,7 +23,8 @@ def _cfg(path, agent, memory_root):
 @pytest.mark.skipif(not CHECKPOINT.is_file(), reason="no shipped PointNav checkpoint")
 def test_memory_agent_smoke(objectnav_file, tmp_path):
     cfg = _cfg(objectnav_file, "memory", tmp_path / "memory")
-    prebuild_memories(cfg)
+    episodes = select_episodes(load_dataset(objectnav_file), cfg.limit)
+    prebuild_memories(cfg, episodes)
     built = list((tmp_path / "memory").iterdir())
     assert len(built) == 1  # one scene, one cached memory
     summary = run(cfg, make_memory, tmp_path / "run")
@@ -34,7 +36,7 @@ def test_memory_agent_smoke(objectnav_file, tmp_path):
         assert log["candidates"], "the oracle localiser must find the goal category in the memory"
         assert log["memory_keyframes"] > 0 and log["query_ms"] > 0
     # the second run reuses the cached memory instead of rebuilding it
-    prebuild_memories(cfg)
+    prebuild_memories(cfg, episodes)
     assert list((tmp_path / "memory").iterdir()) == built
 
 

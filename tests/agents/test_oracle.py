@@ -1,6 +1,7 @@
 """The two oracles on PointNav: the geodesic one plans on the true map, the optimistic one on what it saw."""
 
-from navbench.cli import main, make_optimistic, make_oracle
+from navbench.agents.registry import make_optimistic, make_oracle
+from navbench.cli import main
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import SCENES_DIR
 

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from navbench.cli import make_memory, make_optimistic, make_oracle, make_pointnav
+from navbench.agents.registry import make_memory, make_optimistic, make_oracle, make_pointnav
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import RESULTS_DIR
 

@@ -313,7 +313,7 @@ def test_sampled_actions_follow_the_policys_distribution(policy: PointNavResNetP
     n, calls = 200, 20  # 4,000 draws
     probs = [0.1, 0.2, 0.3, 0.4]
     depth, goal = np.zeros((n, 224, 224, 1), np.float32), np.ones((n, 2), np.float32)
-    sampled = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(channels_last=False, sample=True))
+    sampled = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(channels_last=False, decoding="sample"))
     _fixed_logits(sampled, probs)
     draws = np.concatenate([sampled.act(depth, goal) for _ in range(calls)])
     np.testing.assert_allclose(np.bincount(draws, minlength=4) / draws.size, probs, atol=0.03)
@@ -327,20 +327,20 @@ def test_temperature_sharpens_the_sampled_distribution(policy: PointNavResNetPol
     depth, goal = np.zeros((n, 224, 224, 1), np.float32), np.ones((n, 2), np.float32)
     for t in (0.5, 2.0):
         agent = PointNavAgentPolicy(copy.deepcopy(policy), n,
-                                    InferenceConfig(channels_last=False, sample=True, temperature=t))
+                                    InferenceConfig(channels_last=False, decoding="sample", temperature=t))
         _fixed_logits(agent, list(probs))
         draws = np.concatenate([agent.act(depth, goal) for _ in range(calls)])
         expected = probs ** (1 / t) / (probs ** (1 / t)).sum()  # softmax(log p / t)
         np.testing.assert_allclose(np.bincount(draws, minlength=4) / draws.size, expected, atol=0.03)
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError, match="temperature"):
-            InferenceConfig(sample=True, temperature=bad)
+            InferenceConfig(decoding="sample", temperature=bad)
 
 
 def test_sampled_actions_depend_on_each_envs_seed_not_on_the_batch(policy: PointNavResNetPolicy) -> None:
     rng = np.random.default_rng(9)
     steps = [tuple(x.numpy() for x in _obs(rng, 2)) for _ in range(12)]
-    cfg = InferenceConfig(channels_last=False, sample=True)
+    cfg = InferenceConfig(channels_last=False, decoding="sample")
 
     def actions(n: int, envs: list[int], seeds: list[int]) -> np.ndarray:
         agent = PointNavAgentPolicy(policy, n, cfg)
@@ -355,11 +355,11 @@ def test_sampled_actions_depend_on_each_envs_seed_not_on_the_batch(policy: Point
     assert not np.array_equal(both[:, 0], actions(1, [0], [9])[:, 0])  # another seed, other draws
 
 
-def test_sample_on_revisit_draws_only_where_the_pose_repeats(policy: PointNavResNetPolicy) -> None:
+def test_least_tried_takes_the_argmax_except_where_the_pose_repeats(policy: PointNavResNetPolicy) -> None:
     n, probs = 400, [0.5, 0.2, 0.2, 0.1]  # argmax is STOP (0); draws are often something else
     depth = np.zeros((n, 224, 224, 1), np.float32)
     agent = PointNavAgentPolicy(copy.deepcopy(policy), n,
-                                InferenceConfig(channels_last=False, sample=True, sample_on_revisit=True))
+                                InferenceConfig(channels_last=False, decoding="least-tried"))
     _fixed_logits(agent, probs)
     for i in range(n):
         agent.reset(i, seed=i)
@@ -377,8 +377,7 @@ def test_sample_on_revisit_draws_only_where_the_pose_repeats(policy: PointNavRes
 def test_least_tried_draws_among_the_movements_taken_least_often_at_that_pose(policy: PointNavResNetPolicy) -> None:
     n, probs = 400, [0.05, 0.6, 0.2, 0.15]  # argmax is FORWARD
     depth = np.zeros((n, 224, 224, 1), np.float32)
-    agent = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(
-        channels_last=False, sample=True, sample_on_revisit=True, least_tried=True))
+    agent = PointNavAgentPolicy(copy.deepcopy(policy), n, InferenceConfig(channels_last=False, decoding="least-tried"))
     _fixed_logits(agent, probs)
     for i in range(n):
         agent.reset(i, seed=i)
@@ -395,5 +394,12 @@ def test_least_tried_draws_among_the_movements_taken_least_often_at_that_pose(po
     both = turned & (third >= 2)
     fourth = agent.act(depth, goal)[both]
     np.testing.assert_allclose(np.bincount(fourth, minlength=4) / len(fourth), probs, atol=0.08)
-    with pytest.raises(ValueError, match="least_tried"):
-        InferenceConfig(sample=True, least_tried=True)
+
+
+def test_decoding_is_one_of_three_and_temperature_belongs_to_sample() -> None:
+    assert InferenceConfig().decoding == "argmax"
+    with pytest.raises(ValueError, match="unknown decoding 'greedy'"):
+        InferenceConfig(decoding="greedy")
+    with pytest.raises(ValueError, match="temperature"):
+        InferenceConfig(decoding="least-tried", temperature=0.5)
+    assert InferenceConfig(decoding="sample", temperature=0.5).temperature == 0.5
