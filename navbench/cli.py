@@ -71,7 +71,7 @@ def cmd_run(args) -> int:
         agent_options=_agent_options(args),
     )
     cfg.label = run_label(cfg.agent, cfg.agent_options, cfg.seed)
-    out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label))
+    out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label, args.runs_dir))
 
     def progress(rec, n, total):
         if args.quiet:
@@ -87,9 +87,9 @@ def cmd_run(args) -> int:
     return 0
 
 
-def run_dir(task: str, split: str, label: str) -> Path:
-    """A run's default directory: runs/<task>/<split>/<label> (split: a user's episode file's stem)."""
-    return Path("runs") / task / split / label
+def run_dir(task: str, split: str, label: str, root: str | Path = "runs") -> Path:
+    """A run's default directory: <root>/<task>/<split>/<label> (split: a user's episode file's stem)."""
+    return Path(root) / task / split / label
 
 
 def _agent_options(args) -> dict:
@@ -186,6 +186,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--out", help="run directory (default runs/TASK/SPLIT/LABEL: the agent, then what differs "
                                  "from its defaults, e.g. runs/pointnav/val/pointnav-argmax)")
+    r.add_argument("--runs-dir", default="runs", help="root of the default run directory (default runs; the "
+                                                      "reference runs use results/runs)")
     r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")
     r.add_argument("--success-distance", type=float)
     p_ = r.add_argument_group("PointNav policy (pointnav, memory and frontier agents)")

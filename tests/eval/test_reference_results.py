@@ -1,32 +1,52 @@
-"""Slow: the committed reference records are reproduced by their commands (run with `make test-slow`)."""
+"""The committed reference runs: named and recorded as `navbench run` would today, and (slow, `make
+test-slow`) reproduced to the last digit by their own config.json."""
 
 import json
+from pathlib import Path
 
 import pytest
 
-from navbench.agents.registry import make_memory, make_optimistic, make_oracle, make_pointnav
+from navbench.agents.registry import AGENTS, agent_options, run_label
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import RESULTS_DIR
 
+RUNS = RESULTS_DIR / "runs"
+CHOICES = ("perception", "noise", "fusion", "rerank", "keyframe_res", "all_frames", "goal_tracking", "visibility_stop")
+
+
+def reference_runs() -> list[Path]:
+    return sorted(p.parent for p in RUNS.glob("*/*/*/config.json"))
+
+
+def test_every_reference_run_is_named_and_recorded_as_the_cli_would():
+    runs = reference_runs()
+    assert len(runs) >= 30
+    for d in runs:
+        cfg = json.loads((d / "config.json").read_text())
+        o = cfg["agent_options"]
+        expected = agent_options(cfg["agent"], checkpoint=o.get("checkpoint"), decoding=o.get("decoding"),
+                                 temperature=o.get("temperature"), models=o.get("models"),
+                                 **{k: o[k] for k in CHOICES if k in o})
+        assert o == expected, d
+        assert d.relative_to(RUNS).parts == (cfg["task"], cfg["split"], run_label(cfg["agent"], o, cfg["seed"])), d
+        assert cfg["label"] == d.name and json.loads((d / "summary.json").read_text())["agent"] == d.name, d
+
 
 @pytest.mark.slow
-@pytest.mark.parametrize("run_name,factory", [("pointnav_val", make_pointnav),
-                                              ("pointnav-sampled_t0.5_val", make_pointnav),
-                                              ("pointnav-sampled-revisit_val", make_pointnav),
-                                              ("pointnav-sampled-revisit-leasttried_val", make_pointnav),
-                                              ("pointnav_2h-leasttried-seed0_val", make_pointnav),
-                                              ("oracle_val_unseen", make_oracle),
-                                              ("optimistic_pointnav_val", make_optimistic),
-                                              ("memory_val_unseen", make_memory),
-                                              ("memory-sampled-revisit-leasttried_val_unseen", make_memory)])
-def test_reference_run_reproduces_first_episodes(run_name, factory, tmp_path, monkeypatch):
+@pytest.mark.parametrize("name", ["pointnav/val/pointnav", "pointnav/val/pointnav-argmax",
+                                  "pointnav/val/pointnav-pointnav_2h", "pointnav/val/optimistic",
+                                  "objectnav/val_unseen/oracle", "objectnav/val_unseen/memory",
+                                  "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier"])
+def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     monkeypatch.chdir(RESULTS_DIR.parent)  # a --checkpoint in a run's config is relative to the project root
-    ref_dir = RESULTS_DIR / "runs" / run_name
+    ref_dir = RUNS / name
     cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
                        if k in RunConfig.__dataclass_fields__})
     cfg.limit, cfg.workers = 8, 1
-    run(cfg, factory, tmp_path / "run")
+    run(cfg, AGENTS[cfg.agent], tmp_path / "run")
     ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
-    for r in read_records(tmp_path / "run" / "episodes.jsonl"):
+    got = read_records(tmp_path / "run" / "episodes.jsonl")
+    assert len(got) == 8
+    for r in got:
         for k in ("success", "spl", "soft_spl", "distance_to_goal", "num_steps", "path_length"):
             assert r[k] == ref[r["episode_id"]][k], (r["episode_id"], k)
