@@ -8,7 +8,7 @@ import pytest
 
 from navbench.agents.registry import AGENTS, agent_options, run_label
 from navbench.eval.runner import RunConfig, read_records, run
-from navbench.paths import RESULTS_DIR
+from navbench.paths import RESULTS_DIR, SCENES_DIR, split_file
 
 RUNS = RESULTS_DIR / "runs"
 CHOICES = ("perception", "noise", "fusion", "rerank", "keyframe_res", "all_frames", "goal_tracking", "visibility_stop")
@@ -43,6 +43,8 @@ def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
                        if k in RunConfig.__dataclass_fields__})
     cfg.limit, cfg.workers = 8, 1
+    # bundled data is read from this checkout (config.json holds the writer's absolute paths)
+    cfg.episodes, cfg.scene_dir = str(split_file(cfg.task, cfg.split)), str(SCENES_DIR)
     run(cfg, AGENTS[cfg.agent], tmp_path / "run")
     ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
     got = read_records(tmp_path / "run" / "episodes.jsonl")
