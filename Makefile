@@ -11,9 +11,8 @@ RUN := $(NB) run --runs-dir $(RUNS) -q
 OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen
 LIMIT ?=
 LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
-.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav \
-	results-pointnav-2h results-objectnav results-objectnav-least-tried tables-objectnav results-memory \
-	train-pointnav train-pointnav-2h
+.PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
+	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing.
@@ -26,7 +25,6 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/pip install -q -e ".[dev,models]"
 	touch $(STAMP)
 setup: osmesa $(STAMP)
-
 run: setup  # the memory agent on ObjectNav val_unseen: the README's headline ObjectNav figures
 	$(NB) run --split val_unseen
 test: setup
@@ -55,14 +53,16 @@ results-localize: setup
 
 results-pointnav: setup
 	$(RUN) --task pointnav --split val --agent optimistic $(LIMIT_ARG)
-	$(RUN) --task pointnav --split val $(LIMIT_ARG)
+	for s in val select; do $(RUN) --task pointnav --split $$s $(LIMIT_ARG) || exit 1; done
 	$(RUN) --task pointnav --split val --decoding argmax $(LIMIT_ARG)
-	$(NB) table --long $(addprefix $(RUNS)/pointnav/val/,oracle optimistic pointnav pointnav-argmax) > results/pointnav.md
+	$(NB) table --long $(addprefix $(RUNS)/pointnav/val/,oracle optimistic pointnav pointnav-argmax) \
+	  $(RUNS)/pointnav/select/pointnav > results/pointnav.md
 
 results-pointnav-2h: setup
 	$(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --decoding argmax $(LIMIT_ARG)
 	for s in 0 1 2 3 4; do $(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --seed $$s $(LIMIT_ARG) || exit 1; done
-	$(NB) table --long $(RUNS)/pointnav/val/pointnav-pointnav_2h* > results/pointnav_2h.md
+	$(RUN) --task pointnav --split select --checkpoint policies/pointnav_2h.pth $(LIMIT_ARG)
+	$(NB) table --long $(RUNS)/pointnav/*/pointnav-pointnav_2h* > results/pointnav_2h.md
 
 results-objectnav: setup
 	for s in $(OBJNAV_SPLITS); do \
