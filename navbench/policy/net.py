@@ -302,10 +302,9 @@ DECODINGS = ("argmax", "sample", "least-tried")
 class InferenceConfig:
     """Options of :class:`PointNavAgentPolicy`.
 
-    Defaults are fp32 with channels_last: NHWC lets oneDNN pick faster convolution kernels (about
-    1.5x at batch 1 on the 2-core AVX2 machine) with logits equal to ~1e-6. bf16 is off: without
-    AVX512-BF16/AMX it is emulated and 2-6x slower, and it flipped ~2% of argmax decisions on a test
-    batch. ``benchmarks/policy_speed.py --all`` measures every combination.
+    Defaults are fp32 with channels_last: NHWC lets oneDNN pick faster convolution kernels, with logits
+    equal to ~1e-6. bf16 is off: without AVX512-BF16/AMX it is emulated and slow, and it changes some
+    argmax decisions. ``benchmarks/policy_speed.py --all`` measures every combination.
     """
 
     reset_goal_dist: float = 0.1  # m; a goal that moves farther than this restarts the recurrent state
