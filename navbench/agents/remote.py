@@ -131,6 +131,8 @@ class RemoteAgent:
         try:
             if self._conn is None:
                 self._conn = self._connect()
+                self._conn.connect()
+                self._conn.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             headers = {"Content-Type": content_type} if body is not None else {}
             self._conn.request(method, path, body=body, headers=headers)
             resp = self._conn.getresponse()
@@ -269,6 +271,12 @@ class AgentServer(ThreadingHTTPServer):
                 self.sessions.popitem(last=False)
         return s
 
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A client gone mid-request is routine (a stopped run); anything else is printed as usual."""
+        import sys
+        if not isinstance(sys.exc_info()[1], (ConnectionError, TimeoutError)):
+            super().handle_error(request, client_address)
+
     def start(self) -> AgentServer:
         """Serve from a daemon thread (tests, notebooks); ``stop()`` ends it."""
         self._thread = threading.Thread(target=self.serve_forever, daemon=True)
@@ -291,6 +299,9 @@ class _Handler(BaseHTTPRequestHandler):
 
     def setup(self) -> None:
         super().setup()
+        # Headers and body go out in two writes: without this, Nagle's algorithm and the client's delayed
+        # ACK hold every answer back ~40 ms.
+        self.connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.server.connections.add(self.connection)
 
     def finish(self) -> None:

@@ -20,7 +20,7 @@ AGENT_MODULE = textwrap.dedent('''
     class WalkAgent:
         sensors = ("depth",)
 
-        def __init__(self, stop_after=25, turn=0.3, wall=0.4):
+        def __init__(self, stop_after=25, turn=0.3, wall=0.03):
             self.stop_after, self.turn, self.wall = stop_after, turn, wall
 
         def reset(self, episode):
