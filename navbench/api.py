@@ -59,7 +59,13 @@ class _Instance:
 
 
 def _spec_of(obj: Any) -> str:
-    return f"{obj.__module__}:{obj.__qualname__}"
+    """``module:QualName``; a script run with ``python -m pkg.mod`` is named by ``pkg.mod``, not ``__main__``."""
+    module = obj.__module__
+    if module == "__main__":
+        import sys
+        spec = getattr(sys.modules["__main__"], "__spec__", None)
+        module = spec.name if spec is not None and spec.name != "__main__" else module
+    return f"{module}:{obj.__qualname__}"
 
 
 def evaluate(agent: Any, task: str | None = None, split: str | None = None, episodes: str | Path | None = None,
@@ -89,7 +95,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     elif inspect.isclass(agent) or inspect.isfunction(agent):
         spec = _spec_of(agent)
         check_options(spec, agent, options)
-        if agent.__module__ != "__main__" and "<locals>" not in agent.__qualname__:
+        if not spec.startswith("__main__:") and "<locals>" not in agent.__qualname__:
             from navbench.agents.plugins import PluginFactory
             factory: Any = PluginFactory(spec, options)  # workers re-import it by name
         else:

@@ -1,6 +1,7 @@
 """Plug-in agents: import paths and entry points on the command line, typed options, navbench.evaluate."""
 
 import json
+import sys
 
 import pytest
 
@@ -125,3 +126,18 @@ def test_installed_entry_point_is_listed_and_runs_by_name(plugin_site, pointnav_
     assert json.loads((tmp_path / "ep" / "config.json").read_text())["agent_options"] == {"stop_after": 5}
     summary = navbench.evaluate("walker-factory", episodes=pointnav_file, limit=2, out=tmp_path / "ep2")
     assert summary["num_episodes"] == 2 and summary["agent"] == "walker-factory"
+
+
+def test_the_shipped_example_runs_and_records_a_rerunnable_agent(tmp_path, monkeypatch):
+    import importlib.util
+
+    from navbench.paths import SCENES_DIR
+    example = SCENES_DIR.parent / "examples" / "evaluate_agent.py"
+    spec = importlib.util.spec_from_file_location("examples.evaluate_agent", example)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "examples.evaluate_agent", module)
+    spec.loader.exec_module(module)
+    summary = module.main(limit=2, out=tmp_path / "run")
+    assert summary["num_episodes"] == 2 and summary["complete"]
+    cfg = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert cfg["agent"] == "examples.evaluate_agent:GoalSeeker" and cfg["agent_options"] == {"turn": 0.3}
