@@ -26,14 +26,15 @@ OVON_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")  # navben
 def resolve_episodes(task: str | None, split: str | None, episodes: str | Path | None
                      ) -> tuple[str, str | None, Path, float]:
     """(task, split, episode file, default success distance) of a bundled split or a user's file. The
-    task defaults to the file's, or for a split to ObjectNav unless the split is PointNav's only."""
+    task defaults to the file's, or for a split to ObjectNav unless the split is PointNav's only; the
+    split to the task's validation split (val_unseen without a task)."""
     if episodes:
         episodes = Path(episodes)
         if task is None:
             from navbench.episodes.io import load_dataset
             task = load_dataset(episodes).task
         return task, split, episodes, SUCCESS_DISTANCE[task]
-    split = split or "val_unseen"
+    split = split or ("val" if task == "pointnav" else "val_unseen")
     if task is None:
         task = "pointnav" if split in POINTNAV_SPLITS and split not in OBJECTNAV_SPLITS else "objectnav"
     valid = POINTNAV_SPLITS if task == "pointnav" else OBJECTNAV_SPLITS
@@ -111,7 +112,8 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
         raise ValueError(f"agent {agent!r}: expected an agent spec string, class, factory or instance "
                          f"(with act or act_batch)")
     if envs_per_worker is None:
-        envs_per_worker = 8 if resolved.spec == "pointnav" else int(getattr(agent, "num_envs", 1) or 1)
+        n = getattr(agent, "num_envs", 1)
+        envs_per_worker = 8 if resolved.spec == "pointnav" else n if isinstance(n, int) and n > 0 else 1
 
     task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
