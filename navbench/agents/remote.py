@@ -232,7 +232,8 @@ class AgentServer(ThreadingHTTPServer):
     the least recently used dropped first). ``stop()`` also closes open keep-alive connections."""
     daemon_threads = True
 
-    def __init__(self, make_agent: Callable[[ServedConfig], Any], name: str, address: tuple[str, int] = ("127.0.0.1", 0),
+    def __init__(self, make_agent: Callable[[ServedConfig], Any], name: str,
+                 address: tuple[str, int] = ("127.0.0.1", 0),
                  options: dict[str, Any] | None = None, scene_dir: str | None = None, task: str = "pointnav",
                  max_sessions: int = 64):
         self.make_agent, self.name, self.options = make_agent, name, dict(options or {})

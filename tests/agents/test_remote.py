@@ -61,6 +61,7 @@ def test_same_agent_in_process_and_served_gives_identical_records(agent_dir, poi
     assert local["num_episodes"] == remote["num_episodes"] == 10
     assert _records(tmp_path / "remote") == _records(tmp_path / "local")
     assert len({r["num_steps"] for r in _records(tmp_path / "local")}) > 1  # the observations steered it
+    assert all(r["log"]["observations_crc32"] for r in _records(tmp_path / "remote"))  # and arrived bit for bit
     cfg = json.loads((tmp_path / "remote" / "config.json").read_text())
     assert cfg["agent"] == url and cfg["agent_options"] == {"timeout": 10}
 
