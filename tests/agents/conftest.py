@@ -102,6 +102,11 @@ def write_installed_plugin(root: Path) -> Path:
 
 
 @pytest.fixture
+def agent_module_source() -> str:
+    return AGENT_MODULE
+
+
+@pytest.fixture
 def agent_dir(tmp_path, monkeypatch) -> Path:
     """A folder outside the package holding ``walkmod.py``, on sys.path (spawned workers inherit it)."""
     root = write_agent_module(tmp_path / "user")

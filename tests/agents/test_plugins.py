@@ -2,6 +2,7 @@
 
 import json
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -142,3 +143,34 @@ def test_the_shipped_example_runs_and_records_a_rerunnable_agent(tmp_path, monke
     assert summary["num_episodes"] == 2 and summary["complete"]
     cfg = json.loads((tmp_path / "run" / "config.json").read_text())
     assert cfg["agent"] == "examples.evaluate_agent:GoalSeeker" and cfg["agent_options"] == {"turn": 0.3}
+
+
+@pytest.mark.slow  # builds a venv and pip-installs a package into it
+def test_pip_installed_plugin_runs_by_name(tmp_path, pointnav_file, agent_module_source):
+    """``pip install their-agent`` into a fresh venv that sees this environment's packages through a
+    .pth file; then ``navbench agents`` there lists it and ``navbench run --agent walker`` runs it."""
+    import subprocess
+    import sysconfig
+
+    pkg = tmp_path / "their-agent"
+    (pkg / "their_agent").mkdir(parents=True)
+    (pkg / "their_agent" / "__init__.py").write_text(agent_module_source)
+    (pkg / "pyproject.toml").write_text(
+        '[build-system]\nrequires = ["setuptools"]\nbuild-backend = "setuptools.build_meta"\n'
+        '[project]\nname = "their-agent"\nversion = "1.2"\n'
+        '[project.entry-points."navbench.agents"]\nwalker = "their_agent:WalkAgent"\n')
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
+    py = venv / "bin" / "python"
+    purelib = subprocess.run([py, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    repo = Path(navbench.__file__).resolve().parents[1]
+    (Path(purelib) / "host.pth").write_text(f"{repo}\n{sysconfig.get_paths()['purelib']}\n")
+    subprocess.run([py, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", str(pkg)], check=True,
+                   timeout=300)
+    listing = subprocess.run([py, "-m", "navbench.cli", "agents"], capture_output=True, text=True, check=True).stdout
+    assert any(line.split()[:3] == ["walker", "their-agent", "1.2"] for line in listing.splitlines()), listing
+    subprocess.run([py, "-m", "navbench.cli", "run", "--episodes", str(pointnav_file), "--agent", "walker",
+                    "--limit", "2", "--workers", "1", "-q", "--out", str(tmp_path / "run")], check=True, timeout=300,
+                   cwd=tmp_path)
+    assert len(read_records(tmp_path / "run" / "episodes.jsonl")) == 2
