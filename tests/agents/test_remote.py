@@ -66,13 +66,16 @@ def test_same_agent_in_process_and_served_gives_identical_records(agent_dir, poi
     assert cfg["agent"] == url and cfg["agent_options"] == {"timeout": 10}
 
 
-def test_oracle_served_from_a_thread_matches_in_process(pointnav_file, tmp_path):
+@pytest.mark.parametrize("task", ["pointnav", "objectnav"])
+def test_oracle_served_from_a_thread_matches_in_process(task, request, tmp_path):
+    """The oracle plans on the episode's goals (ObjectNav: their view points), so those cross the wire whole."""
+    episodes = request.getfixturevalue(f"{task}_file")
     server = _serve("oracle")
     try:
-        navbench.evaluate(server.url, episodes=pointnav_file, out=tmp_path / "remote")
+        navbench.evaluate(server.url, episodes=episodes, out=tmp_path / "remote")
     finally:
         server.stop()
-    navbench.evaluate("oracle", episodes=pointnav_file, out=tmp_path / "local")
+    navbench.evaluate("oracle", episodes=episodes, out=tmp_path / "local")
     assert _records(tmp_path / "remote") == _records(tmp_path / "local")
     assert all(r["success"] for r in _records(tmp_path / "local"))
 
