@@ -13,3 +13,9 @@ for _id, _entry in (("navbench/PointNav-v0", "navbench.env.pointnav:PointNavEnv"
     if _id not in _gym.registry:
         # Habitat truncates at 500 steps inside the env; no TimeLimit wrapper on top of that.
         _gym.register(id=_id, entry_point=_entry, disable_env_checker=True)
+
+
+def evaluate(*args, **kwargs):
+    """Evaluate an agent over a split and return the summary: see :func:`navbench.api.evaluate`."""
+    from navbench.api import evaluate as _evaluate
+    return _evaluate(*args, **kwargs)

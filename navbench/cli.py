@@ -2,6 +2,9 @@
 
     navbench run --split val_unseen [--task objectnav] [--agent memory] [--decoding argmax|sample|least-tried]
                  [--limit N] [--out DIR] [--resume]
+    navbench run --agent package.module:Name|http://HOST:PORT|NAME [--agent-opt KEY=VALUE ...] ...
+    navbench agents
+    navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
@@ -21,16 +24,11 @@ import json
 import sys
 from pathlib import Path
 
-from navbench.agents.registry import (AGENTS, DEFAULT_DECODING, agent_factory, agent_options, prebuild_memories,
-                                      run_label, scan_config)
-from navbench.agents.registry import make_oracle, make_pointnav  # noqa: F401  (importable from here too)
-from navbench.env.config import SUCCESS_DISTANCE
-from navbench.paths import EPISODES_DIR, SCENES_DIR, split_file
-
-# `select`: houses of their own for choosing among trained policies, so `val` is looked at once, to report
-POINTNAV_SPLITS = ("train", "val", "select")
-OBJECTNAV_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")
-OVON_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")  # navbench's ObjectNav splits
+from navbench.agents.plugins import parse_options, resolve_agent
+from navbench.agents.registry import AGENTS, DEFAULT_DECODING, agent_options, prebuild_memories, scan_config
+from navbench.agents.registry import agent_factory, make_oracle, make_pointnav  # noqa: F401  (importable from here too)
+from navbench.api import OBJECTNAV_SPLITS, OVON_SPLITS, POINTNAV_SPLITS, resolve_episodes, run_dir  # noqa: F401
+from navbench.paths import EPISODES_DIR, SCENES_DIR
 
 
 # ------------------------------------------------------------------------------------------ commands
@@ -39,28 +37,10 @@ def cmd_run(args) -> int:
     from navbench.eval.runner import RunConfig, run, select_episodes
     from navbench.eval.table import summary_markdown
 
-    if args.agent is not None:
-        agent_factory(args.agent)  # an unknown name fails before anything loads
-    task = args.task
-    if args.episodes:
-        episodes = Path(args.episodes)
-        split = args.split
-        if task is None:
-            task = load_dataset(episodes).task
-        default_sd = SUCCESS_DISTANCE[task]
-    else:
-        split = args.split or "val_unseen"
-        if task is None:
-            # ObjectNav unless the split exists only for PointNav ("val")
-            task = "pointnav" if split in POINTNAV_SPLITS and split not in OBJECTNAV_SPLITS else "objectnav"
-        valid = POINTNAV_SPLITS if task == "pointnav" else OBJECTNAV_SPLITS
-        if split not in valid:
-            raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(valid)}")
-        episodes = split_file(task, split)
-        default_sd = SUCCESS_DISTANCE["ovon"] if task == "objectnav" and split in OVON_SPLITS \
-            else SUCCESS_DISTANCE[task]
+    task, split, episodes, default_sd = resolve_episodes(args.task, args.split, args.episodes)
     # The benchmark's own methods by default: the memory agent for ObjectNav, the policy for PointNav.
     args.agent = args.agent or ("memory" if task == "objectnav" else "pointnav")
+    agent = _resolve_agent(args)
     cfg = RunConfig(
         task=task, split=split, agent=args.agent, episodes=str(episodes),
         scene_dir=str(args.scene_dir or SCENES_DIR),
@@ -68,9 +48,9 @@ def cmd_run(args) -> int:
         seed=args.seed, limit=args.limit, per_scene=args.per_scene, workers=args.workers,
         # batched policy inference: default 8 episodes per worker for the pointnav agent
         envs_per_worker=args.envs_per_worker or (8 if args.agent == "pointnav" else 1),
-        agent_options=_agent_options(args),
+        agent_options=agent.options,
     )
-    cfg.label = run_label(cfg.agent, cfg.agent_options, cfg.seed)
+    cfg.label = agent.label
     out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label, args.runs_dir))
 
     def progress(rec, n, total):
@@ -81,25 +61,65 @@ def cmd_run(args) -> int:
 
     if args.agent == "memory":
         prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit, cfg.per_scene))
-    summary = run(cfg, AGENTS[args.agent], out, resume=args.resume, progress=progress)
+    summary = run(cfg, agent.factory, out, resume=args.resume, progress=progress)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
     return 0
 
 
-def run_dir(task: str, split: str, label: str, root: str | Path = "runs") -> Path:
-    """A run's default directory: <root>/<task>/<split>/<label> (split: a user's episode file's stem)."""
-    return Path(root) / task / split / label
+def _resolve_agent(args):
+    """The run's agent: a built-in takes its flags (and ``--agent-opt`` for the same keys); a plug-in or
+    remote agent only ``--agent-opt``, so a built-in's flag given to it is refused in one line."""
+    opts = parse_options(args.agent_opt)
+    if args.agent in AGENTS:
+        return resolve_agent(args.agent, {**_builtin_flags(args), **opts}, args.seed)
+    given = [f for f, v in (("--checkpoint", args.checkpoint), ("--decoding", args.decoding),
+                            ("--temperature", args.temperature)) if v is not None]
+    if given:
+        raise ValueError(f"{', '.join(given)} apply to the built-in policy agents, not {args.agent!r}: "
+                         f"use --agent-opt KEY=VALUE")
+    return resolve_agent(args.agent, opts, args.seed)
 
 
-def _agent_options(args) -> dict:
-    """Everything that changes the agent's behaviour, as its run's config.json records it."""
-    return agent_options(
-        args.agent, checkpoint=args.checkpoint, decoding=args.decoding, temperature=args.temperature,
+def _builtin_flags(args) -> dict:
+    """Everything the flags say of a built-in agent's behaviour (checked and completed by agent_options)."""
+    return dict(
+        checkpoint=args.checkpoint, decoding=args.decoding, temperature=args.temperature,
         models={"siglip2": args.siglip2, "qwen_vl": args.qwen_vl, "sam3": args.sam3},
         perception=args.perception, noise=args.noise, fusion=not args.no_fusion, rerank=args.rerank != "none",
         keyframe_res=args.keyframe_res, all_frames=args.all_frames, goal_tracking=not args.no_tracking,
         visibility_stop=not args.no_visibility_stop)
+
+
+def _agent_options(args) -> dict:
+    """Everything that changes a built-in agent's behaviour, as its run's config.json records it."""
+    return agent_options(args.agent, **_builtin_flags(args))
+
+
+def cmd_agents(args) -> int:
+    from navbench.agents.plugins import available_agents
+    rows = available_agents()
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        print(f"{r['name']:<{width}}  {r['source']:<24}  {r['target']}")
+    print("\nalso: --agent package.module:Name (a class or factory) or --agent http://HOST:PORT "
+          "(a served agent)")
+    return 0
+
+
+def cmd_serve_agent(args) -> int:
+    from navbench.agents.remote import AgentServer
+    agent = resolve_agent(args.agent, parse_options(args.agent_opt))
+    if agent.spec.startswith(("http://", "https://")):
+        raise ValueError(f"serve-agent serves a local agent, not {agent.spec!r}")
+    server = AgentServer(agent.factory, agent.spec, (args.host, args.port), options=agent.options,
+                         scene_dir=args.scene_dir, task=args.task)
+    print(f"serving {agent.spec} at {server.url} (sensors: {', '.join(server.sensors) or 'none'})", flush=True)
+    try:
+        server.serve_forever()
+    finally:
+        server.server_close()
+    return 0
 
 
 def cmd_table(args) -> int:
@@ -178,7 +198,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--split", help="bundled split (default val_unseen)")
     r.add_argument("--task", choices=("pointnav", "objectnav"))
     r.add_argument("--agent", help=f"one of: {', '.join(AGENTS)} (default: memory for ObjectNav, "
-                                   "pointnav for PointNav)")
+                                   "pointnav for PointNav), an installed plug-in's name (`navbench agents`), "
+                                   "package.module:Name (a class or a factory f(run_config, **opts)), or "
+                                   "http://HOST:PORT (an agent served by `navbench serve-agent`)")
+    r.add_argument("--agent-opt", action="append", metavar="KEY=VALUE",
+                   help="an option for the agent, repeatable; VALUE is read as a JSON literal (3, 0.5, true, "
+                        "null, [1,2]) or else kept as a string. A plug-in class gets them as constructor "
+                        "keywords; a remote agent takes timeout=SECONDS (per request, default 30)")
     r.add_argument("--episodes", help="a Habitat-format episode file (.json/.json.gz) instead of a bundled split")
     r.add_argument("--scene-dir", help="where episode scene_id paths are resolved (default: bundled envs/)")
     r.add_argument("--limit", type=int, help="first N episodes only")
@@ -259,6 +285,21 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("--qwen-vl")
     lo.add_argument("--sam3")
     lo.set_defaults(func=cmd_localize)
+
+    a = sub.add_parser("agents", help="list the agents --agent takes by name and where each comes from")
+    a.set_defaults(func=cmd_agents)
+
+    sa = sub.add_parser("serve-agent", help="serve a local agent over HTTP for `run --agent http://HOST:PORT` "
+                                            "(protocol: docs/remote_agent.md)")
+    sa.add_argument("agent", help="a built-in or plug-in name, or package.module:Name")
+    sa.add_argument("--agent-opt", action="append", metavar="KEY=VALUE", help="as for `run`, repeatable")
+    sa.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine "
+                                                        "only)")
+    sa.add_argument("--port", type=int, default=8765, help="default 8765; 0 picks a free port")
+    sa.add_argument("--task", default="pointnav", choices=("pointnav", "objectnav"),
+                    help="task of the agent built at start to answer /info (each client's run says its own)")
+    sa.add_argument("--scene-dir", help="where this machine keeps the scenes, if not where the client does")
+    sa.set_defaults(func=cmd_serve_agent)
 
     b = sub.add_parser("bench", help="simulator, geodesic and policy speed")
     b.add_argument("--json", action="store_true")

@@ -1,0 +1,198 @@
+"""Agents from outside the package: an import path, an installed entry point, or a remote server.
+
+An agent spec is one of
+- a built-in name (``oracle``, ``pointnav``, ...: :data:`navbench.agents.registry.AGENTS`);
+- a name registered by an installed package in the ``navbench.agents`` entry-point group;
+- an import path ``package.module:Name``;
+- ``http://HOST:PORT``: an agent served over HTTP (:mod:`navbench.agents.remote`).
+
+What an entry point or import path names is either a class, built as ``Name(**options)``, or a
+function, called as ``f(run_config, **options)`` (the run config as the built-in factories get it).
+:class:`PluginFactory` holds only the spec and options, so spawned workers re-import the module
+(which must be importable there: installed, or on ``sys.path``/``PYTHONPATH``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import json
+import os
+import re
+import sys
+from dataclasses import dataclass, field
+from importlib import metadata
+from typing import Any
+
+ENTRY_POINT_GROUP = "navbench.agents"
+_IMPORT_PATH = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
+
+
+def is_remote(spec: str) -> bool:
+    return spec.startswith(("http://", "https://"))
+
+
+def is_import_path(spec: str) -> bool:
+    return bool(_IMPORT_PATH.match(spec))
+
+
+def entry_points() -> dict[str, metadata.EntryPoint]:
+    """The installed ``navbench.agents`` entry points by name."""
+    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def import_object(path: str) -> Any:
+    """The object ``package.module:Name`` names. The working directory is tried after ``sys.path``, as a
+    user's ``myagent.py`` beside them should import; a ValueError says what is missing."""
+    module_name, _, attr = path.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        cwd = os.getcwd()
+        top = module_name.split(".")[0]
+        if exc.name != top or cwd in sys.path or "" in sys.path:
+            raise ValueError(f"agent {path!r}: cannot import {module_name!r}: {exc}") from None
+        sys.path.append(cwd)  # appended, so it never shadows an installed module; spawned workers inherit it
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError:
+            raise ValueError(f"agent {path!r}: no module {module_name!r} on sys.path or in {cwd} "
+                             f"(install it or add its folder to PYTHONPATH)") from None
+    obj: Any = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise ValueError(f"agent {path!r}: module {module_name!r} has no {attr!r}")
+        obj = getattr(obj, part)
+    if not callable(obj):
+        raise ValueError(f"agent {path!r}: {attr!r} is neither a class nor a factory function")
+    return obj
+
+
+def load_target(spec: str) -> Any:
+    """The class or factory an entry point name or import path names."""
+    eps = entry_points()
+    if spec in eps:
+        try:
+            return eps[spec].load()
+        except Exception as exc:  # a broken plug-in names itself and its package
+            raise ValueError(f"agent {spec!r} (entry point {eps[spec].value}): {type(exc).__name__}: {exc}") from None
+    if is_import_path(spec):
+        return import_object(spec)
+    raise ValueError(f"unknown agent {spec!r}")
+
+
+def check_options(spec: str, target: Any, options: dict[str, Any]) -> None:
+    """Refuse options ``target`` does not take, in one line naming the agent and what it takes."""
+    try:
+        sig = inspect.signature(target)
+    except (TypeError, ValueError):  # builtins/extension types: let the call itself complain
+        return
+    params = list(sig.parameters.values())
+    if not inspect.isclass(target) and params:
+        params = params[1:]  # a factory's first parameter is the run config
+    if any(p.kind is p.VAR_KEYWORD for p in params):
+        return
+    takes = [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    unknown = sorted(set(options) - set(takes))
+    if unknown:
+        raise ValueError(f"agent {spec!r} takes no option {', '.join(map(repr, unknown))} "
+                         f"(it takes: {', '.join(takes) or 'none'})")
+    missing = [p.name for p in params if p.default is p.empty and p.kind is not p.VAR_POSITIONAL
+               and p.name not in options]
+    if missing:
+        raise ValueError(f"agent {spec!r} needs option(s) {', '.join(missing)} (--agent-opt NAME=VALUE)")
+
+
+def build(target: Any, cfg: Any, options: dict[str, Any]) -> Any:
+    """An agent from a plug-in class (``Name(**options)``) or factory (``f(cfg, **options)``)."""
+    return target(**options) if inspect.isclass(target) else target(cfg, **options)
+
+
+@dataclass
+class PluginFactory:
+    """A picklable agent factory for a plug-in or remote spec: workers resolve the spec themselves."""
+    spec: str
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __call__(self, cfg: Any) -> Any:
+        if is_remote(self.spec):
+            from navbench.agents.remote import RemoteAgent
+            return RemoteAgent(self.spec, cfg, **self.options)
+        return build(load_target(self.spec), cfg, self.options)
+
+
+# -------------------------------------------------------------------------------------------- options
+def parse_option(text: str) -> tuple[str, Any]:
+    """``key=value`` with the value read as a JSON literal (``3`` int, ``0.5`` float, ``true`` bool,
+    ``null``, ``[1, 2]``), else kept as a string (``ckpt=runs/a.pt``)."""
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    if not sep or not key.isidentifier():
+        raise ValueError(f"--agent-opt {text!r}: expected NAME=VALUE with NAME a Python identifier")
+    try:
+        return key, json.loads(raw)
+    except json.JSONDecodeError:
+        return key, raw
+
+
+def parse_options(texts: list[str] | None) -> dict[str, Any]:
+    return dict(parse_option(t) for t in texts or [])
+
+
+def plugin_label(spec: str, options: dict[str, Any], seed: int = 0) -> str:
+    """A plug-in run's name: the agent's last name (``MyAgent`` of ``pkg.mod:MyAgent``, the entry point's
+    name, ``remote-HOST_PORT``), then ``key_value`` per option in sorted order, then ``seedN`` when the
+    seed is not 0 (a plug-in's use of it is unknown). Only characters safe in a directory name remain."""
+    if is_remote(spec):
+        name = "remote-" + spec.split("://", 1)[1].rstrip("/").replace(":", "_")
+    else:
+        name = spec.rsplit(":", 1)[-1].rsplit(".", 1)[-1]
+    parts = [name] + [f"{k}_{json.dumps(v) if not isinstance(v, str) else v}" for k, v in sorted(options.items())]
+    if seed:
+        parts.append(f"seed{seed}")
+    return re.sub(r"[^\w.=+-]+", "_", "-".join(parts)).strip("_")[:120]
+
+
+# -------------------------------------------------------------------------------------------- listing
+def available_agents() -> list[dict[str, str]]:
+    """Every agent ``--agent`` takes by name, with where it comes from: built in, or the distribution
+    and object of an entry point (a name taken by a built-in is listed, marked as shadowed)."""
+    from navbench.agents.registry import AGENTS
+    rows = [{"name": n, "source": "built-in", "target": f"{f.__module__}:{f.__name__}"} for n, f in AGENTS.items()]
+    for name, ep in sorted(entry_points().items()):
+        dist = getattr(ep, "dist", None)
+        where = f"{dist.name} {dist.version}" if dist is not None else "entry point"
+        rows.append({"name": name, "source": where + (" (shadowed by the built-in)" if name in AGENTS else ""),
+                     "target": ep.value})
+    return rows
+
+
+# -------------------------------------------------------------------------------------------- resolve
+@dataclass
+class ResolvedAgent:
+    """What a run needs of an agent spec: a picklable factory, the options config.json records (a
+    built-in's with its defaults filled in), and the run's label."""
+    spec: str
+    factory: Any
+    options: dict[str, Any]
+    label: str
+    builtin: bool
+
+
+def resolve_agent(spec: str, options: dict[str, Any] | None = None, seed: int = 0) -> ResolvedAgent:
+    """Any agent spec with its options, checked up front (one-line ValueError naming the agent)."""
+    from navbench.agents import registry
+    options = dict(options or {})
+    if spec in registry.AGENTS:
+        opts = registry.agent_options(spec, **options)
+        return ResolvedAgent(spec, registry.AGENTS[spec], opts, registry.run_label(spec, opts, seed), True)
+    if is_remote(spec):
+        from navbench.agents.remote import RemoteAgent, probe
+        check_options(spec, RemoteAgent, {"url": None, "cfg": None, **options})
+        probe(spec, timeout=min(float(options.get("timeout", 5.0)), 5.0))
+    elif spec in entry_points() or is_import_path(spec):
+        check_options(spec, load_target(spec), options)
+    else:
+        raise ValueError(f"unknown agent {spec!r}: choose from {', '.join(registry.AGENTS)}, an installed "
+                         f"plug-in (`navbench agents` lists them), package.module:Name or http://HOST:PORT")
+    return ResolvedAgent(spec, PluginFactory(spec, options), options, plugin_label(spec, options, seed), False)

@@ -1,0 +1,176 @@
+"""Plug-in agents: import paths and entry points on the command line, typed options, navbench.evaluate."""
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+import navbench
+from navbench.agents.plugins import parse_option, plugin_label, resolve_agent
+from navbench.cli import main
+from navbench.eval.runner import read_records
+
+
+def _records(run_dir):
+    return sorted(({k: v for k, v in r.items() if k != "elapsed_s"} for r in read_records(run_dir / "episodes.jsonl")),
+                  key=lambda r: r["episode_id"])
+
+
+def _cli(*argv):
+    return main(["run", *map(str, argv), "--workers", "1", "-q"])
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("k=3", ("k", 3)), ("k=0.5", ("k", 0.5)), ("k=true", ("k", True)), ("k=null", ("k", None)),
+    ("k=[1, 2]", ("k", [1, 2])), ("k=runs/a.pt", ("k", "runs/a.pt")), ("k=", ("k", "")), ("k=a=b", ("k", "a=b")),
+])
+def test_agent_opt_values_are_json_literals_else_strings(text, expected):
+    assert parse_option(text) == expected
+
+
+@pytest.mark.parametrize("text", ["novalue", "=3", "not-an-identifier=1"])
+def test_malformed_agent_opt_is_refused(text):
+    with pytest.raises(ValueError, match="NAME=VALUE"):
+        parse_option(text)
+
+
+def test_labels_name_the_class_then_the_options_in_order():
+    assert plugin_label("mypkg.agents:MyAgent", {}) == "MyAgent"
+    assert plugin_label("mypkg.agents:MyAgent", {"b": 0.5, "a": "x/y"}, seed=2) == "MyAgent-a_x_y-b_0.5-seed2"
+    assert plugin_label("http://10.1.2.3:8765", {"timeout": 5}) == "remote-10.1.2.3_8765-timeout_5"
+
+
+def test_import_path_on_the_cli_and_evaluate_give_identical_records(agent_dir, pointnav_file, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert _cli("--episodes", pointnav_file, "--agent", "walkmod:WalkAgent", "--agent-opt", "stop_after=30",
+                "--agent-opt", "turn=0.25") == 0
+    cli_dir = tmp_path / "runs" / "pointnav" / "smoke" / "WalkAgent-stop_after_30-turn_0.25"
+    cfg = json.loads((cli_dir / "config.json").read_text())
+    assert cfg["agent"] == "walkmod:WalkAgent" and cfg["agent_options"] == {"stop_after": 30, "turn": 0.25}
+    assert cfg["label"] == cli_dir.name
+
+    import walkmod
+    summary = navbench.evaluate(walkmod.WalkAgent, episodes=pointnav_file, options={"stop_after": 30, "turn": 0.25},
+                                out=tmp_path / "api")
+    assert _records(tmp_path / "api") == _records(cli_dir)
+    assert summary == json.loads((cli_dir / "summary.json").read_text())
+    assert json.loads((tmp_path / "api" / "config.json").read_text()) == cfg
+    assert any(r["num_steps"] > 1 for r in _records(cli_dir))  # the agent moved: records compare something
+    # config.json names the agent and its options, so the CLI resumes a run navbench.evaluate wrote
+    assert _cli("--episodes", pointnav_file, "--agent", "walkmod:WalkAgent", "--agent-opt", "stop_after=30",
+                "--agent-opt", "turn=0.25", "--out", tmp_path / "api", "--resume") == 0
+    assert _records(tmp_path / "api") == _records(cli_dir)
+
+
+def test_plugin_factory_pickles_as_its_spec_and_builds_from_it(agent_dir):
+    import pickle
+
+    from navbench.agents.plugins import PluginFactory
+
+    factory = resolve_agent("walkmod:make_walker", {"stop_after": 4}).factory
+    assert isinstance(factory, PluginFactory)
+    clone = pickle.loads(pickle.dumps(factory))
+    agent = clone(type("Cfg", (), {"task": "pointnav"})())
+    assert type(agent).__name__ == "WalkAgent" and agent.stop_after == 4
+
+
+@pytest.mark.slow  # spawns two workers that import navbench and the plug-in
+def test_factory_gets_the_run_config_and_spawned_workers_reimport_it(agent_dir, pointnav_file, tmp_path):
+    one = navbench.evaluate("walkmod:make_walker", episodes=pointnav_file, options={"stop_after": 12},
+                            out=tmp_path / "one", limit=4)
+    two = navbench.evaluate("walkmod:make_walker", episodes=pointnav_file, options={"stop_after": 12},
+                            out=tmp_path / "two", limit=4, workers=2)
+    assert _records(tmp_path / "one") == _records(tmp_path / "two") and one == two
+    assert {r["num_steps"] for r in _records(tmp_path / "one")} <= set(range(1, 13))
+
+
+def test_batched_agents_are_stepped_batched(agent_dir, pointnav_file, tmp_path):
+    import walkmod
+    batch = walkmod.BatchWalkAgent(num_envs=3)
+    navbench.evaluate(batch, episodes=pointnav_file, out=tmp_path / "batch")
+    navbench.evaluate(walkmod.WalkAgent, episodes=pointnav_file, out=tmp_path / "single")
+    assert batch.largest_batch == 3
+    # the batched runner keeps no decision log; all else matches the one-at-a-time run
+    assert [{**r, "agent": None, "log": None} for r in _records(tmp_path / "batch")] == \
+        [{**r, "agent": None, "log": None} for r in _records(tmp_path / "single")]
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--agent", "walkmod:WalkAgent", "--agent-opt", "speed=2"],
+     "agent 'walkmod:WalkAgent' takes no option 'speed' (it takes: stop_after, turn, wall)"),
+    (["--agent", "walkmod:Nope"], "agent 'walkmod:Nope': module 'walkmod' has no 'Nope'"),
+    (["--agent", "nomod_xyz:Agent"], "agent 'nomod_xyz:Agent'"),
+    (["--agent", "walkmod:WalkAgent", "--decoding", "argmax"], "--decoding apply to the built-in policy agents"),
+    (["--agent", "oracle", "--agent-opt", "fusion=false"], "agent option 'fusion' does not apply to agent 'oracle'"),
+])
+def test_bad_plugin_input_is_one_line_and_exit_2(agent_dir, pointnav_file, argv, needle, capsys):
+    assert _cli("--episodes", pointnav_file, *argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err, err
+
+
+def test_builtins_take_agent_opt_for_their_own_keys():
+    assert resolve_agent("pointnav", {"decoding": "argmax"}).label == "pointnav-argmax"
+    assert resolve_agent("memory", {"fusion": False}).options["fusion"] is False
+
+
+def test_installed_entry_point_is_listed_and_runs_by_name(plugin_site, pointnav_file, tmp_path, capsys):
+    assert main(["agents"]) == 0
+    listing = capsys.readouterr().out
+    assert any(line.split()[:4] == ["walker", "their-agent", "1.2", "their_agent:WalkAgent"]
+               for line in listing.splitlines()), listing
+    assert "oracle" in listing and "built-in" in listing
+    assert _cli("--episodes", pointnav_file, "--agent", "walker", "--agent-opt", "stop_after=5", "--limit", "2",
+                "--out", tmp_path / "ep") == 0
+    recs = _records(tmp_path / "ep")
+    assert len(recs) == 2 and all(r["agent"] == "walker" and r["num_steps"] <= 5 for r in recs)
+    assert json.loads((tmp_path / "ep" / "config.json").read_text())["agent_options"] == {"stop_after": 5}
+    summary = navbench.evaluate("walker-factory", episodes=pointnav_file, limit=2, out=tmp_path / "ep2")
+    assert summary["num_episodes"] == 2 and summary["agent"] == "walker-factory"
+
+
+def test_the_shipped_example_runs_and_records_a_rerunnable_agent(tmp_path, monkeypatch):
+    import importlib.util
+
+    from navbench.paths import SCENES_DIR
+    example = SCENES_DIR.parent / "examples" / "evaluate_agent.py"
+    spec = importlib.util.spec_from_file_location("examples.evaluate_agent", example)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "examples.evaluate_agent", module)
+    spec.loader.exec_module(module)
+    summary = module.main(limit=2, out=tmp_path / "run")
+    assert summary["num_episodes"] == 2 and summary["complete"]
+    cfg = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert cfg["agent"] == "examples.evaluate_agent:GoalSeeker" and cfg["agent_options"] == {"turn": 0.3}
+
+
+@pytest.mark.slow  # builds a venv and pip-installs a package into it
+def test_pip_installed_plugin_runs_by_name(tmp_path, pointnav_file, agent_module_source):
+    """``pip install their-agent`` into a fresh venv that sees this environment's packages through a
+    .pth file; then ``navbench agents`` there lists it and ``navbench run --agent walker`` runs it."""
+    import subprocess
+    import sysconfig
+
+    pkg = tmp_path / "their-agent"
+    (pkg / "their_agent").mkdir(parents=True)
+    (pkg / "their_agent" / "__init__.py").write_text(agent_module_source)
+    (pkg / "pyproject.toml").write_text(
+        '[build-system]\nrequires = ["setuptools"]\nbuild-backend = "setuptools.build_meta"\n'
+        '[project]\nname = "their-agent"\nversion = "1.2"\n'
+        '[project.entry-points."navbench.agents"]\nwalker = "their_agent:WalkAgent"\n')
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
+    py = venv / "bin" / "python"
+    purelib = subprocess.run([py, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    repo = Path(navbench.__file__).resolve().parents[1]
+    (Path(purelib) / "host.pth").write_text(f"{repo}\n{sysconfig.get_paths()['purelib']}\n")
+    subprocess.run([py, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", str(pkg)], check=True,
+                   timeout=300)
+    listing = subprocess.run([py, "-m", "navbench.cli", "agents"], capture_output=True, text=True, check=True).stdout
+    assert any(line.split()[:3] == ["walker", "their-agent", "1.2"] for line in listing.splitlines()), listing
+    subprocess.run([py, "-m", "navbench.cli", "run", "--episodes", str(pointnav_file), "--agent", "walker",
+                    "--limit", "2", "--workers", "1", "-q", "--out", str(tmp_path / "run")], check=True, timeout=300,
+                   cwd=tmp_path)
+    assert len(read_records(tmp_path / "run" / "episodes.jsonl")) == 2
