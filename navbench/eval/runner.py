@@ -19,14 +19,14 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
+import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from navbench import __version__
 from navbench.agents.base import Agent, BatchAgent, episode_log
@@ -36,13 +36,12 @@ from navbench.env.objectnav import ObjectNavEnv
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
+from navbench.eval.rundir import RecordFile, RunError, RunLock, read_records, write_atomic
 from navbench.metrics import aggregate
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
 
-
-class RunError(ValueError):
-    """A run cannot start or continue (bad config, incompatible resume); the message says why."""
+__all__ = ["RunConfig", "RunError", "read_records", "run", "select_episodes", "summarize"]
 
 
 @dataclass
@@ -65,6 +64,9 @@ class RunConfig:
     # Episodes each worker steps at once with one batched policy forward pass (agents with act_batch,
     # e.g. pointnav; others run one episode at a time). Outcomes do not depend on it.
     envs_per_worker: int = 1
+    # "I/N": this run is shard I (1-based) of N, the I-th of N contiguous blocks of the selected episodes
+    # in file order (see select_episodes); None: all of them.
+    shard: str | None = None
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)
@@ -81,9 +83,35 @@ AgentFactory = Callable[[RunConfig], Agent]
 
 
 # ----------------------------------------------------------------------------------------- episodes
-def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int | None = None) -> list[Episode]:
+def parse_shard(shard: str | None) -> tuple[int, int] | None:
+    """``"I/N"`` as (I, N) with 1 <= I <= N; a ValueError saying what is wrong otherwise."""
+    if shard is None:
+        return None
+    try:
+        i, n = (int(x) for x in str(shard).split("/"))
+    except ValueError:
+        raise RunError(f"--shard {shard!r}: expected I/N, e.g. 2/8") from None
+    if not 1 <= i <= n:
+        raise RunError(f"--shard {shard!r}: I must be between 1 and N")
+    return i, n
+
+
+def shard_of(episodes: list, shard: str | None) -> list:
+    """Shard I of N: the I-th of N contiguous blocks of ``episodes`` (sizes differ by at most one). Blocks
+    keep a scene's episodes together (episode files list them scene by scene), so a shard loads few scenes;
+    the N shards are disjoint and together hold every episode once."""
+    parsed = parse_shard(shard)
+    if parsed is None:
+        return episodes
+    i, n = parsed
+    return episodes[(i - 1) * len(episodes) // n: i * len(episodes) // n]
+
+
+def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int | None = None,
+                    shard: str | None = None) -> list[Episode]:
     """The first ``limit`` episodes in file order (Habitat's convention for partial evaluation), after
-    keeping only the first ``per_scene`` episodes of each scene when that is set."""
+    keeping only the first ``per_scene`` episodes of each scene when that is set; then shard ``shard``
+    ("I/N") of those."""
     episodes = list(dataset.episodes)
     if per_scene is not None:
         seen: dict[str, int] = {}
@@ -93,7 +121,7 @@ def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int |
             if seen[e.scene_id] <= per_scene:
                 kept.append(e)
         episodes = kept
-    return episodes[:limit] if limit is not None else episodes
+    return shard_of(episodes[:limit] if limit is not None else episodes, shard)
 
 
 def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) -> NavEnv:
@@ -103,22 +131,130 @@ def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) 
     return env
 
 
-def _begin(env: NavEnv, episode: Episode, cfg: RunConfig) -> tuple[dict[str, Any], dict | None, float]:
-    """Reset ``env`` to ``episode``: (record so far, first observation or None if skipped, start time)."""
+class EpisodeFailure(Exception):
+    """An agent call misbehaved (wrong action, too slow): the episode is recorded as failed with this reason."""
+
+
+def failure_reason(exc: BaseException) -> str:
+    """One line for a failed episode's record: ``"ValueError: <the message's first line>"``."""
+    if isinstance(exc, EpisodeFailure):
+        return str(exc)
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    return f"{type(exc).__name__}: {first}" if first else type(exc).__name__
+
+
+class Clock:
+    """Times agent calls against the step limit. ``busy`` (a shared value when in a worker) holds when the
+    current call began, so the driver can kill a worker whose call never returns."""
+
+    def __init__(self, limit: float | None = None, busy=None) -> None:
+        self.limit, self.busy = limit, busy
+
+    def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        t0 = time.monotonic()
+        if self.busy is not None:
+            self.busy.value = t0
+        try:
+            result = fn(*args)
+        finally:
+            if self.busy is not None:
+                self.busy.value = 0.0
+        dt = time.monotonic() - t0
+        if self.limit is not None and dt > self.limit:
+            raise EpisodeFailure(step_timeout_reason(dt, self.limit))
+        return result
+
+
+def step_timeout_reason(seconds: float, limit: float) -> str:
+    return f"step took {seconds:.1f} s (limit {limit:g} s)"
+
+
+class Tracker:
+    """Hears where each slot's episode is (a worker forwards it to the driver, which records a worker's
+    death or a killed call as those episodes' failures); the default hears nothing."""
+
+    def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
+        """Before the env's reset; ``d0`` is the episode file's distance until :meth:`started` tells the env's."""
+
+    def started(self, slot: int, d0: float) -> None:
+        pass
+
+    def step(self, slot: int, info: dict[str, Any]) -> None:
+        pass
+
+
+_NO_TRACKER = Tracker()
+
+
+def _action(env: NavEnv, action: Any) -> int:
+    n = env.action_space.n
+    try:
+        ok = int(action) == action and 0 <= int(action) < n
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        shown = action.item() if hasattr(action, "item") and getattr(action, "size", 1) == 1 else action
+        raise EpisodeFailure(f"invalid action {shown!r} (expected 0-{n - 1})")
+    return int(action)
+
+
+def _base_record(episode: Episode, cfg: RunConfig) -> dict[str, Any]:
+    return {"episode_id": episode.episode_id, "scene_id": episode.scene_id, "split": cfg.split, "task": cfg.task,
+            "agent": cfg.agent, "object_category": episode.object_category}
+
+
+def start_distance(episode: Episode) -> float:
+    """The start's geodesic distance from the episode file, else the straight line to the nearest goal."""
+    d = episode.info.get("geodesic_distance") if isinstance(episode.info, dict) else None
+    if isinstance(d, (int, float)) and math.isfinite(d):
+        return float(d)
+    pts = episode.goal_positions()
+    start = np.asarray(episode.start_position, np.float64)
+    return float(np.min(np.hypot(pts[:, 0] - start[0], pts[:, 2] - start[2]))) if len(pts) else 0.0
+
+
+def failed_record(record: dict[str, Any], reason: str, d0: float, distance: float | None, num_steps: int,
+                  elapsed: float, info: dict[str, Any] | None = None) -> dict[str, Any]:
+    """A failed episode's record: a failure's metrics (success, SPL and SoftSPL 0), the distance to the goal
+    when it failed (the start's if unknown) and the steps taken so far."""
+    info = info or {}
+    record = dict(record)
+    record.update(
+        success=0.0, spl=0.0, soft_spl=0.0, distance_to_goal=float(d0 if distance is None else distance),
+        geodesic_distance=float(d0), path_length=float(info.get("path_length", 0.0)), num_steps=int(num_steps),
+        stop_called=bool(info.get("stop_called", False)), collisions=int(info.get("collisions", 0)),
+        elapsed_s=round(elapsed, 4), failed=True, failure_reason=reason,
+    )
+    return record
+
+
+def _begin(env: NavEnv, episode: Episode, cfg: RunConfig, tracker: Tracker = _NO_TRACKER,
+           slot: int = 0) -> tuple[dict[str, Any], dict | None, float, float]:
+    """Reset ``env`` to ``episode``: (record so far, first observation or None if skipped, start time, d0).
+    A bad episode or scene (EpisodeError, SceneError) is bad input and ends the run; any other error
+    raised by the env is raised as an :class:`_EnvFailure` carrying the record so far."""
     t0 = time.perf_counter()
+    record = _base_record(episode, cfg)
+    tracker.begin(slot, record, start_distance(episode))
     try:
         obs, info = env.reset(options={"episode": episode})
     except (EpisodeError, SceneError) as exc:  # name the dataset file too: the user's way to the culprit
         raise type(exc)(f"{cfg.episodes}: {exc}") from None
-    record: dict[str, Any] = {
-        "episode_id": episode.episode_id, "scene_id": episode.scene_id, "split": cfg.split, "task": cfg.task,
-        "agent": cfg.agent, "object_category": episode.object_category,
-    }
+    except Exception as exc:
+        raise _EnvFailure(failed_record(record, failure_reason(exc), start_distance(episode), None, 0,
+                                        time.perf_counter() - t0)) from None
     if not math.isfinite(info["geodesic_distance"]):
         record.update(skipped=True, skip_reason="unreachable: no goal on the start's navigable island",
                       geodesic_distance=None, elapsed_s=round(time.perf_counter() - t0, 4))
-        return record, None, t0
-    return record, obs, t0
+        return record, None, t0, math.inf
+    tracker.started(slot, float(info["geodesic_distance"]))
+    return record, obs, t0, float(info["geodesic_distance"])
+
+
+class _EnvFailure(Exception):
+    def __init__(self, record: dict[str, Any]) -> None:
+        super().__init__(record["failure_reason"])
+        self.record = record
 
 
 def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any]) -> dict[str, Any]:
@@ -133,28 +269,53 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
     return record
 
 
-def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> dict[str, Any]:
-    record, obs, t0 = _begin(env, episode, cfg)
+def _fail(record: dict[str, Any], exc: BaseException, d0: float, info: dict[str, Any] | None,
+          t0: float) -> dict[str, Any]:
+    return failed_record(record, failure_reason(exc), d0, info["distance_to_goal"] if info else None,
+                         info["num_steps"] if info else 0, time.perf_counter() - t0, info)
+
+
+def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig, clock: Clock | None = None,
+                tracker: Tracker = _NO_TRACKER) -> dict[str, Any]:
+    """One episode's record; an exception raised by the agent or the env, an invalid action or a call
+    slower than the step limit ends the episode as failed (see :func:`failed_record`), not the run."""
+    clock = clock or Clock()
+    try:
+        record, obs, t0, d0 = _begin(env, episode, cfg, tracker)
+    except _EnvFailure as f:
+        return f.record
     if obs is None:
         return record
-    agent.reset(episode)
-    while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
-        if terminated or truncated:
-            break
+    info = None
+    try:
+        clock.call(agent.reset, episode)
+        while True:
+            obs, _, terminated, truncated, info = env.step(_action(env, clock.call(agent.act, obs)))
+            tracker.step(0, info)
+            if terminated or truncated:
+                break
+    except (EpisodeError, SceneError):
+        raise
+    except Exception as exc:
+        return _fail(record, exc, d0, info, t0)
     return _end(record, info, t0, episode_log(agent))
 
 
 def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[Episode], cfg: RunConfig,
-                         finish: Callable[[dict[str, Any]], None]) -> None:
+                         finish: Callable[[dict[str, Any]], None], clock: Clock | None = None,
+                         tracker: Tracker = _NO_TRACKER) -> None:
     """Step ``len(envs)`` episodes in lockstep, one ``agent.act_batch`` per step for all of them; a slot
     whose episode ends takes the next one, in order. Each record goes to ``finish`` as its episode ends.
 
     Every slot's recurrent state is its own, so an episode's outcome does not depend on which slot or
-    batch it ran in (tests/eval/test_runner.py checks the records equal the one-at-a-time run's).
+    batch it ran in (tests/eval/test_runner.py checks the records equal the one-at-a-time run's). A failed
+    ``act_batch`` call (an exception, too slow) fails every episode in flight; a failed ``env.step`` or
+    invalid action only its slot's.
     """
+    clock = clock or Clock()
     queue = list(episodes)
-    slots: list[tuple[dict[str, Any], float] | None] = [None] * len(envs)
+    # per slot: (record so far, start time, d0, last step's info) of its episode, None when idle
+    slots: list[tuple[dict[str, Any], float, float, dict | None] | None] = [None] * len(envs)
     obs: list[dict | None] = [None] * len(envs)
     failed: list[Exception] = []
 
@@ -163,7 +324,10 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
         while queue:
             ep = queue.pop(0)
             try:
-                record, first, t0 = _begin(envs[i], ep, cfg)
+                record, first, t0, d0 = _begin(envs[i], ep, cfg, tracker, i)
+            except _EnvFailure as f:
+                finish(f.record)
+                continue
             except (EpisodeError, SceneError) as exc:
                 # A bad episode ends the run, but the episodes in flight finish and are recorded first.
                 failed.append(exc)
@@ -172,21 +336,43 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             if first is None:
                 finish(record)
                 continue
-            agent.reset_env(i, ep)
-            slots[i], obs[i] = (record, t0), first
+            try:
+                clock.call(agent.reset_env, i, ep)
+            except Exception as exc:
+                finish(_fail(record, exc, d0, None, t0))
+                continue
+            slots[i], obs[i] = (record, t0, d0, None), first
             return
+
+    def fail(i: int, exc: Exception) -> None:
+        record, t0, d0, info = slots[i]
+        finish(_fail(record, exc, d0, info, t0))
+        start(i)
 
     for i in range(len(envs)):
         start(i)
     while any(s is not None for s in slots):
         filler = next(o for o, s in zip(obs, slots) if s is not None)
-        actions = agent.act_batch([o if s is not None else filler for o, s in zip(obs, slots)])
+        try:
+            actions = clock.call(agent.act_batch, [o if s is not None else filler for o, s in zip(obs, slots)])
+        except Exception as exc:
+            for i in [i for i, s in enumerate(slots) if s is not None]:
+                fail(i, exc)
+            continue
         for i, env in enumerate(envs):
             if slots[i] is None:
                 continue
-            obs[i], _, terminated, truncated, info = env.step(int(actions[i]))
+            try:
+                obs[i], _, terminated, truncated, info = env.step(_action(env, actions[i]))
+            except (EpisodeError, SceneError):
+                raise
+            except Exception as exc:
+                fail(i, exc)
+                continue
+            tracker.step(i, info)
+            record, t0, d0, _ = slots[i]
+            slots[i] = (record, t0, d0, info)
             if terminated or truncated:
-                record, t0 = slots[i]
                 finish(_end(record, info, t0, {}))
                 start(i)
     if failed:
@@ -209,94 +395,154 @@ def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) 
                    by_key={(e.scene_id, e.episode_id): e for e in dataset.episodes})
 
 
-def _run_keys(keys: list[tuple[str, str]], finish: Callable[[dict[str, Any]], None]) -> None:
+def _run_keys(keys: list[tuple[str, str]], finish: Callable[[dict[str, Any]], None], clock: Clock | None = None,
+              tracker: Tracker = _NO_TRACKER) -> None:
     """Run episodes with this process's agent and envs, handing each record to ``finish`` as it ends."""
     w = _WORKER
     episodes = [w["by_key"][k] for k in keys]
     if isinstance(w["agent"], BatchAgent):
-        run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], finish)
+        run_episodes_batched(w["envs"], w["agent"], episodes, w["cfg"], finish, clock, tracker)
     else:
         for ep in episodes:
-            finish(run_episode(w["envs"][0], w["agent"], ep, w["cfg"]))
-
-
-def _worker_run(keys: list[tuple[str, str]]) -> tuple[list[dict[str, Any]], Exception | None]:
-    """A worker task (one episode for single-episode agents, a chunk for batched ones): the records and
-    the error that stopped the task, if any, so the records finished before it are kept."""
-    out: list[dict[str, Any]] = []
-    try:
-        _run_keys(keys, out.append)
-    except (EpisodeError, SceneError) as exc:
-        return out, exc
-    return out, None
+            finish(run_episode(w["envs"][0], w["agent"], ep, w["cfg"], clock, tracker))
 
 
 # -------------------------------------------------------------------------------------------- files
-def read_records(path: Path) -> list[dict[str, Any]]:
-    """Records of ``episodes.jsonl``; a truncated last line (a run killed mid-write) is dropped."""
-    if not path.is_file():
-        return []
-    records, lines = [], path.read_text().splitlines()
-    for i, line in enumerate(lines):
-        if not line.strip():
-            continue
-        try:
-            records.append(json.loads(line))
-        except json.JSONDecodeError:
-            if i == len(lines) - 1:
-                break
-            raise RunError(f"{path}: line {i + 1} is corrupt") from None
-    return records
-
-
-def _append(fh, record: dict[str, Any]) -> None:
-    fh.write(json.dumps(record, allow_nan=False) + "\n")
-    fh.flush()
-    os.fsync(fh.fileno())
-
-
 def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The run's summary: metric means over scored episodes (failed ones count as failures) and the
+    failed episodes with their reasons."""
     summary = aggregate(records, by="object_category" if cfg.task == "objectnav" else None)
+    failed = sorted((r for r in records if r.get("failed")), key=lambda r: (str(r["scene_id"]), str(r["episode_id"])))
     summary.update(task=cfg.task, split=cfg.split, agent=cfg.label or cfg.agent, success_distance=cfg.success_distance,
-                   seed=cfg.seed, complete=complete)
+                   seed=cfg.seed, complete=complete, num_failed=len(failed),
+                   failed_episodes=[{"scene_id": r["scene_id"], "episode_id": r["episode_id"],
+                                     "failure_reason": r.get("failure_reason", "")} for r in failed])
+    if cfg.shard:
+        summary["shard"] = cfg.shard
     if extra:
         summary.update(extra)
     return summary
 
 
-def _check_resume(out: Path, cfg_json: dict[str, Any]) -> None:
+def config_json(cfg: RunConfig) -> dict[str, Any]:
+    """What config.json records: the RunConfig (its shard only when set) and navbench's version."""
+    out = dict(dataclasses.asdict(cfg), navbench_version=__version__)
+    if out.get("shard") is None:
+        out.pop("shard", None)
+    return out
+
+
+def config_diff(old: dict[str, Any], new: dict[str, Any], free: tuple[str, ...]) -> list[str]:
+    return sorted(k for k in set(old) | set(new) if k not in free and old.get(k) != new.get(k))
+
+
+def _check_resume(out: Path, cfg_json: dict[str, Any], has_records: bool) -> None:
     old_path = out / "config.json"
     if not old_path.is_file():
+        if has_records:
+            raise RunError(f"{old_path}: missing, so the records in {out / 'episodes.jsonl'} cannot be checked "
+                           f"against this run's config (restore it, or use another --out)")
         return
-    old = json.loads(old_path.read_text())
-    diff = sorted(k for k in set(old) | set(cfg_json)
-                  if k not in _RESUME_FREE_KEYS and old.get(k) != cfg_json.get(k))
+    try:
+        old = json.loads(old_path.read_text())
+        if not isinstance(old, dict):
+            raise ValueError
+    except ValueError:
+        raise RunError(f"{old_path}: not a valid config (corrupt JSON); cannot --resume") from None
+    diff = config_diff(old, cfg_json, _RESUME_FREE_KEYS)
     if diff:
         raise RunError(f"{old_path}: cannot --resume, the run's config differs in {', '.join(diff)} "
-                       f"(use another --out or drop --resume to start over)")
+                       f"(use another --out, or --overwrite to start over)")
+
+
+def _repair(records: list[dict[str, Any]], jsonl: Path, dataset: EpisodeDataset, dataset_file: str,
+            notes: list[str]) -> list[dict[str, Any]]:
+    """The records a resumed run keeps: each episode once (the first record), none of a failed episode
+    (rerun), and an error naming a record of an episode the dataset does not have."""
+    known = {(e.scene_id, e.episode_id) for e in dataset.episodes}
+    kept: dict[tuple[str, str], dict[str, Any]] = {}
+    dups = reruns = 0
+    for i, r in enumerate(records):
+        try:
+            key = (r["scene_id"], r["episode_id"])
+        except (KeyError, TypeError):
+            raise RunError(f"{jsonl}: record {i + 1} has no scene_id/episode_id") from None
+        if key not in known:
+            raise RunError(f"{jsonl}: record {i + 1} is of episode {key[1]!r} ({key[0]}), which is not in "
+                           f"{dataset_file}: records of another run? (use another --out)")
+        if key in kept:
+            dups += 1
+            continue
+        kept[key] = r
+    if dups:
+        notes.append(f"{jsonl}: {dups} duplicated record(s) kept once")
+    out = []
+    for r in kept.values():
+        if r.get("failed"):
+            reruns += 1
+        else:
+            out.append(r)
+    if reruns:
+        notes.append(f"{jsonl}: rerunning {reruns} failed episode(s)")
+    return out
 
 
 # ---------------------------------------------------------------------------------------------- run
+def _note_stderr(msg: str) -> None:
+    print(f"navbench: {msg}", file=sys.stderr, flush=True)
+
+
 def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = False,
-        progress: Callable[[dict[str, Any], int, int], None] | None = None) -> dict[str, Any]:
+        progress: Callable[[dict[str, Any], int, int], None] | None = None, *, overwrite: bool = False,
+        retries: int = 2, step_timeout: float | None = None, fail_fast: bool = False,
+        note: Callable[[str], None] = _note_stderr) -> dict[str, Any]:
+    """Run ``cfg``'s episodes into ``out`` and return the summary.
+
+    ``resume`` keeps the records already there (each episode once; failed episodes are rerun); without it
+    (or ``overwrite``) a directory that already holds a run is refused. An episode whose agent or env
+    fails is recorded as failed (``failed``, ``failure_reason``) and the run goes on, unless
+    ``fail_fast``: then the first failure raises RunError (finished records kept). A worker process that
+    dies is replaced and its episodes retried ``retries`` times; an agent call slower than
+    ``step_timeout`` seconds fails its episode (with workers, a call that never returns is killed).
+    """
+    if step_timeout is not None and step_timeout <= 0:
+        raise RunError(f"--step-timeout must be positive, got {step_timeout:g}")
+    if retries < 0:
+        raise RunError(f"--retries must be 0 or more, got {retries}")
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    cfg_json = dict(dataclasses.asdict(cfg), navbench_version=__version__)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RunError(f"{out}: cannot create the run directory: {exc.strerror or exc}") from None
+    lock = RunLock(out, note)
+    try:
+        return _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note)
+    finally:
+        lock.release()
+
+
+def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note):
+    cfg_json = config_json(cfg)
     jsonl = out / "episodes.jsonl"
+    notes: list[str] = []
+    old = read_records(jsonl, notes) if (resume or not overwrite) else []
+    if not resume and not overwrite and (old or (out / "config.json").is_file()):
+        raise RunError(f"{out} already holds a run ({len(old)} records): --resume to continue it, --overwrite to "
+                       f"replace it, or another --out")
+    dataset = load_dataset(cfg.episodes)
     if resume:
-        _check_resume(out, cfg_json)
-        records = read_records(jsonl)
+        _check_resume(out, cfg_json, bool(old))
+        records = _repair(old, jsonl, dataset, cfg.episodes, notes)
     else:
         records = []
-    (out / "config.json").write_text(json.dumps(cfg_json, indent=1) + "\n")
-    # Rewrite the kept records so a torn last line does not stay in the file.
-    with open(jsonl, "w") as fh:
-        for r in records:
-            fh.write(json.dumps(r) + "\n")
+    for n in notes:
+        note(n)
+    write_atomic(out / "config.json", json.dumps(cfg_json, indent=1) + "\n")
+    # Rewrite the kept records whole (atomically) so a torn line or a duplicate does not stay in the file.
+    write_atomic(jsonl, "".join(json.dumps(r) + "\n" for r in records))
 
-    dataset = load_dataset(cfg.episodes)
-    episodes = select_episodes(dataset, cfg.limit, cfg.per_scene)
+    episodes = select_episodes(dataset, cfg.limit, cfg.per_scene, cfg.shard)
     done = {(r["scene_id"], r["episode_id"]) for r in records}
     todo = [(e.scene_id, e.episode_id) for e in episodes if (e.scene_id, e.episode_id) not in done]
     todo.sort()  # group by scene so each worker loads a scene once
@@ -304,44 +550,40 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
     total = len(episodes)
 
     complete = False
+    fh = RecordFile(jsonl)
     try:
-        with open(jsonl, "a") as fh:
-            recorded = [total - len(todo)]  # episodes of this selection already in the file
+        recorded = [total - len(todo)]  # episodes of this selection already in the file
 
-            def finish(rec):
-                records.append(rec)
-                _append(fh, rec)
-                recorded[0] += 1
-                if progress:
-                    progress(rec, recorded[0], total)
+        def finish(rec):
+            if rec.get("failed") and fail_fast:
+                raise RunError(f"{cfg.episodes}: episode {rec['episode_id']} ({rec['scene_id']}) failed: "
+                               f"{rec['failure_reason']}")
+            fh.append(rec)
+            records.append(rec)
+            recorded[0] += 1
+            if progress:
+                progress(rec, recorded[0], total)
 
-            if cfg.workers <= 1 or len(todo) <= 1:
-                _worker_init(cfg, make_agent, single_thread=False)
-                _run_keys(todo, finish)
-            else:
-                # Batched agents take chunks of episodes (a worker keeps its slots busy; a killed run
-                # loses at most the chunks in flight), others one episode per task.
-                size = cfg.envs_per_worker * _CHUNK_PER_SLOT if cfg.envs_per_worker > 1 else 1
-                tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
-                with ProcessPoolExecutor(max_workers=cfg.workers, mp_context=get_context("spawn"),
-                                         initializer=_worker_init, initargs=(cfg, make_agent, True)) as pool:
-                    pending = {pool.submit(_worker_run, t) for t in tasks}
-                    try:
-                        while pending:
-                            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                            for f in finished:
-                                recs, error = f.result()
-                                for rec in recs:
-                                    finish(rec)
-                                if error is not None:
-                                    raise error
-                    except BaseException:
-                        for f in pending:
-                            f.cancel()
-                        raise
+        if (cfg.workers <= 1 and step_timeout is None) or not todo:
+            _worker_init(cfg, make_agent, single_thread=False)
+            _run_keys(todo, finish, Clock(step_timeout))
+        else:
+            from navbench.eval.pool import run_pool
+
+            # Batched agents take chunks of episodes (a worker keeps its slots busy; a killed run
+            # loses at most the chunks in flight), others one episode per task.
+            size = cfg.envs_per_worker * _CHUNK_PER_SLOT if cfg.envs_per_worker > 1 else 1
+            tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
+            run_pool(cfg, make_agent, tasks, finish, workers=cfg.workers, n_slots=max(1, cfg.envs_per_worker),
+                     retries=retries, step_timeout=step_timeout)
         complete = True
     finally:
+        fh.close()
         kept = [r for r in records if (r["scene_id"], r["episode_id"]) in wanted]
         summary = summarize(kept, cfg, complete)
-        (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+        try:
+            write_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
+        except RunError:
+            if complete:
+                raise
     return summary

@@ -1,0 +1,216 @@
+"""The evaluation runner's process pool: workers that may die without taking the run with them.
+
+Each worker is a spawned process with its own agent and envs (``runner._worker_init``) that takes tasks
+(lists of episode keys) over a pipe and sends back, per episode, where it begins and its record when it
+ends. The driver hands the next task to whichever worker is idle, in order. When a worker dies (SIGKILL,
+a segfault in the GL driver, the OOM killer), its records already sent are kept, the episodes it was
+running are retried on a fresh worker up to ``retries`` times and then recorded as failed ("worker
+died (signal 9)"), and the rest of its task goes back to the front of the queue. A worker whose agent
+call outlives the step limit is killed and the episodes of that call are recorded as failed.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections import deque
+from collections.abc import Callable
+from multiprocessing import get_context
+from multiprocessing.connection import wait
+from typing import Any
+
+from navbench.eval import runner as R
+from navbench.eval.rundir import RunError
+
+Key = tuple[str, str]
+
+
+class _PipeTracker(R.Tracker):
+    """Tells the driver where each slot's episode is: a message when it begins, shared counters after the
+    env's reset (the start's geodesic distance) and each step."""
+
+    def __init__(self, conn, steps, dist, d0) -> None:
+        self.conn, self.steps, self.dist, self.d0 = conn, steps, dist, d0
+
+    def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
+        self.steps[slot], self.dist[slot], self.d0[slot] = 0, d0, d0
+        self.conn.send(("begin", (slot, (record["scene_id"], record["episode_id"]), record)))
+
+    def started(self, slot: int, d0: float) -> None:
+        self.dist[slot] = self.d0[slot] = d0
+
+    def step(self, slot: int, info: dict[str, Any]) -> None:
+        self.steps[slot], self.dist[slot] = info["num_steps"], info["distance_to_goal"]
+
+
+def _send_exception(conn, exc: BaseException) -> None:
+    try:
+        conn.send(("error", exc))
+    except Exception:  # unpicklable: its one line is enough
+        conn.send(("error", RunError(f"worker: {R.failure_reason(exc)}")))
+
+
+def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
+    try:
+        R._worker_init(cfg, make_agent, single_thread=True)
+    except Exception as exc:
+        exc.add_note(traceback.format_exc())
+        _send_exception(conn, exc)
+        return
+    clock, tracker = R.Clock(limit, busy), _PipeTracker(conn, steps, dist, d0)
+    try:
+        conn.send(("ready", None))
+        while True:
+            try:
+                keys = conn.recv()
+            except EOFError:  # the driver went away
+                return
+            if keys is None:
+                return
+            try:
+                R._run_keys(keys, lambda rec: conn.send(("rec", rec)), clock, tracker)
+            except (BrokenPipeError, EOFError):
+                raise
+            except Exception as exc:  # bad input (EpisodeError, SceneError) or a bug: ends the run
+                _send_exception(conn, exc)
+                continue
+            conn.send(("done", None))
+    except (BrokenPipeError, EOFError, KeyboardInterrupt):  # the driver is gone or stopping
+        return
+
+
+class _Worker:
+    def __init__(self, ctx, cfg, make_agent, limit: float | None, n_slots: int) -> None:
+        self.busy = ctx.Value("d", 0.0, lock=False)
+        self.steps = ctx.Array("l", n_slots, lock=False)
+        self.dist = ctx.Array("d", n_slots, lock=False)
+        self.d0 = ctx.Array("d", n_slots, lock=False)
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_serve, daemon=True,
+                                args=(child, cfg, make_agent, limit, self.busy, self.steps, self.dist, self.d0))
+        self.proc.start()
+        child.close()
+        self.ready = False
+        self.task: list[Key] | None = None
+        self.begun: dict[int, tuple[Key, dict[str, Any]]] = {}  # slot -> episode in flight
+        self.done: set[Key] = set()
+        self.started = time.monotonic()
+        self.kill_reason: str | None = None
+
+    def give(self, task: list[Key]) -> None:
+        self.task, self.begun, self.done = task, {}, set()
+        self.task_started = time.monotonic()
+        self.conn.send(task)
+
+    def death(self) -> str:
+        self.proc.join(timeout=10)
+        code = self.proc.exitcode
+        if code is None:
+            return "worker died (no exit status)"
+        if code < 0:
+            return f"worker died (signal {-code})"
+        return f"worker died (exit code {code})"
+
+    def stop(self) -> None:
+        try:
+            self.conn.send(None)
+        except (BrokenPipeError, OSError):
+            pass
+
+    def kill(self) -> None:
+        if self.proc.is_alive():
+            self.proc.kill()
+        self.proc.join(timeout=10)
+        self.conn.close()
+
+
+def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str, Any]], None], workers: int,
+             n_slots: int, retries: int = 2, step_timeout: float | None = None) -> None:
+    """Run ``tasks`` on ``workers`` processes, handing every record (run or failed) to ``finish``.
+
+    Bad input raised in a worker (a bad episode or scene, an agent that cannot be built) is raised here
+    after the records sent before it are finished; ``finish`` may raise to stop the run.
+    """
+    ctx = get_context("spawn")  # torch and OSMesa state must not be forked
+    queue: deque[list[Key]] = deque(tasks)
+    attempts: dict[Key, int] = {}
+    startup_deaths = 0
+    pool: list[_Worker] = []
+
+    def spawn() -> _Worker:
+        return _Worker(ctx, cfg, make_agent, step_timeout, n_slots)
+
+    def lost(w: _Worker) -> None:
+        """``w`` is gone: fail or retry the episodes it was running and requeue the rest of its task."""
+        nonlocal startup_deaths
+        reason = w.kill_reason or w.death()
+        w.kill()
+        if not w.ready:
+            startup_deaths += 1
+            if startup_deaths > retries:
+                raise RunError(f"{cfg.episodes}: a worker could not start ({reason})")
+        in_flight = {key: (rec, slot) for slot, (key, rec) in w.begun.items() if key not in w.done}
+        rest: list[Key] = []
+        for key in w.task or []:
+            if key in w.done:
+                continue
+            if key in in_flight:
+                rec, slot = in_flight[key]
+                attempts[key] = attempts.get(key, 0) + 1
+                if w.kill_reason is None and attempts[key] <= retries:
+                    rest.append(key)
+                    continue
+                finish(R.failed_record(rec, reason, float(w.d0[slot]), float(w.dist[slot]), int(w.steps[slot]),
+                                       time.monotonic() - w.task_started))
+                continue
+            rest.append(key)
+        if rest:
+            queue.appendleft(rest)
+        if queue:
+            pool[pool.index(w)] = spawn()
+        else:
+            pool.remove(w)
+
+    try:
+        pool.extend(spawn() for _ in range(max(1, min(workers, len(tasks)))))
+        while queue or any(w.task is not None for w in pool):
+            for w in pool:
+                if w.ready and w.task is None and queue:
+                    w.give(queue.popleft())
+            ready = wait([w.conn for w in pool], timeout=0.2 if step_timeout is not None else None)
+            for conn in ready:
+                w = next((w for w in pool if w.conn is conn), None)
+                if w is None:
+                    continue
+                try:
+                    kind, value = conn.recv()
+                except (EOFError, OSError):
+                    lost(w)
+                    continue
+                if kind == "ready":
+                    w.ready = True
+                elif kind == "begin":
+                    slot, key, rec = value
+                    w.begun[slot] = (key, rec)
+                elif kind == "rec":
+                    w.done.add((value["scene_id"], value["episode_id"]))
+                    finish(value)
+                elif kind == "done":
+                    w.task = None
+                elif kind == "error":
+                    raise value
+            if step_timeout is not None:
+                now = time.monotonic()
+                for w in pool:
+                    t = w.busy.value
+                    if w.task is not None and w.kill_reason is None and t and now - t > step_timeout:
+                        w.kill_reason = R.step_timeout_reason(now - t, step_timeout)
+                        w.proc.kill()  # its pipe then reads EOF: lost() records the call's episodes
+    finally:
+        for w in pool:
+            w.stop()
+        deadline = time.monotonic() + 5
+        for w in pool:
+            w.proc.join(timeout=max(0.0, deadline - time.monotonic()))
+            w.kill()
+
