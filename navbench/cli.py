@@ -1,10 +1,12 @@
 """The ``navbench`` command: a thin layer over the library.
 
     navbench run --split val_unseen [--task objectnav] [--agent memory] [--decoding argmax|sample|least-tried]
-                 [--limit N] [--out DIR] [--resume]
+                 [--limit N] [--out DIR] [--resume | --overwrite] [--shard I/N] [--retries 2]
+                 [--step-timeout SECONDS] [--fail-fast]
     navbench run --agent package.module:Name|http://HOST:PORT|NAME [--agent-opt KEY=VALUE ...] ...
     navbench agents
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
+    navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
@@ -14,7 +16,8 @@
     navbench bench [--json]
 
 Bad input (missing scene, corrupt JSON, unknown category, bad checkpoint...) prints one line naming
-the file and the problem and exits with code 2.
+the file and the problem and exits with code 2. `navbench run` exits with code 3 when it finished but
+some episodes failed (their agent or env raised, a worker died...): they are listed in summary.json.
 """
 
 from __future__ import annotations
@@ -34,7 +37,8 @@ from navbench.paths import EPISODES_DIR, SCENES_DIR
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
     from navbench.episodes.io import load_dataset
-    from navbench.eval.runner import RunConfig, run, select_episodes
+    from navbench.eval.progress import Progress
+    from navbench.eval.runner import RunConfig, parse_shard, run, select_episodes
     from navbench.eval.table import summary_markdown
 
     task, split, episodes, default_sd = resolve_episodes(args.task, args.split, args.episodes)
@@ -48,22 +52,28 @@ def cmd_run(args) -> int:
         seed=args.seed, limit=args.limit, per_scene=args.per_scene, workers=args.workers,
         # batched policy inference: default 8 episodes per worker for the pointnav agent
         envs_per_worker=args.envs_per_worker or (8 if args.agent == "pointnav" else 1),
-        agent_options=agent.options,
+        agent_options=agent.options, shard=args.shard,
     )
     cfg.label = agent.label
+    shard = parse_shard(args.shard)
     out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label, args.runs_dir))
-
-    def progress(rec, n, total):
-        if args.quiet:
-            return
-        status = "skipped" if rec.get("skipped") else f"success={rec['success']:.0f} spl={rec['spl']:.3f}"
-        print(f"[{n}/{total}] {rec['scene_id']} ep {rec['episode_id']}: {status}", file=sys.stderr, flush=True)
+    if args.out is None and shard:
+        out = out / f"shard{shard[0]}of{shard[1]}"
+    if args.resume and args.overwrite:
+        raise ValueError("--resume and --overwrite: choose one")
 
     if args.agent == "memory":
-        prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit, cfg.per_scene))
-    summary = run(cfg, agent.factory, out, resume=args.resume, progress=progress)
+        prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit, cfg.per_scene, cfg.shard))
+    summary = run(cfg, agent.factory, out, resume=args.resume, progress=None if args.quiet else Progress(),
+                  overwrite=args.overwrite, retries=args.retries, step_timeout=args.step_timeout,
+                  fail_fast=args.fail_fast)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
+    if summary["num_failed"]:
+        print(f"navbench: {summary['num_failed']} episode(s) failed (listed in {out}/summary.json), e.g. "
+              f"{summary['failed_episodes'][0]['episode_id']}: {summary['failed_episodes'][0]['failure_reason']}",
+              file=sys.stderr)
+        return 3
     return 0
 
 
@@ -79,6 +89,16 @@ def _resolve_agent(args):
         raise ValueError(f"{', '.join(given)} apply to the built-in policy agents, not {args.agent!r}: "
                          f"use --agent-opt KEY=VALUE")
     return resolve_agent(args.agent, opts, args.seed)
+
+
+def cmd_merge(args) -> int:
+    from navbench.eval.merge import merge
+    from navbench.eval.table import summary_markdown
+
+    summary = merge([Path(d) for d in args.run_dirs], Path(args.out), overwrite=args.overwrite)
+    print(summary_markdown(summary))
+    print(f"\nwrote {args.out}/episodes.jsonl, summary.json, config.json")
+    return 3 if summary["num_failed"] else 0
 
 
 def _builtin_flags(args) -> dict:
@@ -214,7 +234,20 @@ def build_parser() -> argparse.ArgumentParser:
                                  "from its defaults, e.g. runs/pointnav/val/pointnav-argmax)")
     r.add_argument("--runs-dir", default="runs", help="root of the default run directory (default runs; the "
                                                       "reference runs use results/runs)")
-    r.add_argument("--resume", action="store_true", help="skip episodes already in OUT/episodes.jsonl")
+    r.add_argument("--resume", action="store_true", help="continue the run in OUT: keep its finished episodes "
+                                                        "(each once), rerun its failed ones")
+    r.add_argument("--overwrite", action="store_true", help="replace the run already in OUT (without --resume or "
+                                                           "--overwrite a directory holding a run is refused)")
+    r.add_argument("--shard", metavar="I/N", help="run shard I (1-based) of N: the I-th of N contiguous blocks of "
+                                                  "the selected episodes in file order; join with `navbench merge`")
+    r.add_argument("--retries", type=int, default=2, help="times an episode whose worker process died is retried "
+                                                          "on a fresh worker before it is recorded as failed "
+                                                          "(default 2)")
+    r.add_argument("--step-timeout", type=float, metavar="SECONDS",
+                   help="record an episode as failed when one agent call takes longer (default: no limit; with "
+                        "workers a call that never returns is killed)")
+    r.add_argument("--fail-fast", action="store_true", help="stop at the first failed episode (exit 2) instead of "
+                                                           "recording it and going on")
     r.add_argument("--success-distance", type=float)
     p_ = r.add_argument_group("PointNav policy (pointnav, memory and frontier agents)")
     p_.add_argument("--checkpoint", help="policy checkpoint in habitat's layout (default: the shipped one)")
@@ -241,8 +274,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--envs-per-worker", type=int, help="episodes a worker steps at once with one batched "
                    "policy forward pass (pointnav agent; default 8)")
     r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
-    r.add_argument("-q", "--quiet", action="store_true")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     r.set_defaults(func=cmd_run)
+
+    mg = sub.add_parser("merge", help="join shard runs (run --shard I/N) into one run directory")
+    mg.add_argument("run_dirs", nargs="+")
+    mg.add_argument("--out", required=True, help="the merged run's directory")
+    mg.add_argument("--overwrite", action="store_true", help="replace a run already in --out")
+    mg.set_defaults(func=cmd_merge)
 
     t = sub.add_parser("table", help="render run summaries side by side")
     t.add_argument("run_dirs", nargs="+")
