@@ -2,16 +2,23 @@
 
     navbench run --split val_unseen --agent oracle --out runs/oracle_val_unseen
 
-Writes ``OUT/episodes.jsonl`` (appended and flushed as each episode finishes, so a killed run loses at
+Writes ``OUT/episodes.jsonl`` (appended and synced as each episode finishes, so a killed run loses at
 most the episodes in flight), ``OUT/config.json`` (everything needed to rerun) and ``OUT/summary.json``.
-``resume=True`` skips episodes already in ``episodes.jsonl``; it refuses a run directory whose
-config differs in anything that changes results.
+``OUT/.lock`` keeps a second run out while one runs. ``resume=True`` keeps the episodes already in
+``episodes.jsonl`` (each once) and reruns failed ones; it refuses a run directory whose config differs
+in anything that changes results, and a record of an episode the dataset does not have.
+
+An episode whose agent or env raises, whose agent returns an action outside the action space, or
+whose agent call takes longer than the step limit is recorded with ``failed: true``, a one-line
+``failure_reason`` and a failure's metrics, and the run goes on; so is an episode whose worker process
+died ``retries + 1`` times (see :mod:`navbench.eval.pool`). A bad episode or scene in the dataset
+(EpisodeError, SceneError) is bad input and ends the run.
 
 Parallelism: ``workers`` processes, each with its own env (and renderer) and agent, one episode per
 task; agents with a batched policy (``pointnav``) step ``envs_per_worker`` episodes per worker in
 lockstep with one forward pass for all of them. Every episode's outcome depends only on the episode
 and the seed, never on which worker or slot ran it or in what order, so the same seed gives the same
-records and summary to the last digit.
+records and summary to the last digit (``elapsed_s`` is the records' only wall-clock field).
 """
 
 from __future__ import annotations
@@ -564,7 +571,8 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
             if progress:
                 progress(rec, recorded[0], total)
 
-        if (cfg.workers <= 1 and step_timeout is None) or not todo:
+        # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
+        if (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
             _worker_init(cfg, make_agent, single_thread=False)
             _run_keys(todo, finish, Clock(step_timeout))
         else:

@@ -373,3 +373,69 @@ def test_progress_lines_off_a_terminal_and_quiet(pointnav_file, tmp_path, capsys
     assert main(["run", "--episodes", str(pointnav_file), "--agent", "oracle", "--workers", "1", "--limit", "2",
                  "-q", "--out", str(tmp_path / "q")]) == 0
     assert capsys.readouterr().err == ""
+
+
+# ------------------------------------------------------------------------------------- determinism
+DETERMINISM_RUN = """
+import sys
+from navbench.agents.registry import make_pointnav
+from navbench.eval.runner import RunConfig, run
+if __name__ == "__main__":  # not in the spawned workers
+    workers, envs, out = int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+    cfg = RunConfig(task="pointnav", split=None, agent="pointnav", episodes=sys.argv[1], scene_dir=sys.argv[2],
+                    success_distance=0.2, workers=workers, envs_per_worker=envs, env={"max_steps": 40},
+                    agent_options={"decoding": "least-tried"})
+    run(cfg, make_pointnav, out, resume=len(sys.argv) > 6)
+"""
+
+
+def _sorted_lines(out):
+    """episodes.jsonl's lines without the wall-clock field (elapsed_s, the only timing field of these
+    records), sorted: what must be byte-identical however the run was split up or interrupted."""
+    lines = []
+    for line in (out / "episodes.jsonl").read_text().splitlines():
+        r = json.loads(line)
+        r.pop("elapsed_s")
+        lines.append(json.dumps(r))
+    return sorted(lines)
+
+
+@pytest.fixture(scope="module")
+def twelve_pointnav(tmp_path_factory, scene_path):
+    from navbench.episodes.generate import GeneratorConfig, pointnav_episodes
+    from navbench.episodes.io import save_dataset
+    from navbench.episodes.types import EpisodeDataset
+    eps = pointnav_episodes(scene_path, SCENES_DIR, 12, np.random.default_rng(11),
+                            GeneratorConfig(min_geodesic=1.0, max_geodesic=6.0))
+    return save_dataset(EpisodeDataset(episodes=eps), tmp_path_factory.mktemp("pn12") / "twelve.json.gz")
+
+
+@pytest.mark.slow
+def test_records_do_not_depend_on_workers_batching_or_a_kill_and_resume(twelve_pointnav, tmp_path):
+    """12 PointNav episodes with least-tried decoding (it draws actions): 1 and 2 workers, one episode at
+    a time and batched, and a run SIGKILLed at a random point then resumed give the same records."""
+    import random
+    script = tmp_path / "run.py"
+    script.write_text(DETERMINISM_RUN)
+    base = [sys.executable, str(script), str(twelve_pointnav), str(SCENES_DIR)]
+    results = {}
+    for workers, envs in ((1, 1), (1, 4), (2, 1), (2, 4)):
+        out = tmp_path / f"w{workers}e{envs}"
+        subprocess.run(base + [str(workers), str(envs), str(out)], check=True)
+        results[workers, envs] = _sorted_lines(out)
+    assert len(results[1, 1]) == 12 and len(set(results[1, 1])) == 12
+    for key, lines in results.items():
+        assert lines == results[1, 1], key
+
+    kill_at = random.randint(1, 9)
+    out = tmp_path / "killed"
+    proc = subprocess.Popen(base + ["2", "4", str(out)])
+    deadline = time.time() + 300
+    while time.time() < deadline and proc.poll() is None and len(read_records(out / "episodes.jsonl")) < kill_at:
+        time.sleep(0.02)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    done = len(read_records(out / "episodes.jsonl"))
+    assert kill_at <= done < 12, f"killed after {done} records (aimed at {kill_at}): must be mid-run"
+    subprocess.run(base + ["1", "1", str(out), "--resume"], check=True)
+    assert _sorted_lines(out) == results[1, 1], f"killed after {done} records"
