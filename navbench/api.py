@@ -74,7 +74,8 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
              limit: int | None = None, per_scene: int | None = None, seed: int = 0, out: str | Path | None = None,
              runs_dir: str | Path = "runs", resume: bool = False, scene_dir: str | Path | None = None,
              success_distance: float | None = None, label: str | None = None,
-             progress: Callable[[dict[str, Any], int, int], None] | None = None) -> dict[str, Any]:
+             progress: Callable[[dict[str, Any], int, int], None] | None = None, overwrite: bool = False,
+             retries: int = 2, step_timeout: float | None = None, fail_fast: bool = False) -> dict[str, Any]:
     """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary.
 
     ``agent`` is an agent spec as ``--agent`` takes it (a built-in or entry-point name,
@@ -84,7 +85,8 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     its import path, so the CLI can rerun or ``--resume`` the run; an instance or a function defined
     in ``__main__`` runs but cannot be rerun from config.json alone. Agents with ``act_batch`` step
     ``envs_per_worker`` episodes at once (default: the agent's ``num_envs``, else 1; the pointnav
-    agent's 8).
+    agent's 8). ``resume``, ``overwrite``, ``retries``, ``step_timeout`` and ``fail_fast`` are
+    ``navbench run``'s options of the same names.
     """
     from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
     from navbench.agents.registry import prebuild_memories
@@ -127,7 +129,8 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     if resolved.spec == "memory":
         from navbench.episodes.io import load_dataset
         prebuild_memories(cfg, select_episodes(load_dataset(episodes_path), cfg.limit, cfg.per_scene))
-    return run(cfg, resolved.factory, out, resume=resume, progress=progress)
+    return run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
+               retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
 
 
 class _Bound:

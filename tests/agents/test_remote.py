@@ -153,7 +153,6 @@ def test_nothing_listening_is_one_line_and_exit_2(tmp_path, pointnav_file, capsy
     assert err.count("\n") == 1 and "refused" in err and "serve-agent" in err
 
 
-@pytest.mark.xfail(strict=False, reason="needs per-episode failure records")
 def test_server_that_stops_mid_run_gives_failure_records_not_a_hang(agent_dir, pointnav10_file, tmp_path):
     server = _serve("walkmod:WalkAgent", stop_after=40)
     done = threading.Event()
