@@ -34,6 +34,7 @@ from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
 from navbench.env.pointnav import PointNavEnv
+from navbench.eval.trace import Trace
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import aggregate
@@ -121,7 +122,8 @@ def _begin(env: NavEnv, episode: Episode, cfg: RunConfig) -> tuple[dict[str, Any
     return record, obs, t0
 
 
-def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any]) -> dict[str, Any]:
+def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any],
+         trace: Trace | None = None) -> dict[str, Any]:
     record.update(
         success=info["success"], spl=info["spl"], soft_spl=info["soft_spl"],
         distance_to_goal=info["distance_to_goal"], geodesic_distance=info["geodesic_distance"],
@@ -130,6 +132,8 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
     )
     if log:
         record["log"] = log
+    if trace is not None:
+        record["trace"] = trace.record()
     return record
 
 
@@ -138,11 +142,14 @@ def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig) -> 
     if obs is None:
         return record
     agent.reset(episode)
+    trace = Trace(env, agent)
     while True:
-        obs, _, terminated, truncated, info = env.step(agent.act(obs))
+        action = agent.act(obs)
+        obs, _, terminated, truncated, info = env.step(action)
+        trace.step(action, env)
         if terminated or truncated:
             break
-    return _end(record, info, t0, episode_log(agent))
+    return _end(record, info, t0, episode_log(agent), trace)
 
 
 def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[Episode], cfg: RunConfig,
@@ -155,6 +162,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
     """
     queue = list(episodes)
     slots: list[tuple[dict[str, Any], float] | None] = [None] * len(envs)
+    traces: list[Trace | None] = [None] * len(envs)
     obs: list[dict | None] = [None] * len(envs)
     failed: list[Exception] = []
 
@@ -173,7 +181,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
                 finish(record)
                 continue
             agent.reset_env(i, ep)
-            slots[i], obs[i] = (record, t0), first
+            slots[i], obs[i], traces[i] = (record, t0), first, Trace(envs[i])
             return
 
     for i in range(len(envs)):
@@ -185,9 +193,10 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             if slots[i] is None:
                 continue
             obs[i], _, terminated, truncated, info = env.step(int(actions[i]))
+            traces[i].step(int(actions[i]), env)
             if terminated or truncated:
                 record, t0 = slots[i]
-                finish(_end(record, info, t0, {}))
+                finish(_end(record, info, t0, {}, traces[i]))
                 start(i)
     if failed:
         raise failed[0]
