@@ -84,6 +84,9 @@ def cmd_run(args) -> int:
     summary = run(cfg, AGENTS[args.agent], out, resume=args.resume, progress=progress)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
+    if args.video != "none":  # drawn from the finished records, so the run itself is the same without
+        from navbench.viz.cli import write_videos
+        write_videos(out, args.video, quiet=args.quiet)
     return 0
 
 
@@ -215,8 +218,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--envs-per-worker", type=int, help="episodes a worker steps at once with one batched "
                    "policy forward pass (pointnav agent; default 8)")
     r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
+    r.add_argument("--video", default="none", choices=("none", "failures", "all"),
+                   help="write OUT/videos/EPISODE.mp4 (RGB | depth | map, 10 fps) for failed or all episodes")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=cmd_run)
+
+    from navbench.viz.cli import add_parsers as add_viz_parsers
+    add_viz_parsers(sub)
 
     t = sub.add_parser("table", help="render run summaries side by side")
     t.add_argument("run_dirs", nargs="+")

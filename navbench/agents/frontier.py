@@ -101,11 +101,11 @@ class FrontierAgent(ObjectNavAgentBase):
         self.last_action: int | None = None
 
     def decision(self) -> list | None:
-        """What the agent drives to now, for the run's trace: [mode, x, z] (cm; no point while looking around)."""
+        """What the agent drives to now, for the run's trace: [mode, x, z] (dm; no point while looking around)."""
         point = self.goal if self.mode == "approach" else (self.frontier.goal if self.frontier is not None else None)
         if point is None:
             return [self.mode, None, None]
-        return [self.mode, round(float(point[0]), 2), round(float(point[2]), 2)]
+        return [self.mode, round(float(point[0]), 1), round(float(point[2]), 1)]
 
     # --------------------------------------------------------------------------------- perception
     def _depth_normalised(self, obs: dict[str, np.ndarray]) -> np.ndarray:

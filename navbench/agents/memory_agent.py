@@ -205,7 +205,7 @@ class MemoryAgent(ObjectNavAgentBase):
             self.verify.reset(episode)
 
     def decision(self) -> list | None:
-        """What the agent drives to now, for the run's trace: [mode, candidate, x, z] (cm), mode one of
+        """What the agent drives to now, for the run's trace: [mode, candidate, x, z] (dm), mode one of
         goal | detour | route | recover."""
         if self.goal is None:
             return None
@@ -217,7 +217,7 @@ class MemoryAgent(ObjectNavAgentBase):
             mode, point = "route", self.guidance.waypoints[0]
         else:
             mode, point = "goal", self.goal
-        return [mode, self.current, round(float(point[0]), 2), round(float(point[2]), 2)]
+        return [mode, self.current, round(float(point[0]), 1), round(float(point[2]), 1)]
 
     def _new_target(self) -> None:
         """Forget what was known of the previous target."""

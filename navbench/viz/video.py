@@ -81,10 +81,25 @@ def mark_explored(explored: np.ndarray, grid, depth_m: np.ndarray, pose: tuple[f
     explored[i[ok], j[ok]] = True
 
 
+def explored_mask(rp: Replayer, r: dict[str, Any]) -> np.ndarray:
+    """Grid cells the agent's depth camera saw during the episode (replayed with depth rendering)."""
+    env = rp.env(("depth",))
+    explored = None
+    for (obs, _, _), pose in zip(rp.steps(r, ("depth",)), r["trace"]["poses"]):
+        cfg, grid = env.config, env.navgrid  # the episode's scene once the replay has reset the env
+        if explored is None:
+            explored = np.zeros(grid.shape, bool)
+        d = obs["depth"][..., 0]
+        d = d * (cfg.max_depth - cfg.min_depth) + cfg.min_depth if cfg.normalize_depth else d
+        mark_explored(explored, grid, d, tuple(pose), cfg.hfov_deg, cfg.max_depth)
+    return explored
+
+
 def episode_frames(rp: Replayer, r: dict[str, Any], explored_out: list | None = None):
     """Yield the episode's video frames (RGB uint8, ``FRAME_SIZE``) by replaying it with rendering."""
     d, ep = rp.drawing(r)
     env = rp.env(("rgb", "depth"))
+    env.reset(options={"episode": ep})  # load the episode's scene before reading its grid
     view = TopDown.fit(env.navgrid, max_side=2 * PANEL)
     grid = env.navgrid
     explored = np.zeros(grid.shape, bool)
