@@ -61,7 +61,7 @@ class TopDown:
             j0, j1 = max(jj.min() - margin, 0), min(jj.max() + margin + 1, w)
         else:
             i0, i1, j0, j1 = 0, h, 0, w
-        scale = max(1, max_side // max(i1 - i0, j1 - j0))
+        scale = int(max(1, max_side // max(i1 - i0, j1 - j0)))
         return cls(grid, scale, int(i0), int(j0), int(i1 - i0), int(j1 - j0))
 
     @property
@@ -77,8 +77,9 @@ class TopDown:
         return np.stack([u, v], axis=-1)
 
     def px(self, x, z) -> tuple[int, int]:
+        """The pixel containing world point (x, z) (a hair of tolerance: 1.2 - 1.0 is 0.19999...)."""
         u, v = self.to_px(x, z)
-        return int(math.floor(u)), int(math.floor(v))
+        return int(math.floor(u + 1e-6)), int(math.floor(v + 1e-6))
 
     def crop(self, mask: np.ndarray) -> np.ndarray:
         """A grid-shaped array cropped and upscaled to the map's pixels."""
