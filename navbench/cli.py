@@ -156,8 +156,15 @@ def cmd_localize(args) -> int:
     from navbench.localize.benchmark import ModelDirs, run_localize
     models = ModelDirs(**{k: Path(v) for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                                   ("sam3", args.sam3)) if v})
+    on_query = None
+    if args.viz:  # pictures per query, under OUT/viz
+        from navbench.viz.localize import QueryViews
+        if not args.out:
+            raise ValueError("--viz needs --out (the views go to OUT/viz)")
+        on_query = QueryViews(Path(args.out) / "viz")
     s = run_localize(split=args.split, perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
-                     rerank=args.rerank != "none", k=args.k, out=args.out, limit=args.limit, models=models)
+                     rerank=args.rerank != "none", k=args.k, out=args.out, limit=args.limit, models=models,
+                     on_query=on_query)
     rows = " | ".join(f"{t} {100 * v:.1f}" for t, v in s["sr_by_type"].items())
     print(f"SR@{s['k']} ({s['perception']}, noise={s['noise']}, fusion={s['fusion']}, rerank={s['rerank']}): "
           f"{100 * s['sr']:.1f} avg | {rows}")
@@ -263,6 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("-k", type=int, default=5)
     lo.add_argument("--limit", type=int)
     lo.add_argument("--out")
+    lo.add_argument("--viz", action="store_true", help="save a picture per query in OUT/viz: the re-ranked keyframes "
+                    "with scores and masks, the fused points, top-K centres and ground truth on the top-down map")
     lo.add_argument("--siglip2")
     lo.add_argument("--qwen-vl")
     lo.add_argument("--sam3")
