@@ -52,7 +52,11 @@ def query_view(localizer, query, candidates, record: dict[str, Any], grid) -> np
             mask, _ = localizer.segmenter.segment(localizer._image(kf, localizer.segmenter), prompt)
         except Exception:  # a backend that needs what the store lacks: the picture goes without the mask
             mask = None
-        tiles.append(_tile(img, mask, [f"#{rank + 1} kf {kf}  cos {cosine.get(kf, 0):.2f}",
+        rr = ""
+        if getattr(getattr(localizer, "config", None), "rerank", False):
+            _, vis = localizer.reranker.score(localizer._image(kf, localizer.reranker), prompt)
+            rr = f"  rerank {vis:.2f}"
+        tiles.append(_tile(img, mask, [f"#{rank + 1} kf {kf} cos {cosine.get(kf, 0):.2f}{rr}",
                                        "segmented" if kf in trace.segmented else "no usable mask"]))
     height = max([t.shape[0] for t in tiles], default=TILE)
     tiles = [np.pad(t, ((0, height - t.shape[0]), (0, 0), (0, 0)), constant_values=255) for t in tiles]
