@@ -35,6 +35,7 @@ from navbench.localize.goat import GOAT_DIR, load_goat_split, split_path
 from navbench.localize.pipeline import QUERY_TYPES, Localizer, LocalizerConfig, Perception
 from navbench.memory.prescan import PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
+from navbench.progress import progress
 from navbench.scene.asset import SceneAsset, load_scene
 
 SUCCESS_RADIUS = 1.5  # metres, xz plane
@@ -135,7 +136,8 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
         storage[scene_id] = memory.stats.bytes
         built_now[scene_id] = memory.built_now
         localizer = Localizer.from_perception(memory, stack, config)
-        for sub in (s for s in subtasks if s.scene_id == scene_id):
+        mine = [s for s in subtasks if s.scene_id == scene_id]
+        for sub in progress(mine, len(mine), f"localize {Path(scene_id).name.split('.')[0]}"):
             query = sub.to_query(split_dir)
             start, cpu = time.perf_counter(), time.process_time()
             candidates = localizer.localize(query)
