@@ -22,7 +22,7 @@ from navbench.viz.replay import Replayer, ReplayError, Run, outcome
 OUTCOMES = ("success", "wrong instance", "stopped early", "stuck", "timeout", "crashed", "skipped")
 
 CSS = """
-body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;background:#fafafa}
+body{font-family:system-ui,sans-serif;margin:1.5em;color:rgb(34,34,34);background:#fafafa}
 h1{font-size:1.4em}h2{font-size:1.15em;margin-top:1.6em}
 table{border-collapse:collapse;margin:.5em 0;background:#fff}
 th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#eee}
@@ -32,7 +32,7 @@ td:first-child,th:first-child{text-align:left}
 .card{background:#fff;border:1px solid #ccc;border-radius:4px;padding:6px;width:%(w)dpx;font-size:12px}
 .card img{width:%(w)dpx;display:block}.card video{width:%(w)dpx}
 .badge{display:inline-block;padding:1px 6px;border-radius:3px;color:#fff;font-weight:600}
-.success{background:#2a8a2a}.fail{background:#c0392b}.skip{background:#888}
+.success{background:#2a8a2a}.fail{background:#c0392b}.skip{background:rgb(136,136,136)}
 .hidden{display:none}
 """
 
