@@ -17,6 +17,10 @@ def write_videos(run_dir: Path, which: str, quiet: bool = False, episode: str | 
 
     run = Run.load(run_dir)
     recs = [run.record(episode)] if episode is not None else select(run.records, which)
+    untraced = [r for r in recs if not r.get("trace")]
+    if untraced:  # e.g. records kept by --resume from a run that predates pose recording
+        print(f"{run_dir}: no video for {len(untraced)} episodes recorded without a trace", file=sys.stderr)
+        recs = [r for r in recs if r.get("trace")]
     rp = Replayer(run)
     out = []
     try:
