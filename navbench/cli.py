@@ -69,6 +69,9 @@ def cmd_run(args) -> int:
                   fail_fast=args.fail_fast)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
+    if args.video != "none":  # drawn from the finished records, so the run itself is the same without
+        from navbench.viz.cli import write_videos
+        write_videos(out, args.video, quiet=args.quiet)
     if summary["num_failed"]:
         print(f"navbench: {summary['num_failed']} episode(s) failed (listed in {out}/summary.json), e.g. "
               f"{summary['failed_episodes'][0]['episode_id']}: {summary['failed_episodes'][0]['failure_reason']}",
@@ -193,8 +196,15 @@ def cmd_localize(args) -> int:
     from navbench.localize.benchmark import ModelDirs, run_localize
     models = ModelDirs(**{k: Path(v) for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
                                                   ("sam3", args.sam3)) if v})
+    on_query = None
+    if args.viz:  # pictures per query, under OUT/viz
+        from navbench.viz.localize import QueryViews
+        if not args.out:
+            raise ValueError("--viz needs --out (the views go to OUT/viz)")
+        on_query = QueryViews(Path(args.out) / "viz")
     s = run_localize(split=args.split, perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
-                     rerank=args.rerank != "none", k=args.k, out=args.out, limit=args.limit, models=models)
+                     rerank=args.rerank != "none", k=args.k, out=args.out, limit=args.limit, models=models,
+                     on_query=on_query)
     rows = " | ".join(f"{t} {100 * v:.1f}" for t, v in s["sr_by_type"].items())
     print(f"SR@{s['k']} ({s['perception']}, noise={s['noise']}, fusion={s['fusion']}, rerank={s['rerank']}): "
           f"{100 * s['sr']:.1f} avg | {rows}")
@@ -274,6 +284,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--envs-per-worker", type=int, help="episodes a worker steps at once with one batched "
                    "policy forward pass (pointnav agent; default 8)")
     r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
+    r.add_argument("--video", default="none", choices=("none", "failures", "all"),
+                   help="write OUT/videos/EPISODE.mp4 (RGB | depth | map, 10 fps) for failed or all episodes")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     r.set_defaults(func=cmd_run)
 
@@ -282,6 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
     mg.add_argument("--out", required=True, help="the merged run's directory")
     mg.add_argument("--overwrite", action="store_true", help="replace a run already in --out")
     mg.set_defaults(func=cmd_merge)
+
+    from navbench.viz.cli import add_parsers as add_viz_parsers
+    add_viz_parsers(sub)
 
     t = sub.add_parser("table", help="render run summaries side by side")
     t.add_argument("run_dirs", nargs="+")
@@ -320,6 +335,8 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("-k", type=int, default=5)
     lo.add_argument("--limit", type=int)
     lo.add_argument("--out")
+    lo.add_argument("--viz", action="store_true", help="save a picture per query in OUT/viz: the re-ranked keyframes "
+                    "with scores and masks, the fused points, top-K centres and ground truth on the top-down map")
     lo.add_argument("--siglip2")
     lo.add_argument("--qwen-vl")
     lo.add_argument("--sam3")

@@ -100,6 +100,13 @@ class FrontierAgent(ObjectNavAgentBase):
         self.overrides = 0  # steps within the STOP radius without a visible target
         self.last_action: int | None = None
 
+    def decision(self) -> list | None:
+        """What the agent drives to now, for the run's trace: [mode, x, z] (dm; no point while looking around)."""
+        point = self.goal if self.mode == "approach" else (self.frontier.goal if self.frontier is not None else None)
+        if point is None:
+            return [self.mode, None, None]
+        return [self.mode, round(float(point[0]), 1), round(float(point[2]), 1)]
+
     # --------------------------------------------------------------------------------- perception
     def _depth_normalised(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         c = self.env_config

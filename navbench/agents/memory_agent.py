@@ -204,6 +204,21 @@ class MemoryAgent(ObjectNavAgentBase):
         if self.verify is not None:
             self.verify.reset(episode)
 
+    def decision(self) -> list | None:
+        """What the agent drives to now, for the run's trace: [mode, candidate, x, z] (dm), mode one of
+        goal | detour | route | recover."""
+        if self.goal is None:
+            return None
+        if self.recovery.queue or self.recovery.probes_left:
+            mode, point = "recover", self.goal
+        elif self.detour.goal is not None:
+            mode, point = "detour", self.detour.goal
+        elif self.guidance.waypoints:
+            mode, point = "route", self.guidance.waypoints[0]
+        else:
+            mode, point = "goal", self.goal
+        return [mode, self.current, round(float(point[0]), 1), round(float(point[2]), 1)]
+
     def _new_target(self) -> None:
         """Forget what was known of the previous target."""
         self.sighting, self.detour, self.guidance = Sighting(), Detour(), Guidance()

@@ -26,6 +26,7 @@ from navbench.episodes.io import goals_key, save_dataset
 from navbench.episodes.types import AgentState, Episode, EpisodeDataset, NavigationGoal, ObjectGoal, ViewPoint
 from navbench.episodes.viewpoints import ViewPointConfig, ViewPointFinder
 from navbench.paths import EPISODES_DIR, SCENES_DIR
+from navbench.progress import progress
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.pose import quat_from_yaw
 
@@ -196,7 +197,7 @@ def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCEN
     for i, (split, (scenes, cats, synonyms, per_scene)) in enumerate(plans.items()):
         rng = np.random.default_rng([seed, 1, i])
         ds = EpisodeDataset()
-        for sg in scene_goals[scenes]:
+        for sg in progress(scene_goals[scenes], desc=f"objectnav/{split}: scenes"):
             avail = sg.available(cats)
             if not avail:
                 raise RuntimeError(f"{sg.scene_id}: none of the {split} categories has a reachable instance")

@@ -41,6 +41,7 @@ from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
 from navbench.env.pointnav import PointNavEnv
+from navbench.eval.trace import Trace
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.eval.rundir import RecordFile, RunError, RunLock, read_records, write_atomic
@@ -264,7 +265,8 @@ class _EnvFailure(Exception):
         self.record = record
 
 
-def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any]) -> dict[str, Any]:
+def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any],
+         trace: Trace | None = None) -> dict[str, Any]:
     record.update(
         success=info["success"], spl=info["spl"], soft_spl=info["soft_spl"],
         distance_to_goal=info["distance_to_goal"], geodesic_distance=info["geodesic_distance"],
@@ -273,6 +275,8 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
     )
     if log:
         record["log"] = log
+    if trace is not None:
+        record["trace"] = trace.record()
     return record
 
 
@@ -296,16 +300,19 @@ def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig, clo
     info = None
     try:
         clock.call(agent.reset, episode)
+        trace = Trace(env, agent)
         while True:
-            obs, _, terminated, truncated, info = env.step(_action(env, clock.call(agent.act, obs)))
+            action = _action(env, clock.call(agent.act, obs))
+            obs, _, terminated, truncated, info = env.step(action)
             tracker.step(0, info)
+            trace.step(action, env)
             if terminated or truncated:
                 break
     except (EpisodeError, SceneError):
         raise
     except Exception as exc:
         return _fail(record, exc, d0, info, t0)
-    return _end(record, info, t0, episode_log(agent))
+    return _end(record, info, t0, episode_log(agent), trace)
 
 
 def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[Episode], cfg: RunConfig,
@@ -323,6 +330,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
     queue = list(episodes)
     # per slot: (record so far, start time, d0, last step's info) of its episode, None when idle
     slots: list[tuple[dict[str, Any], float, float, dict | None] | None] = [None] * len(envs)
+    traces: list[Trace | None] = [None] * len(envs)
     obs: list[dict | None] = [None] * len(envs)
     failed: list[Exception] = []
 
@@ -348,7 +356,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             except Exception as exc:
                 finish(_fail(record, exc, d0, None, t0))
                 continue
-            slots[i], obs[i] = (record, t0, d0, None), first
+            slots[i], obs[i], traces[i] = (record, t0, d0, None), first, Trace(envs[i])
             return
 
     def fail(i: int, exc: Exception) -> None:
@@ -370,17 +378,19 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             if slots[i] is None:
                 continue
             try:
-                obs[i], _, terminated, truncated, info = env.step(_action(env, actions[i]))
+                action = _action(env, actions[i])
+                obs[i], _, terminated, truncated, info = env.step(action)
             except (EpisodeError, SceneError):
                 raise
             except Exception as exc:
                 fail(i, exc)
                 continue
             tracker.step(i, info)
+            traces[i].step(action, env)
             record, t0, d0, _ = slots[i]
             slots[i] = (record, t0, d0, info)
             if terminated or truncated:
-                finish(_end(record, info, t0, {}))
+                finish(_end(record, info, t0, {}, traces[i]))
                 start(i)
     if failed:
         raise failed[0]

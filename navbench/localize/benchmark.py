@@ -35,6 +35,7 @@ from navbench.localize.goat import GOAT_DIR, load_goat_split, split_path
 from navbench.localize.pipeline import QUERY_TYPES, Localizer, LocalizerConfig, Perception
 from navbench.memory.prescan import PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
+from navbench.progress import progress
 from navbench.scene.asset import SceneAsset, load_scene
 
 SUCCESS_RADIUS = 1.5  # metres, xz plane
@@ -102,13 +103,14 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
                  rerank: bool = True, k: int = 5, out: str | Path | None = None, limit: int | None = None,
                  memory_root: str | Path | None = None, models: ModelDirs = ModelDirs(),
                  prescan: PrescanConfig = BENCHMARK_PRESCAN, split_root: str | Path | None = None,
-                 scenes_dir: str | Path = SCENES_DIR, localizer_config: LocalizerConfig = LocalizerConfig()
-                 ) -> dict:
+                 scenes_dir: str | Path = SCENES_DIR, localizer_config: LocalizerConfig = LocalizerConfig(),
+                 on_query: Callable[..., None] | None = None) -> dict:
     """Localise every subtask of ``split`` (the first ``limit`` only, if given) and return the summary.
 
     Memories are built (or reused) per scene under ``memory_root`` (default the user cache). With
     ``out``, writes ``predictions.jsonl`` and ``summary.json`` there. ``fusion`` and ``rerank``
-    override the fields of ``localizer_config``.
+    override the fields of ``localizer_config``. ``on_query(localizer, query, candidates, record, scene_path)``
+    is called after each query (e.g. to draw it); it must not change anything.
     """
     if perception not in PERCEPTION:
         raise ValueError(f"unknown perception {perception!r} (choose from {', '.join(PERCEPTION)})")
@@ -134,7 +136,8 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
         storage[scene_id] = memory.stats.bytes
         built_now[scene_id] = memory.built_now
         localizer = Localizer.from_perception(memory, stack, config)
-        for sub in (s for s in subtasks if s.scene_id == scene_id):
+        mine = [s for s in subtasks if s.scene_id == scene_id]
+        for sub in progress(mine, len(mine), f"localize {Path(scene_id).name.split('.')[0]}"):
             query = sub.to_query(split_dir)
             start, cpu = time.perf_counter(), time.process_time()
             candidates = localizer.localize(query)
@@ -149,6 +152,8 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
                 "gt_positions": sub.gt_positions.round(4).tolist(),
                 "success": success_at_k(centres, sub.gt_positions, k),
             })
+            if on_query is not None:
+                on_query(localizer, query, candidates, records[-1], scene_path)
     sr, by_type = sr_by_type(records)
     summary = {
         "split": split, "k": k, "sr": sr, "sr_by_type": by_type,

@@ -38,6 +38,7 @@ from navbench.memory.index import EmbeddingIndex
 from navbench.memory.keyframes import select_keyframes
 from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig, read_versioned_json
 from navbench.paths import cache_dir
+from navbench.progress import progress
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, scene_digest
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, GreedyFollower
@@ -351,7 +352,9 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
     cam = config.camera
     intr = Intrinsics.from_hfov(cam.width, cam.height, cam.hfov_deg)
     with Renderer(asset, cam) as renderer:
-        store = KeyframeStore.write(out_dir, _frames(renderer, traj, keep, intr, config.keep_instance_ids),
+        frames = progress(_frames(renderer, traj, keep, intr, config.keep_instance_ids), len(keep),
+                          f"memory {scene_path.name.split('.')[0]}: keyframes")
+        store = KeyframeStore.write(out_dir, frames,
                                     scene_id=asset.scene_id, config=config.store_config(),
                                     metadata={"scene_path": str(scene_path), "scene_digest": digest},
                                     frame_indices=keep, total_frames=len(poses))

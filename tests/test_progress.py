@@ -1,0 +1,16 @@
+"""The shared progress helper: items pass through; off a terminal, one plain line per 10 %."""
+
+from navbench.progress import progress
+
+
+def test_plain_lines_off_a_terminal(capsys, monkeypatch):
+    monkeypatch.delenv("NAVBENCH_PROGRESS", raising=False)
+    assert list(progress(iter(range(20)), 20, "work")) == list(range(20))
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0] == "work: 2/20 (10%)" and lines[-1] == "work: 20/20 (100%)" and len(lines) == 10
+
+
+def test_off_by_environment(capsys, monkeypatch):
+    monkeypatch.setenv("NAVBENCH_PROGRESS", "0")
+    assert list(progress([1, 2, 3], desc="x")) == [1, 2, 3]
+    assert capsys.readouterr().err == ""
