@@ -3,7 +3,8 @@
 A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores:
 
 * Unlit ``RenderFlags.FLAT`` shading of the scene's vertex colours (lighting costs several times
-  more, and our scenes carry their shading in the colours); ``RenderFlags.DEPTH_ONLY`` when only
+  more, and our scenes carry their shading in the colours), or of its base-colour textures for a
+  textured scan (trilinear, unlit, as Habitat renders scans); ``RenderFlags.DEPTH_ONLY`` when only
   depth is asked.
 * One ``OffscreenRenderer`` for the life of a :class:`Renderer`; only the camera node moves.
 * Per-node overhead (Python and GL calls per drawn node) dominates at agent resolutions, so
@@ -53,6 +54,7 @@ import pyrender  # noqa: E402
 import pyrender.renderer  # noqa: E402
 import pyrender.shader_program  # noqa: E402
 import trimesh  # noqa: E402
+from OpenGL.GL import GL_LINEAR, GL_LINEAR_MIPMAP_LINEAR, GL_REPEAT  # noqa: E402
 from pyrender.constants import GLTF, RenderFlags  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
@@ -309,9 +311,11 @@ class Renderer:
         self._id_nodes: list[pyrender.Node] = []
         two_sided = open_surface_faces(asset.mesh)
         self.num_two_sided_faces = int(two_sided.sum())
+        # One GL texture and material per base-colour image, shared by every chunk that uses it.
+        self._materials = [_texture_material(img) for img in asset.textures] if asset.is_textured else []
         box_min, box_max = [], []
         for faces in spatial_chunks(asset.mesh.triangles_center[:, [0, 2]], max_chunk_faces):
-            colour_mesh, id_mesh, lo, hi = _chunk_meshes(asset, faces, two_sided)
+            colour_mesh, id_mesh, lo, hi = _chunk_meshes(asset, faces, two_sided, self._materials)
             self._colour_nodes.append(self._scene.add(colour_mesh))
             self._id_nodes.append(self._scene.add(id_mesh))
             box_min.append(lo)
@@ -495,14 +499,25 @@ def open_surface_faces(mesh: trimesh.Trimesh) -> np.ndarray:
     return np.isin(labels, np.unique(labels[bad_face]))
 
 
+def _texture_material(image: np.ndarray) -> pyrender.MetallicRoughnessMaterial:
+    """Unlit base-colour material over ``image`` (RGBA, row 0 at the top): trilinear, repeating, as
+    glTF's default sampler; FLAT rendering outputs the filtered texel as it is."""
+    sampler = pyrender.Sampler(magFilter=GL_LINEAR, minFilter=GL_LINEAR_MIPMAP_LINEAR, wrapS=GL_REPEAT, wrapT=GL_REPEAT)
+    texture = pyrender.Texture(source=np.ascontiguousarray(image), source_channels="RGBA", sampler=sampler)
+    return pyrender.MetallicRoughnessMaterial(baseColorFactor=np.ones(4), baseColorTexture=texture, doubleSided=False)
+
+
 def _chunk_meshes(
-    asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray
+    asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray,
+    materials: list[pyrender.MetallicRoughnessMaterial] | None = None,
 ) -> tuple[pyrender.Mesh, pyrender.Mesh, np.ndarray, np.ndarray]:
     """Colour and id meshes of one chunk, plus its AABB.
 
     Everything is drawn with back-face culling (pyrender's DEPTH_ONLY pass always culls, so the
     FLAT passes must too to see the same geometry); faces flagged in ``two_sided`` are stored once
-    per winding so they show from both sides.
+    per winding so they show from both sides. Textured faces of a textured scene are drawn as one
+    primitive per texture (positions and UVs); the rest, and every untextured scene, with vertex
+    colours. The id mesh is one primitive whatever the colour mesh's make-up.
     """
     mesh = asset.mesh
     tri = mesh.faces[faces]
@@ -530,4 +545,38 @@ def _chunk_meshes(
         )
         return pyrender.Mesh(primitives=[prim])
 
-    return build(colours), build(id_colours), positions.min(axis=0), positions.max(axis=0)
+    if not materials or asset.face_texture is None:
+        return build(colours), build(id_colours), positions.min(axis=0), positions.max(axis=0)
+    prims = []
+    chunk_tex = asset.face_texture[faces]
+    for t in np.unique(chunk_tex):
+        sel = faces[chunk_tex == t]
+        if t < 0:
+            prims += build(colours).primitives if (chunk_tex < 0).all() else _colour_primitive(asset, sel, two_sided)
+            continue
+        tri_t = mesh.faces[sel]
+        used, local = np.unique(tri_t.reshape(-1), return_inverse=True)
+        front_t = local.reshape(-1, 3).astype(np.uint32)
+        prims.append(pyrender.Primitive(
+            positions=mesh.vertices[used].astype(np.float32),
+            texcoord_0=asset.uv[used].astype(np.float32),
+            indices=np.concatenate([front_t, front_t[two_sided[sel], ::-1]]),
+            material=materials[int(t)],
+            mode=GLTF.TRIANGLES,
+        ))
+    return pyrender.Mesh(primitives=prims), build(id_colours), positions.min(axis=0), positions.max(axis=0)
+
+
+def _colour_primitive(asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray) -> list[pyrender.Primitive]:
+    """The vertex-coloured faces of a chunk that also holds textured ones, as one primitive."""
+    mesh = asset.mesh
+    used, local = np.unique(mesh.faces[faces].reshape(-1), return_inverse=True)
+    front = local.reshape(-1, 3).astype(np.uint32)
+    colours = np.asarray(mesh.visual.vertex_colors, dtype=np.uint8)[used].copy()
+    colours[:, 3] = 255
+    return [pyrender.Primitive(
+        positions=mesh.vertices[used].astype(np.float32), color_0=colours,
+        indices=np.concatenate([front, front[two_sided[faces], ::-1]]),
+        material=pyrender.MetallicRoughnessMaterial(baseColorFactor=np.ones(4), doubleSided=False),
+        mode=GLTF.TRIANGLES,
+    )]
