@@ -59,7 +59,8 @@ def resolve_scene(scene_id: str, scene_dir: Path) -> Path:
         for cand in tried:
             if cand.is_file():
                 return cand
-    raise SceneError(f"scene {scene_id!r} not found; looked for: {', '.join(str(t) for t in tried)}")
+    more = f" (also looked for: {', '.join(str(t) for t in tried[1:])})" if len(tried) > 1 else ""
+    raise SceneError(f"{tried[0]}: scene file not found{more}")
 
 
 def _variants(path: Path) -> list[Path]:
