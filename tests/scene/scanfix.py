@@ -100,3 +100,148 @@ def write_ply(path: Path, colours: np.ndarray) -> Path:
     body += ["3 0 1 2", "3 0 2 3"]
     path.write_text("\n".join(head + body) + "\n")
     return path
+
+
+def write_mesh_glb(path: Path, positions: np.ndarray, faces: np.ndarray, colours: np.ndarray | None = None,
+                   node_names: list[tuple[str, np.ndarray]] | None = None) -> Path:
+    """A GLB of one or more vertex-coloured primitives; ``node_names`` = [(name, face indices)] splits
+    the faces into named nodes (default: one node 'mesh')."""
+    node_names = node_names or [("mesh", np.arange(len(faces)))]
+    blob = b""
+    views, accessors, meshes, nodes = [], [], [], []
+
+    def add(arr: np.ndarray) -> int:
+        nonlocal blob
+        blob += b"\0" * (-len(blob) % 4)
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": arr.nbytes})
+        blob += arr.tobytes()
+        return len(views) - 1
+
+    for name, sel in node_names:
+        used, local = np.unique(faces[sel].reshape(-1), return_inverse=True)
+        pos = positions[used].astype(np.float32)
+        attrs = {"POSITION": len(accessors)}
+        accessors.append({"bufferView": add(pos), "componentType": 5126, "count": len(pos), "type": "VEC3",
+                          "min": pos.min(0).tolist(), "max": pos.max(0).tolist()})
+        if colours is not None:
+            col = np.asarray(colours, np.uint8)[used]
+            attrs["COLOR_0"] = len(accessors)
+            accessors.append({"bufferView": add(np.ascontiguousarray(col)), "componentType": 5121,
+                              "normalized": True, "count": len(col), "type": f"VEC{col.shape[1]}"})
+        idx = local.astype(np.uint32)
+        accessors.append({"bufferView": add(idx), "componentType": 5125, "count": len(idx), "type": "SCALAR"})
+        meshes.append({"primitives": [{"attributes": attrs, "indices": len(accessors) - 1}]})
+        nodes.append({"mesh": len(meshes) - 1, "name": name})
+    blob += b"\0" * (-len(blob) % 4)
+    gltf = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": list(range(len(nodes)))}],
+            "nodes": nodes, "meshes": meshes, "accessors": accessors, "bufferViews": views,
+            "buffers": [{"byteLength": len(blob)}]}
+    js = json.dumps(gltf).encode()
+    js += b" " * (-len(js) % 4)
+    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
+    path.write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+    return path
+
+
+def box(lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """Closed box (8 vertices, 12 outward-wound triangles)."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return v, f
+
+
+def room_scene() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 6 x 6 m floor slab, a wall box, a chair box and a tv box: (vertices, faces, part of each face:
+    0 floor, 1 wall, 2 chair, 3 tv)."""
+    parts = [box((-3, -0.1, -3), (3, 0.0, 3)), box((-3, 0, -3), (3, 2.5, -2.9)),
+             box((0.5, 0, -1.5), (1.0, 0.9, -1.0)), box((-1.5, 0.6, -2.9), (-0.5, 1.2, -2.8))]
+    vs, fs, part = [], [], []
+    n = 0
+    for k, (v, f) in enumerate(parts):
+        vs.append(v)
+        fs.append(f + n)
+        part.append(np.full(len(f), k))
+        n += len(v)
+    return np.concatenate(vs), np.concatenate(fs), np.concatenate(part)
+
+
+HM3D_OBJECTS = [  # (id, hex colour, raw name, region, part of room_scene)
+    (1, "1F77B4", "floor", 0, 0),
+    (2, "FF7F0E", "wall", 0, 1),
+    (3, "2CA02C", "armchair", 0, 2),
+    (4, "D62728", "tv", 1, 3),
+]
+
+
+def write_hm3d_scene(root: Path, scan: str = "abcDEFghiJK", split: str = "val", index: int = 800,
+                     textured_semantics: bool = False) -> Path:
+    """HM3D v0.2 layout under ``root`` (= scene_datasets/hm3d): the annotated config, then
+    ``{split}/{index:05d}-{scan}/{scan}.basis.glb`` (render mesh, here vertex-coloured grey),
+    ``{scan}.semantic.glb`` (object colours per vertex) and ``{scan}.semantic.txt``. Returns the render mesh."""
+    d = root / split / f"{index:05d}-{scan}"
+    d.mkdir(parents=True, exist_ok=True)
+    v, f, part = room_scene()
+    grey = np.full((len(v), 4), 180, np.uint8)
+    grey[:, 3] = 255
+    mesh = write_mesh_glb(d / f"{scan}.basis.glb", v, f, grey)
+    # Semantic mesh: vertices split per face so each face carries its object's colour at all corners.
+    sv = v[f.reshape(-1)]
+    sf = np.arange(len(sv)).reshape(-1, 3)
+    colour = {p: bytes.fromhex(h) for _, h, _, _, p in HM3D_OBJECTS}
+    sc = np.array([list(colour[p]) + [255] for p in np.repeat(part, 3)], np.uint8)
+    write_mesh_glb(d / f"{scan}.semantic.glb", sv, sf, sc)
+    lines = ["HM3D Semantic Annotations"] + [f'{i},{h},"{n}",{r}' for i, h, n, r, _ in HM3D_OBJECTS]
+    (d / f"{scan}.semantic.txt").write_text("\n".join(lines) + "\n")
+    (root / "hm3d_annotated_basis.scene_dataset_config.json").write_text(json.dumps({
+        "stages": {"default_attributes": {
+            "requires_lighting": False,
+            "semantic_asset": "%%CONFIG_NAME_AS_ASSET_FILENAME%%.semantic.glb",
+            "semantic_descriptor_filename": "%%CONFIG_NAME_AS_ASSET_FILENAME%%.semantic.txt",
+            "has_semantic_textures": textured_semantics},
+            "paths": {".glb": [f"{split}/*/*.basis.glb"]}}}))
+    return mesh
+
+
+MP3D_HOUSE = """ASCII 1.1
+H house_name unknown 0 0 0 0 0 3 3 2 0 1  0 0 0 0 0  -3 -3 -0.1 3 3 2.5  0 0 0 0 0
+L 0 2 - 0 0 0  -3 -3 -0.1 3 3 2.5  0 0 0 0 0
+R 0 0 0 0 l 0 0 0  -3 -3 -0.1 3 0 2.5  2.5 0 0 0 0
+R 1 0 0 0 k 0 0 0  -3 0 -0.1 3 3 2.5  2.5 0 0 0 0
+C 0 1 floor 2 floor 0 0 0 0 0
+C 1 3 sofa#chair 3 chair 0 0 0 0 0
+C 2 22 television 22 tv_monitor 0 0 0 0 0
+O 0 0 0  0 0 0  1 0 0  0 1 0  3 3 0.05 0 0 0 0 0 0 0 0
+O 1 0 1  0.75 1.25 0.45  1 0 0  0 1 0  0.25 0.25 0.45 0 0 0 0 0 0 0 0
+O 2 1 2  -1 2.85 0.9  1 0 0  0 1 0  0.5 0.05 0.3 0 0 0 0 0 0 0 0
+E 0 0 0 1 0 0 0 -3 -3 0 3 3 0 0 0 0 0 0
+"""
+
+
+def write_mp3d_scene(root: Path, scan: str = "17DRP5sb8fy") -> Path:
+    """MP3D as Habitat ships it (z-up Matterport frame) under ``root`` (= scene_datasets/mp3d):
+    ``mp3d.scene_dataset_config.json`` (up +z, front +y), ``{scan}/{scan}.glb``, ``{scan}/{scan}_semantic.ply``
+    (binary, per-face ``object_id``) and ``{scan}/{scan}.house``. Returns the mesh path."""
+    d = root / scan
+    d.mkdir(parents=True, exist_ok=True)
+    v, f, part = room_scene()  # y-up; Matterport z-up: (x, y, z)_habitat = (x, z, -y)_mp
+    v_mp = np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1)
+    grey = np.full((len(v), 4), 150, np.uint8)
+    grey[:, 3] = 255
+    mesh = write_mesh_glb(d / f"{scan}.glb", v_mp, f, grey)
+    # Part -> .house object index: floor 0, wall -1 (unannotated), armchair 1, tv 2.
+    obj = np.array([0, -1, 1, 2])[part].astype(np.int32)
+    head = ("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+            "property float z\nelement face %d\nproperty list uchar int vertex_indices\nproperty int object_id\n"
+            "end_header\n" % (len(v_mp), len(f))).encode()
+    body = v_mp.astype("<f4").tobytes()
+    rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,)), ("obj", "<i4")])
+    rec["n"], rec["idx"], rec["obj"] = 3, f, obj
+    (d / f"{scan}_semantic.ply").write_bytes(head + body + rec.tobytes())
+    (d / f"{scan}.house").write_text(MP3D_HOUSE)
+    (root / "mp3d.scene_dataset_config.json").write_text(json.dumps({
+        "stages": {"default_attributes": {"up": [0, 0, 1], "front": [0, 1, 0], "origin": [0, 0, 0],
+                                          "semantic_asset": "%%CONFIG_NAME_AS_ASSET_FILENAME%%_semantic.ply"},
+                   "paths": {".glb": ["*/*.glb"]}}}))
+    return mesh
