@@ -184,8 +184,18 @@ def read_mesh(path: Path) -> tuple[trimesh.Trimesh, np.ndarray, np.ndarray | Non
         tx.check_obj_textures(path)
     try:
         loaded = trimesh.load(source, force="scene", process=False, **kwargs)
+        return _merge_parts(path, loaded)
+    except SceneError:
+        raise
     except Exception as exc:  # trimesh raises many types for a bad file
         raise SceneError(f"{path}: cannot read mesh ({type(exc).__name__}: {exc})") from None
+    finally:
+        tx.forget_decoded(path)
+
+
+def _merge_parts(path: Path, loaded: trimesh.Scene):
+    from navbench.scene import textures as tx
+
     parts: list[trimesh.Trimesh] = []
     ids: list[np.ndarray] = []
     part_uv: list[np.ndarray | None] = []
@@ -197,10 +207,13 @@ def read_mesh(path: Path) -> tuple[trimesh.Trimesh, np.ndarray, np.ndarray | Non
         geom = loaded.geometry[geom_name]
         if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
             continue
-        part = geom.copy()
-        part.apply_transform(transform)
+        part = geom
+        if not np.allclose(transform, np.eye(4)):
+            part = geom.copy()
+            part.apply_transform(transform)
         tex = -1
         uv = None
+        colours = None
         if part.visual.kind == "texture":
             material = part.visual.material
             image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
@@ -211,7 +224,10 @@ def read_mesh(path: Path) -> tuple[trimesh.Trimesh, np.ndarray, np.ndarray | Non
                     images.append(tx.texture_image(part.visual))
                 tex = image_index[key]
                 uv = np.asarray(part.visual.uv, np.float32)
-        colours = _vertex_colours(part)
+                # Vertex colours (for consumers of the merged mesh's colours): the texel under each vertex.
+                colours = tx.sample(images[tex], uv)
+        if colours is None:
+            colours = _vertex_colours(part)
         part = trimesh.Trimesh(part.vertices, part.faces, vertex_colors=colours, process=False)
         m = OBJECT_NODE.match(str(node)) or OBJECT_NODE.match(str(geom_name))
         parts.append(part)

@@ -3,8 +3,9 @@
 glTF images are checked before trimesh parses the file, because trimesh drops an image it cannot
 decode without a word and the scene would then render grey. Basis Universal images
 (``KHR_texture_basisu``: KTX2 or ``.basis`` payloads, as in HM3D's ``*.basis.glb``) are transcoded
-to RGBA8 with the ``opengl-basisu`` package and put back into the GLB as uncompressed BMP images
-that trimesh reads like any other, so the rest of the loader sees one kind of texture.
+to RGBA8 with the ``opengl-basisu`` package; in the GLB that trimesh parses, each is replaced by a
+1x1 PNG whose text chunk names the decoded image (:data:`DECODED`), which :func:`texture_image`
+swaps back in, so the large image is neither re-encoded nor copied through trimesh.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ BASISU = "KHR_texture_basisu"
 _BASIS_MIMES = ("image/ktx2", "image/x-basis", "image/basis")
 _KTX2_MAGIC = b"\xabKTX 20\xbb\r\n\x1a\n"
 _BASIS_MAGIC = b"sB"
+_PLACEHOLDER_KEY = "navbench-decoded"
+DECODED: dict[str, np.ndarray] = {}  # placeholder token -> decoded RGBA, filled by prepare_glb
 
 
 def read_glb(data: bytes, path: Path) -> tuple[dict, bytes]:
@@ -112,11 +115,9 @@ def prepare_glb(path: Path) -> bytes | None:
         blob = _view_bytes(header, binary, img["bufferView"], path)
         if _is_basis(img, blob):
             if index not in replaced:
-                rgba = decode_basis(blob, f"{path}: image {index}")
-                out = io.BytesIO()
-                mode = "RGBA" if (rgba[..., 3] < 255).any() else "RGB"
-                Image.fromarray(rgba if mode == "RGBA" else rgba[..., :3], mode).save(out, format="BMP")
-                replaced[index] = out.getvalue()
+                token = f"{path}#{index}"
+                DECODED[token] = decode_basis(blob, f"{path}: image {index}")
+                replaced[index] = _placeholder(token)
             tex["source"] = index
         else:
             try:
@@ -131,12 +132,22 @@ def prepare_glb(path: Path) -> bytes | None:
         header.setdefault("bufferViews", []).append(
             {"buffer": 0, "byteOffset": len(new_binary), "byteLength": len(bmp)})
         new_binary += bmp
-        images[index] = {"bufferView": len(header["bufferViews"]) - 1, "mimeType": "image/bmp"}
+        images[index] = {"bufferView": len(header["bufferViews"]) - 1, "mimeType": "image/png"}
     header["buffers"][0]["byteLength"] = len(new_binary)
     for key in ("extensionsUsed", "extensionsRequired"):
         if key in header:
             header[key] = [e for e in header[key] if e != BASISU]
     return write_glb(header, bytes(new_binary))
+
+
+def _placeholder(token: str) -> bytes:
+    from PIL import Image, PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    info.add_text(_PLACEHOLDER_KEY, token)
+    out = io.BytesIO()
+    Image.new("RGB", (1, 1)).save(out, format="PNG", pnginfo=info)
+    return out.getvalue()
 
 
 def check_gltf_images(path: Path) -> None:
@@ -185,7 +196,11 @@ def texture_image(visual) -> np.ndarray | None:
         image = getattr(material, "image", None)
     if image is None:
         return None
-    rgba = np.asarray(image.convert("RGBA") if hasattr(image, "convert") else image, dtype=np.uint8)
+    token = getattr(image, "info", {}).get(_PLACEHOLDER_KEY)
+    if token is not None:
+        rgba = DECODED[token]
+    else:
+        rgba = np.asarray(image.convert("RGBA") if hasattr(image, "convert") else image, dtype=np.uint8)
     if rgba.ndim == 2:
         rgba = np.repeat(rgba[..., None], 4, axis=2)
         rgba[..., 3] = 255
@@ -197,3 +212,17 @@ def texture_image(visual) -> np.ndarray | None:
             rgba = rgba.copy()
             rgba[..., :3] = np.clip(rgba[..., :3] * f[None, None, :3] + 0.5, 0, 255).astype(np.uint8)
     return np.ascontiguousarray(rgba)
+
+
+def forget_decoded(path: Path) -> None:
+    """Drop the decoded images :func:`prepare_glb` kept for ``path``."""
+    for token in [t for t in DECODED if t.startswith(f"{path}#")]:
+        del DECODED[token]
+
+
+def sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(N, 4) uint8 texels at OpenGL-convention ``uv`` (nearest, repeating)."""
+    h, w = image.shape[:2]
+    col = np.clip(np.floor((uv[:, 0] % 1.0) * w), 0, w - 1).astype(np.int64)
+    row = np.clip(np.floor((1.0 - uv[:, 1] % 1.0) * h), 0, h - 1).astype(np.int64)
+    return image[row, col]

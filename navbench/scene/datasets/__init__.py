@@ -155,13 +155,21 @@ def _semantic_frame(stage: dict) -> dict:
 def transfer_face_labels(src_mesh: trimesh.Trimesh, src_labels: np.ndarray, dst_mesh: trimesh.Trimesh) -> np.ndarray:
     """Per-face labels of ``dst_mesh`` from the annotated ``src_mesh``: the same faces when the two
     meshes are one triangulation, else the label of the nearest source face centroid."""
-    if len(src_mesh.faces) == len(dst_mesh.faces) and len(src_mesh.vertices) == len(dst_mesh.vertices) and \
-            np.allclose(src_mesh.triangles_center, dst_mesh.triangles_center, atol=1e-4):
-        return src_labels.astype(np.int32)
+    if len(src_mesh.faces) == len(dst_mesh.faces):
+        src_c, dst_c = _centres(src_mesh), _centres(dst_mesh)
+        if np.allclose(src_c, dst_c, atol=1e-4):
+            return src_labels.astype(np.int32)
     from scipy.spatial import cKDTree
 
-    _, nearest = cKDTree(src_mesh.triangles_center).query(dst_mesh.triangles_center, workers=-1)
+    _, nearest = cKDTree(_centres(src_mesh)).query(_centres(dst_mesh), workers=-1)
     return src_labels[nearest].astype(np.int32)
+
+
+def _centres(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Face centroids without trimesh's cache (which hashes the whole mesh to key them)."""
+    v = np.asarray(mesh.vertices)
+    f = np.asarray(mesh.faces)
+    return (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
 
 
 def objects_from_faces(mesh: trimesh.Trimesh, face_ids: np.ndarray, records: dict[int, dict]):
