@@ -278,6 +278,7 @@ class Renderer:
         platform: str = "osmesa",
         max_chunk_faces: int = 60_000,
         frustum_culling: bool = True,
+        occlusion_culling: bool | None = None,
     ) -> None:
         if platform not in PLATFORMS:
             raise RenderError(f"platform must be one of {PLATFORMS}, got {platform!r}")
@@ -299,6 +300,11 @@ class Renderer:
         self.camera = camera
         self.platform = platform
         self.frustum_culling = frustum_culling
+        # Scan-sized scenes: chunks hidden behind walls are skipped too (see _PotentiallyVisible).
+        self.occlusion_culling = (len(asset.mesh.faces) >= OCCLUSION_MIN_FACES if occlusion_culling is None
+                                  else occlusion_culling)
+        if self.occlusion_culling:
+            max_chunk_faces = min(max_chunk_faces, OCCLUSION_CHUNK_FACES)
 
         self._scene = pyrender.Scene(bg_color=np.zeros(4), ambient_light=np.zeros(3))
         self._cam = pyrender.PerspectiveCamera(
@@ -309,12 +315,14 @@ class Renderer:
 
         self._colour_nodes: list[pyrender.Node] = []
         self._id_nodes: list[pyrender.Node] = []
-        two_sided = open_surface_faces(asset.mesh)
+        two_sided = _two_sided_faces(asset)
         self.num_two_sided_faces = int(two_sided.sum())
         # One GL texture and material per base-colour image, shared by every chunk that uses it.
         self._materials = [_texture_material(img) for img in asset.textures] if asset.is_textured else []
         box_min, box_max = [], []
-        for faces in spatial_chunks(asset.mesh.triangles_center[:, [0, 2]], max_chunk_faces):
+        chunks = spatial_chunks(asset.mesh.triangles_center[:, [0, 2]], max_chunk_faces)
+        self._pvs = _PotentiallyVisible(asset.mesh, chunks) if self.occlusion_culling else None
+        for faces in chunks:
             colour_mesh, id_mesh, lo, hi = _chunk_meshes(asset, faces, two_sided, self._materials)
             self._colour_nodes.append(self._scene.add(colour_mesh))
             self._id_nodes.append(self._scene.add(id_mesh))
@@ -412,10 +420,13 @@ class Renderer:
         return self._gl
 
     def _visible(self, pose: np.ndarray) -> np.ndarray:
-        if not self.frustum_culling:
-            return np.ones(self.num_chunks, dtype=bool)
-        planes = frustum_planes(self._proj @ np.linalg.inv(pose))
-        return boxes_in_frustum(planes, self._box_min, self._box_max)
+        keep = np.ones(self.num_chunks, dtype=bool)
+        if self.frustum_culling:
+            planes = frustum_planes(self._proj @ np.linalg.inv(pose))
+            keep = boxes_in_frustum(planes, self._box_min, self._box_max)
+        if self._pvs is not None:
+            keep &= self._pvs(pose[:3, 3])
+        return keep
 
     def _show(self, colour: np.ndarray | None, ids: np.ndarray | None) -> None:
         """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set."""
@@ -450,6 +461,72 @@ def _multisample_disabled() -> Iterator[None]:
         yield
     finally:
         pyrender.renderer.glEnable = enable
+
+
+OCCLUSION_MIN_FACES = 200_000  # scenes this large get occlusion culling by default
+OCCLUSION_CHUNK_FACES = 16_000  # finer chunks, so walls hide whole chunks
+PVS_CELL = 0.5  # metres: camera positions are grouped into cubes of this side
+PVS_DIRECTIONS = 16384  # rays per sample point (about 1.6 deg apart)
+
+
+class _PotentiallyVisible:
+    """Chunks visible from a camera cell, found by casting rays from the cell's corners and centre.
+
+    The camera's position is put in a cube of side :data:`PVS_CELL`; the first time a cube is
+    entered, rays in :data:`PVS_DIRECTIONS` directions from its 8 corners and its centre (Embree,
+    first hit) mark the chunks they hit, plus every chunk whose box holds a sample point. Chunks
+    behind walls are then skipped. Sampling, not an exact visibility proof: a chunk seen only
+    through a gap narrower than the rays' spacing may be missed, which is why only scan-sized
+    scenes (chunks of thousands of triangles, which rays hit many times) use it by default.
+    """
+
+    def __init__(self, mesh: trimesh.Trimesh, chunks: list[np.ndarray]) -> None:
+        self._mesh = mesh
+        self._face_chunk = np.empty(len(mesh.faces), np.int64)
+        for k, faces in enumerate(chunks):
+            self._face_chunk[faces] = k
+        self._n = len(chunks)
+        tri = mesh.triangles
+        self._lo = np.array([tri[c].reshape(-1, 3).min(axis=0) for c in chunks])
+        self._hi = np.array([tri[c].reshape(-1, 3).max(axis=0) for c in chunks])
+        i = np.arange(PVS_DIRECTIONS) + 0.5  # Fibonacci sphere: near-uniform directions
+        phi = np.arccos(1 - 2 * i / PVS_DIRECTIONS)
+        theta = np.pi * (1 + 5 ** 0.5) * i
+        self._dirs = np.stack([np.cos(theta) * np.sin(phi), np.cos(phi), np.sin(theta) * np.sin(phi)], axis=1)
+        self._cache: dict[tuple[int, int, int], np.ndarray] = {}
+
+    def __call__(self, position: np.ndarray) -> np.ndarray:
+        cell = tuple(int(v) for v in np.floor(np.asarray(position) / PVS_CELL))
+        vis = self._cache.get(cell)
+        if vis is None:
+            vis = self._cache[cell] = self._compute(np.asarray(cell, float) * PVS_CELL)
+        return vis
+
+    def _compute(self, corner: np.ndarray) -> np.ndarray:
+        offsets = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)] + [[0.5, 0.5, 0.5]])
+        points = corner + offsets * PVS_CELL
+        vis = np.zeros(self._n, dtype=bool)
+        inside = np.all((points[:, None, :] >= self._lo[None] - 1e-6) & (points[:, None, :] <= self._hi[None] + 1e-6),
+                        axis=2).any(axis=0)
+        vis |= inside
+        origins = np.repeat(points, len(self._dirs), axis=0)
+        dirs = np.tile(self._dirs, (len(points), 1))
+        hit = self._mesh.ray.intersects_first(origins, dirs)
+        vis[np.unique(self._face_chunk[hit[hit >= 0]])] = True
+        return vis
+
+
+def _two_sided_faces(asset: SceneAsset) -> np.ndarray:
+    """(F,) bool: faces drawn with both windings. Textured faces are single-sided, as Habitat draws
+    scans with back-face culling; vertex-coloured faces follow :func:`open_surface_faces`."""
+    mesh = asset.mesh
+    if asset.face_texture is None:
+        return open_surface_faces(mesh)
+    out = np.zeros(len(mesh.faces), dtype=bool)
+    plain = np.flatnonzero(asset.face_texture < 0)
+    if len(plain):
+        out[plain] = open_surface_faces(trimesh.Trimesh(mesh.vertices, mesh.faces[plain], process=False))
+    return out
 
 
 def spatial_chunks(points_xz: np.ndarray, max_faces: int) -> list[np.ndarray]:
