@@ -470,14 +470,15 @@ PVS_DIRECTIONS = 16384  # rays per sample point (about 1.6 deg apart)
 
 
 class _PotentiallyVisible:
-    """Chunks visible from a camera cell, found by casting rays from the cell's corners and centre.
+    """Chunks visible from a camera cell, found by casting rays from the cell's corners.
 
     The camera's position is put in a cube of side :data:`PVS_CELL`; the first time a cube is
-    entered, rays in :data:`PVS_DIRECTIONS` directions from its 8 corners and its centre (Embree,
-    first hit) mark the chunks they hit, plus every chunk whose box holds a sample point. Chunks
-    behind walls are then skipped. Sampling, not an exact visibility proof: a chunk seen only
-    through a gap narrower than the rays' spacing may be missed, which is why only scan-sized
-    scenes (chunks of thousands of triangles, which rays hit many times) use it by default.
+    entered, the chunks seen from each of its 8 corners are the union of the chunks first hit by
+    rays in :data:`PVS_DIRECTIONS` directions (Embree) and the chunks whose box holds the corner.
+    Corners are shared by neighbouring cubes and computed once. Chunks behind walls are then
+    skipped. Sampling, not an exact visibility proof: a chunk seen only through a gap narrower than
+    the rays' spacing may be missed, which is why only scan-sized scenes (chunks of thousands of
+    triangles, which rays hit many times) use it by default.
     """
 
     def __init__(self, mesh: trimesh.Trimesh, chunks: list[np.ndarray]) -> None:
@@ -493,27 +494,30 @@ class _PotentiallyVisible:
         phi = np.arccos(1 - 2 * i / PVS_DIRECTIONS)
         theta = np.pi * (1 + 5 ** 0.5) * i
         self._dirs = np.stack([np.cos(theta) * np.sin(phi), np.cos(phi), np.sin(theta) * np.sin(phi)], axis=1)
-        self._cache: dict[tuple[int, int, int], np.ndarray] = {}
+        self._cells: dict[tuple[int, int, int], np.ndarray] = {}
+        self._corners: dict[tuple[int, int, int], np.ndarray] = {}
 
     def __call__(self, position: np.ndarray) -> np.ndarray:
         cell = tuple(int(v) for v in np.floor(np.asarray(position) / PVS_CELL))
-        vis = self._cache.get(cell)
+        vis = self._cells.get(cell)
         if vis is None:
-            vis = self._cache[cell] = self._compute(np.asarray(cell, float) * PVS_CELL)
+            corners = [(cell[0] + x, cell[1] + y, cell[2] + z) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+            self._add_corners([c for c in corners if c not in self._corners])
+            vis = self._cells[cell] = np.logical_or.reduce([self._corners[c] for c in corners])
         return vis
 
-    def _compute(self, corner: np.ndarray) -> np.ndarray:
-        offsets = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)] + [[0.5, 0.5, 0.5]])
-        points = corner + offsets * PVS_CELL
-        vis = np.zeros(self._n, dtype=bool)
-        inside = np.all((points[:, None, :] >= self._lo[None] - 1e-6) & (points[:, None, :] <= self._hi[None] + 1e-6),
-                        axis=2).any(axis=0)
-        vis |= inside
-        origins = np.repeat(points, len(self._dirs), axis=0)
-        dirs = np.tile(self._dirs, (len(points), 1))
-        hit = self._mesh.ray.intersects_first(origins, dirs)
-        vis[np.unique(self._face_chunk[hit[hit >= 0]])] = True
-        return vis
+    def _add_corners(self, corners: list[tuple[int, int, int]]) -> None:
+        if not corners:
+            return
+        points = np.asarray(corners, float) * PVS_CELL
+        hit = self._mesh.ray.intersects_first(np.repeat(points, len(self._dirs), axis=0),
+                                              np.tile(self._dirs, (len(points), 1)))
+        hit = hit.reshape(len(points), -1)
+        for k, c in enumerate(corners):
+            vis = np.all((points[k] >= self._lo - 1e-6) & (points[k] <= self._hi + 1e-6), axis=1)
+            h = hit[k]
+            vis[self._face_chunk[h[h >= 0]]] = True
+            self._corners[c] = vis
 
 
 def _two_sided_faces(asset: SceneAsset) -> np.ndarray:
