@@ -333,6 +333,10 @@ class Renderer:
 
         # Last: the GL context (pyrender picks OSMesa/EGL from PYOPENGL_PLATFORM).
         self._gl: pyrender.OffscreenRenderer | None = pyrender.OffscreenRenderer(camera.width, camera.height)
+        # The draw list lives in a list the override closes over (not in self): no reference cycle.
+        self._draw_list: list[pyrender.Node] = []
+        draw_list = self._draw_list
+        self._gl._renderer._sorted_mesh_nodes = lambda scene: draw_list
 
     # -- public --------------------------------------------------------------------------------
 
@@ -429,10 +433,24 @@ class Renderer:
         return keep
 
     def _show(self, colour: np.ndarray | None, ids: np.ndarray | None) -> None:
-        """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set."""
+        """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set.
+
+        pyrender sorts every mesh node far-to-near on each pass (a Python loop over all nodes); the
+        renderer is handed the visible ones near-to-far instead, so hidden chunks cost nothing and
+        nearer geometry fills the depth buffer first.
+        """
+        draw = []
         for nodes, keep in ((self._colour_nodes, colour), (self._id_nodes, ids)):
             for i, node in enumerate(nodes):
                 node.mesh.is_visible = bool(keep is not None and keep[i])
+            if keep is not None:
+                idx = np.flatnonzero(keep)
+                if len(idx) > 1:
+                    cam = self._scene.get_pose(self._cam_node)[:3, 3]
+                    centre = (self._box_min[idx] + self._box_max[idx]) / 2.0
+                    idx = idx[np.argsort(np.linalg.norm(centre - cam, axis=1), kind="stable")]
+                draw += [nodes[i] for i in idx]
+        self._draw_list[:] = draw
 
     def _draw(self, gl: pyrender.OffscreenRenderer, flags: int):
         if self.platform == "egl":
