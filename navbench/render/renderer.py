@@ -482,7 +482,7 @@ def _multisample_disabled() -> Iterator[None]:
 
 
 OCCLUSION_MIN_FACES = 200_000  # scenes this large get occlusion culling by default
-OCCLUSION_CHUNK_FACES = 16_000  # finer chunks, so walls hide whole chunks
+OCCLUSION_CHUNK_FACES = 8_000  # finer chunks, so walls hide whole chunks
 PVS_CELL = 0.5  # metres: camera positions are grouped into cubes of this side
 PVS_DIRECTIONS = 16384  # rays per sample point (about 1.6 deg apart)
 

@@ -4,14 +4,22 @@ the memory agent through the real runner."""
 
 from __future__ import annotations
 
+import dataclasses
+
+import numpy as np
 import pytest
 
-from navbench.bench_scan import make_scan_fixture
+from navbench.bench_scan import _walk, make_scan_fixture
 from navbench.cli import make_memory, make_oracle, prebuild_memories
+from navbench.env.config import EnvConfig
+from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
+from navbench.episodes.types import Episode, EpisodeDataset, NavigationGoal
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import POLICIES_DIR
+from navbench.render import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.navigability import NavGrid, NavGridConfig
 
 CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
 
@@ -64,3 +72,42 @@ def test_memory_agent_runs_on_the_scan(scan, tmp_path):
     (rec,) = read_records(tmp_path / "run" / "episodes.jsonl")
     assert summary["num_episodes"] == 1 and rec["num_steps"] <= 60
     assert rec["log"]["candidates"], "the oracle localiser must find the goal category in the scan's memory"
+
+
+def test_occlusion_culling_changes_no_pixel_along_a_walk(scan):
+    """Visibility sets skip chunks behind walls; every frame of a walk must equal the unculled one."""
+    asset, grid = load_scene_and_navgrid(scan.scene_datasets / scan.scene_id)
+    poses = _walk(grid, 60, seed=3)
+    with Renderer(asset, occlusion_culling=True, max_chunk_faces=2_000) as culled, \
+            Renderer(asset, occlusion_culling=False, max_chunk_faces=2_000) as full:
+        assert culled.num_chunks >= 12
+        skipped = 0
+        for p, q in poses:
+            a = culled.render(p, q, ids=True)
+            b = full.render(p, q, ids=True)
+            assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.ids, b.ids)
+            np.testing.assert_array_equal(a.depth, b.depth)
+            skipped += int((~culled.visible_chunks(p, q) & full.visible_chunks(p, q)).sum())
+    assert skipped > 0  # the walls did hide something
+
+
+def test_episode_on_the_upper_storey_uses_that_floor(scan):
+    """A start on the upper storey gets the upper floor's grid (the default grid is the ground floor)."""
+    mesh = scan.scene_datasets / scan.scene_id
+    asset, ground = load_scene_and_navgrid(mesh)
+    upper_y = NavGrid.floor_for(asset.mesh, ground.floor_height + 2.8)
+    assert upper_y > ground.floor_height + 2.0
+    upper = NavGrid.from_mesh(asset.mesh, dataclasses.replace(NavGridConfig(), floor_height=upper_y))
+    rng = np.random.default_rng(0)
+    s, g = upper.sample_navigable_point(rng), upper.sample_navigable_point(rng)
+    ep = Episode("up", scan.scene_id, [float(v) for v in s], [0.0, 0.0, 0.0, 1.0],
+                 goals=[NavigationGoal([float(v) for v in g])])
+    env = PointNavEnv(EpisodeDataset(episodes=[ep]), scene_dir=scan.scene_datasets,
+                      config=EnvConfig(rgb=False, depth=True))
+    try:
+        env.reset(options={"episode": 0})
+        assert abs(env.navgrid.floor_height - upper_y) < 0.05
+        assert env.agent_position[1] == env.navgrid.floor_height
+        assert np.isfinite(env.distance_to_goal()) or not upper.same_island(s, g)
+    finally:
+        env.close()
