@@ -103,9 +103,10 @@ def write_ply(path: Path, colours: np.ndarray) -> Path:
 
 
 def write_mesh_glb(path: Path, positions: np.ndarray, faces: np.ndarray, colours: np.ndarray | None = None,
-                   node_names: list[tuple[str, np.ndarray]] | None = None) -> Path:
-    """A GLB of one or more vertex-coloured primitives; ``node_names`` = [(name, face indices)] splits
-    the faces into named nodes (default: one node 'mesh')."""
+                   node_names: list[tuple[str, np.ndarray]] | None = None, uv_gltf: np.ndarray | None = None,
+                   png: bytes | None = None) -> Path:
+    """A GLB of one or more vertex-coloured (or, with ``uv_gltf`` and ``png``, textured) primitives;
+    ``node_names`` = [(name, face indices)] splits the faces into named nodes (default: one node 'mesh')."""
     node_names = node_names or [("mesh", np.arange(len(faces)))]
     blob = b""
     views, accessors, meshes, nodes = [], [], [], []
@@ -128,14 +129,25 @@ def write_mesh_glb(path: Path, positions: np.ndarray, faces: np.ndarray, colours
             attrs["COLOR_0"] = len(accessors)
             accessors.append({"bufferView": add(np.ascontiguousarray(col)), "componentType": 5121,
                               "normalized": True, "count": len(col), "type": f"VEC{col.shape[1]}"})
+        if uv_gltf is not None:
+            attrs["TEXCOORD_0"] = len(accessors)
+            accessors.append({"bufferView": add(np.ascontiguousarray(uv_gltf[used], np.float32)),
+                              "componentType": 5126, "count": len(used), "type": "VEC2"})
         idx = local.astype(np.uint32)
         accessors.append({"bufferView": add(idx), "componentType": 5125, "count": len(idx), "type": "SCALAR"})
-        meshes.append({"primitives": [{"attributes": attrs, "indices": len(accessors) - 1}]})
+        prim = {"attributes": attrs, "indices": len(accessors) - 1}
+        if png is not None:
+            prim["material"] = 0
+        meshes.append({"primitives": [prim]})
         nodes.append({"mesh": len(meshes) - 1, "name": name})
-    blob += b"\0" * (-len(blob) % 4)
     gltf = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": list(range(len(nodes)))}],
-            "nodes": nodes, "meshes": meshes, "accessors": accessors, "bufferViews": views,
-            "buffers": [{"byteLength": len(blob)}]}
+            "nodes": nodes, "meshes": meshes, "accessors": accessors, "bufferViews": views}
+    if png is not None:
+        gltf["images"] = [{"bufferView": add(np.frombuffer(png, np.uint8)), "mimeType": "image/png"}]
+        gltf["textures"] = [{"source": 0}]
+        gltf["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    blob += b"\0" * (-len(blob) % 4)
+    gltf["buffers"] = [{"byteLength": len(blob)}]
     js = json.dumps(gltf).encode()
     js += b" " * (-len(js) % 4)
     body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
@@ -190,8 +202,18 @@ def write_hm3d_scene(root: Path, scan: str = "abcDEFghiJK", split: str = "val", 
     sv = v[f.reshape(-1)]
     sf = np.arange(len(sv)).reshape(-1, 3)
     colour = {p: bytes.fromhex(h) for _, h, _, _, p in HM3D_OBJECTS}
-    sc = np.array([list(colour[p]) + [255] for p in np.repeat(part, 3)], np.uint8)
-    write_mesh_glb(d / f"{scan}.semantic.glb", sv, sf, sc)
+    if textured_semantics:
+        # HM3D v0.2 paints objects into the semantic mesh's texture: one 8x8 block per object, each
+        # face's corners mapped inside its object's block (glTF uv, v down from the top row).
+        img = np.zeros((8, 8 * len(colour), 3), np.uint8)
+        for p, c in colour.items():
+            img[:, 8 * p:8 * p + 8] = list(c)
+        corner = np.tile([[0.25, 0.25], [0.75, 0.25], [0.5, 0.75]], (len(f), 1))
+        uv = np.column_stack([(np.repeat(part, 3) * 8 + corner[:, 0] * 8) / img.shape[1], corner[:, 1]])
+        write_mesh_glb(d / f"{scan}.semantic.glb", sv, sf, uv_gltf=uv, png=_png(img))
+    else:
+        sc = np.array([list(colour[p]) + [255] for p in np.repeat(part, 3)], np.uint8)
+        write_mesh_glb(d / f"{scan}.semantic.glb", sv, sf, sc)
     lines = ["HM3D Semantic Annotations"] + [f'{i},{h},"{n}",{r}' for i, h, n, r, _ in HM3D_OBJECTS]
     (d / f"{scan}.semantic.txt").write_text("\n".join(lines) + "\n")
     (root / "hm3d_annotated_basis.scene_dataset_config.json").write_text(json.dumps({

@@ -108,9 +108,10 @@ def test_broken_textures_raise_instead_of_rendering_grey(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------ HM3D
-def test_hm3d_v02_layout_annotations(tmp_path):
+@pytest.mark.parametrize("textured", [False, True], ids=["vertex-coloured", "semantic-texture"])
+def test_hm3d_v02_layout_annotations(tmp_path, textured):
     root = tmp_path / "scene_datasets" / "hm3d"
-    mesh = F.write_hm3d_scene(root)
+    mesh = F.write_hm3d_scene(root, textured_semantics=textured)
     asset = load_scene(mesh)
     v, f, part = F.room_scene()
     assert len(asset.mesh.faces) == len(f)
