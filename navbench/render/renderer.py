@@ -14,6 +14,11 @@ A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores
   Most chunks of a compact house are in view, so the default keeps houses of up to 60k triangles
   in one node and culling pays only on large scans. Geometry is indexed (shared vertices,
   triangles in file order), which draws faster than one vertex per corner.
+* Scans are geometry-bound (a 64-pixel frame costs about what a 224-pixel one does), and from
+  inside a room most chunks in the frustum are behind walls. Scenes of
+  :data:`OCCLUSION_MIN_FACES` or more triangles are cut into chunks of at most
+  :data:`OCCLUSION_CHUNK_FACES` and also skip chunks that rays cast from the camera's cell never
+  reach (:class:`_PotentiallyVisible`). The visible chunks are handed to pyrender nearest first.
 * Instance ids come from a second set of chunk nodes whose vertex colours encode ``id + 1`` as a
   24-bit RGB integer (structure and background decode to -1). It is drawn, FLAT and single-sampled,
   only when ids are asked for; depth+ids without RGB is one pass.
@@ -264,7 +269,9 @@ class Renderer:
     ``platform`` must be the one PyOpenGL is bound to (:func:`bound_platform`, fixed by
     ``PYOPENGL_PLATFORM`` when OpenGL is first imported).
     ``max_chunk_faces`` bounds the triangles merged into one node (see the module docstring);
-    ``frustum_culling=False`` draws every chunk (for checking the culling).
+    ``frustum_culling=False`` draws every chunk (for checking the culling); ``occlusion_culling``
+    (default: on for scenes of :data:`OCCLUSION_MIN_FACES` triangles or more) skips chunks hidden
+    from the camera's cell.
     One instance holds one GL context; use it from one thread, and call :meth:`close` (or use it
     as a context manager) to free the context.
     """
