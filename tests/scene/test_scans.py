@@ -193,3 +193,23 @@ def test_floor_of_the_episode_start_on_a_two_storey_scan(tmp_path):
     assert abs(ground.floor_height) < 0.01 and abs(upper.floor_height - 3.0) < 0.01
     assert abs(NavGrid.floor_for(mesh, 2.5)) < 0.01  # the floor below the point, not the one above its head
     assert abs(NavGrid.floor_for(mesh, 2.9) - 3.0) < 0.01  # within a step of the upper floor
+
+
+def test_stairs_between_storeys_are_not_navigable():
+    """Two 8 x 8 m storeys joined by a flight of 0.17 m steps: each storey's grid stops at the stairs
+    (beyond the first step, which is within the 0.2 m climb), so neither grid reaches the other floor."""
+    slab = lambda y, cx=0.0, w=8.0: trimesh.creation.box(  # noqa: E731
+        extents=(w, 0.1, 8), transform=trimesh.transformations.translation_matrix((cx, y - 0.05, 0)))
+    parts = [slab(0.0), slab(3.06, cx=-1.5, w=5.0)]  # the upper floor leaves x > 1 open above the stairs
+    for k in range(18):  # steps 0.17 m high, 0.3 m deep, 1.2 m wide, climbing towards -x from x = 3.9
+        h = 0.17 * (k + 1)
+        parts.append(trimesh.creation.box(extents=(0.3, h, 1.2), transform=trimesh.transformations.translation_matrix(
+            (3.75 - 0.3 * k, h / 2, -3.0))))
+    mesh = trimesh.util.concatenate(parts)
+    ground = NavGrid.from_mesh(mesh)
+    upper_y = NavGrid.floor_for(mesh, 3.06)
+    assert abs(ground.floor_height) < 0.01 and abs(upper_y - 3.06) < 0.02
+    # The second step (0.34 m) and everything above it are not on the ground floor's grid.
+    for k in range(1, 18):
+        assert not ground.is_navigable([3.75 - 0.3 * k, 0.0, -3.0])
+    assert ground.is_navigable([0.0, 0.0, 2.0])
