@@ -419,6 +419,8 @@ def run_scan_bench(root: str | Path, seconds: float = 3.0, faces: int = 800_000,
     ``renderer_init_s``, ``rgbd_steps_per_s`` / ``rgbd_ids_steps_per_s`` (one process, env.step with
     224x224 sensors), ``render_fps`` and ``plain_pyrender_fps`` (the same 300-pose walk, alternated, medians)
     and their ratio ``render_vs_plain``, ``memory_build_s`` (pre-scan memory with the oracle encoder).
+    ``*_cpu_s`` give the process CPU time beside two wall times: on a shared machine it shows how
+    much of a slow wall time was waiting for a core. ``load_avg_1min`` is read at the start and end.
     """
     import dataclasses
     import os
@@ -448,9 +450,10 @@ def run_scan_bench(root: str | Path, seconds: float = 3.0, faces: int = 800_000,
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["NAVBENCH_CACHE"] = tmp
         try:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             asset, grid = load_scene_and_navgrid(scene)
             out["scene_load_grid_s"] = time.perf_counter() - t0
+            out["scene_load_grid_cpu_s"] = time.process_time() - c0
             cached = []
             for _ in range(3):
                 t0 = time.perf_counter()
@@ -474,9 +477,10 @@ def run_scan_bench(root: str | Path, seconds: float = 3.0, faces: int = 800_000,
             out["render_fps"], out["plain_pyrender_fps"] = float(np.median(ours)), float(np.median(plain))
             out["render_vs_plain"] = out["render_fps"] / out["plain_pyrender_fps"]
             encoder = PERCEPTION["oracle"](load_scene(scene), NoiseProfile(), ModelDirs()).encoder
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             st = build_memory(scene, Path(tmp) / "memory", PrescanConfig(), encoder)
             out["memory_build_s"] = time.perf_counter() - t0
+            out["memory_build_cpu_s"] = time.process_time() - c0  # llvmpipe's threads included
             out["memory_keyframes"] = st.keyframes
         finally:
             if old_cache is None:
@@ -495,6 +499,7 @@ def format_scan_report(r: dict) -> str:
     labels = {
         "fixture_build_s": "fixture build (s)",
         "scene_load_grid_s": "scene load + navigability grid, no cache (s)",
+        "scene_load_grid_cpu_s": "  the same, process CPU time (s)",
         "scene_load_grid_cached_s": "scene load + navigability grid, cached (s)",
         "renderer_init_s": "renderer construction (s)",
         "rgbd_steps_per_s": "env steps/s, RGB-D 224x224",
@@ -503,6 +508,7 @@ def format_scan_report(r: dict) -> str:
         "plain_pyrender_fps": "RGB-D frames/s, plain pyrender (same walk)",
         "render_vs_plain": "navbench / plain pyrender (x)",
         "memory_build_s": "memory build, oracle encoder (s)",
+        "memory_build_cpu_s": "  the same, process CPU time (s)",
         "peak_rss_mb": "peak RSS (MB)",
     }
     for k, label in labels.items():
