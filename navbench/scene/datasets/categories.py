@@ -2,20 +2,21 @@
 
 Lookup is on the lower-cased name with ``_``/``#`` read as spaces. Names in :data:`STRUCTURE` are
 walls, floors and ceilings: their faces get instance id -1, as the procedural houses' structure does.
-A name in neither table keeps its own (normalised) name as its category, so the oracle still sees it
-as an object, of a category no ObjectNav split asks for.
+A name in neither table keeps its own (normalised, ``_`` for spaces) name as its category, so the
+oracle still sees it as an object; MP3D ObjectNav's own mpcat40 categories that navbench does not
+have (``chest_of_drawers``, ``seating``, ``cushion``, ``shower``, ...) keep their names this way.
 
 =============  ===========================================================================
 category       raw names
 =============  ===========================================================================
-chair          chair, armchair, office chair, dining chair, desk chair, seating, recliner
+chair          chair, armchair, office chair, dining chair, desk chair, recliner
 sofa           sofa, couch, sofa chair, sectional sofa, loveseat
 bed            bed, double bed, single bed, bunk bed
 toilet         toilet
 tv_monitor     tv, television, tv monitor, tv_monitor, monitor, computer monitor, tv screen
 plant          plant, potted plant, flower pot, houseplant, flowers
 table          table, dining table, coffee table, side table, end table, kitchen table
-cabinet        cabinet, kitchen cabinet, cupboard, dresser, chest of drawers, wardrobe
+cabinet        cabinet, kitchen cabinet, cupboard, wardrobe
 sink           sink, kitchen sink, bathroom sink, washbasin
 desk           desk, computer desk, writing desk
 bookshelf      bookshelf, bookcase, book shelf, shelving
@@ -38,14 +39,14 @@ rug            rug, carpet, mat, floor mat
 from __future__ import annotations
 
 _TABLE: dict[str, tuple[str, ...]] = {
-    "chair": ("chair", "armchair", "office chair", "dining chair", "desk chair", "seating", "recliner"),
+    "chair": ("chair", "armchair", "office chair", "dining chair", "desk chair", "recliner"),
     "sofa": ("sofa", "couch", "sofa chair", "sectional sofa", "loveseat"),
     "bed": ("bed", "double bed", "single bed", "bunk bed"),
     "toilet": ("toilet",),
     "tv_monitor": ("tv", "television", "tv monitor", "monitor", "computer monitor", "tv screen"),
     "plant": ("plant", "potted plant", "flower pot", "houseplant", "flowers"),
     "table": ("table", "dining table", "coffee table", "side table", "end table", "kitchen table"),
-    "cabinet": ("cabinet", "kitchen cabinet", "cupboard", "dresser", "chest of drawers", "wardrobe"),
+    "cabinet": ("cabinet", "kitchen cabinet", "cupboard", "wardrobe"),
     "sink": ("sink", "kitchen sink", "bathroom sink", "washbasin"),
     "desk": ("desk", "computer desk", "writing desk"),
     "bookshelf": ("bookshelf", "bookcase", "book shelf", "shelving"),
