@@ -82,6 +82,26 @@ def decode_basis(blob: bytes, where: str) -> np.ndarray:
     return np.ascontiguousarray(rgba.reshape(texture.height, texture.width, 4))
 
 
+def _image_bytes(header: dict, binary: bytes, img: dict, index: int, path: Path) -> bytes:
+    """An image's bytes: from its bufferView, a data: URI, or a file beside the GLB."""
+    if "bufferView" in img:
+        return _view_bytes(header, binary, img["bufferView"], path)
+    uri = str(img.get("uri", ""))
+    if uri.startswith("data:"):
+        import base64
+
+        try:
+            return base64.b64decode(uri.split(",", 1)[1])
+        except (IndexError, ValueError):
+            raise SceneError(f"{path}: image {index} has a malformed data: URI") from None
+    from urllib.parse import unquote
+
+    f = path.parent / unquote(uri)
+    if not uri or not f.is_file():
+        raise SceneError(f"{path}: texture image {index} not found: {f}")
+    return f.read_bytes()
+
+
 def _is_basis(img: dict, blob: bytes) -> bool:
     return img.get("mimeType", "") in _BASIS_MIMES or blob[:12] == _KTX2_MAGIC or blob[:2] == _BASIS_MAGIC
 
@@ -101,6 +121,7 @@ def prepare_glb(path: Path) -> bytes | None:
     from PIL import Image
 
     replaced: dict[int, bytes] = {}
+    external: dict[int, bytes] = {}
     new_binary = bytearray(binary)
     for t, tex in enumerate(textures):
         ext = (tex.get("extensions") or {}).get(BASISU)
@@ -110,9 +131,7 @@ def prepare_glb(path: Path) -> bytes | None:
         if not isinstance(index, int) or not 0 <= index < len(images):
             raise SceneError(f"{path}: texture {t} refers to a missing image {index}")
         img = images[index]
-        if "bufferView" not in img:
-            raise SceneError(f"{path}: image {index} is not embedded (a .glb must carry its images)")
-        blob = _view_bytes(header, binary, img["bufferView"], path)
+        blob = _image_bytes(header, binary, img, index, path)
         if _is_basis(img, blob):
             if index not in replaced:
                 token = f"{path}#{index}"
@@ -125,8 +144,23 @@ def prepare_glb(path: Path) -> bytes | None:
             except Exception as exc:  # PIL raises many types for a bad image
                 raise SceneError(f"{path}: texture image {index} ({img.get('mimeType', 'unknown type')}) "
                                  f"cannot be decoded ({type(exc).__name__}: {exc})") from None
+            if "bufferView" not in img:
+                external[index] = blob  # trimesh reads the rewritten GLB from memory: embed it
     if not replaced:
         return None
+    buffers = header.setdefault("buffers", [])
+    if not buffers:
+        buffers.append({"byteLength": 0})
+    elif "uri" in buffers[0]:
+        raise SceneError(f"{path}: {BASISU} textures in a GLB whose first buffer is an external file are "
+                         f"not supported; embed the buffer")
+    for index, blob in external.items():
+        new_binary += b"\0" * (-len(new_binary) % 4)
+        header.setdefault("bufferViews", []).append(
+            {"buffer": 0, "byteOffset": len(new_binary), "byteLength": len(blob)})
+        new_binary += blob
+        images[index] = {"bufferView": len(header["bufferViews"]) - 1,
+                         "mimeType": images[index].get("mimeType", "image/png")}
     for index, bmp in replaced.items():
         new_binary += b"\0" * (-len(new_binary) % 4)
         header.setdefault("bufferViews", []).append(
