@@ -13,7 +13,7 @@
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
-    navbench bench [--json]
+    navbench bench [--json] [--scan DIR]
 
 Bad input (missing scene, corrupt JSON, unknown category, bad checkpoint...) prints one line naming
 the file and the problem and exits with code 2. `navbench run` exits with code 3 when it finished but
@@ -215,6 +215,11 @@ def cmd_localize(args) -> int:
 
 def cmd_bench(args) -> int:
     from navbench.bench import BenchConfig, format_report, run_bench
+    if args.scan:
+        from navbench.bench_scan import format_scan_report, run_scan_bench
+        result = run_scan_bench(args.scan, seconds=args.seconds)
+        print(json.dumps(result) if args.json else format_scan_report(result))
+        return 0
     result = run_bench(BenchConfig(scene=args.scene, seconds=args.seconds, policy=not args.no_policy))
     print(json.dumps(result) if args.json else format_report(result))
     return 0
@@ -362,6 +367,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scene", help="scene file (default: first bundled val scene)")
     b.add_argument("--seconds", type=float, default=3.0, help="time per measurement")
     b.add_argument("--no-policy", action="store_true", help="skip the policy inference figures")
+    b.add_argument("--scan", metavar="DIR", help="scan-scale figures on the HM3D-layout scan fixture in DIR "
+                                                "(made there first if missing; benchmarks/scan_fixture.py)")
     b.set_defaults(func=cmd_bench)
     return p
 

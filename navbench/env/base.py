@@ -21,14 +21,17 @@ from navbench.metrics import episode_metrics
 from navbench.paths import SCENES_DIR
 from navbench.render.renderer import CameraConfig, Renderer
 from navbench.scene.asset import SceneAsset
-from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.cache import load_scene_and_navgrid, navgrid_for
+from navbench.scene.datasets import resolve_scene
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat
 
 
 def resolve_scene_path(scene_id: str, scene_dir: Path) -> Path:
-    p = Path(scene_id)
-    return p if p.is_absolute() else scene_dir / p
+    """The mesh an episode's ``scene_id`` names: ``scene_dir / scene_id`` for navbench's own splits; for
+    Habitat's HM3D / MP3D episode files, ``scene_dir`` may be ``scene_datasets/`` (see
+    :func:`navbench.scene.datasets.resolve_scene`). SceneError, listing where it looked, if missing."""
+    return resolve_scene(scene_id, Path(scene_dir))
 
 
 class NavEnv(gym.Env):
@@ -80,14 +83,18 @@ class NavEnv(gym.Env):
         return obs
 
     # ------------------------------------------------------------------ scene
-    def _load_scene(self, scene_id: str) -> None:
+    def _load_scene(self, scene_id: str, start_y: float | None = None) -> None:
+        """Load the episode's scene, and the grid of the floor its start stands on (multi-floor scans)."""
         path = resolve_scene_path(scene_id, self.scene_dir)
         if path == self._scene_path:
+            if start_y is not None and self.navgrid is not None and \
+                    abs(start_y - self.navgrid.floor_height) > self.nav_config.agent_height / 2:
+                self.navgrid = navgrid_for(self.asset, self.nav_config, floor_hint=start_y)
             return
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        self.asset, self.navgrid = load_scene_and_navgrid(path, self.nav_config)
+        self.asset, self.navgrid = load_scene_and_navgrid(path, self.nav_config, floor_hint=start_y)
         self._scene_path = path
         if self.config.rgb or self.config.depth or self.config.semantic or self.render_mode == "rgb_array":
             self._renderer = Renderer(self.asset, self.camera, platform=self.config.gl_platform)
@@ -113,7 +120,7 @@ class NavEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         episode = self._select_episode(options)
-        self._load_scene(episode.scene_id)
+        self._load_scene(episode.scene_id, float(episode.start_position[1]))
         assert self.navgrid is not None
         start = np.asarray(episode.start_position, np.float64)
         if not np.isfinite(start).all() or not np.isfinite(episode.start_rotation).all():

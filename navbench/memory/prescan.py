@@ -179,6 +179,9 @@ def room_viewpoints(asset: SceneAsset, grid: NavGrid, margin: float = 0.3, spaci
     found, missed = [], []
     for room in asset.rooms:
         lo, hi = np.asarray(room.aabb_min), np.asarray(room.aabb_max)
+        if not lo[1] - 0.5 <= grid.floor_height <= hi[1]:
+            missed.append(room.name)  # a room of another storey: its xz box would revisit this one's rooms
+            continue
         in_room = ((cells[:, 0] >= lo[0] + margin) & (cells[:, 0] <= hi[0] - margin)
                    & (cells[:, 2] >= lo[2] + margin) & (cells[:, 2] <= hi[2] - margin))
         n_found = 0

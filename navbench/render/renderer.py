@@ -3,7 +3,8 @@
 A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores:
 
 * Unlit ``RenderFlags.FLAT`` shading of the scene's vertex colours (lighting costs several times
-  more, and our scenes carry their shading in the colours); ``RenderFlags.DEPTH_ONLY`` when only
+  more, and our scenes carry their shading in the colours), or of its base-colour textures for a
+  textured scan (trilinear, unlit, as Habitat renders scans); ``RenderFlags.DEPTH_ONLY`` when only
   depth is asked.
 * One ``OffscreenRenderer`` for the life of a :class:`Renderer`; only the camera node moves.
 * Per-node overhead (Python and GL calls per drawn node) dominates at agent resolutions, so
@@ -13,6 +14,11 @@ A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores
   Most chunks of a compact house are in view, so the default keeps houses of up to 60k triangles
   in one node and culling pays only on large scans. Geometry is indexed (shared vertices,
   triangles in file order), which draws faster than one vertex per corner.
+* Scans are geometry-bound (a 64-pixel frame costs about what a 224-pixel one does), and from
+  inside a room most chunks in the frustum are behind walls. Scenes of
+  :data:`OCCLUSION_MIN_FACES` or more triangles are cut into chunks of at most
+  :data:`OCCLUSION_CHUNK_FACES` and also skip chunks that rays cast from the camera's cell never
+  reach (:class:`_PotentiallyVisible`). The visible chunks are handed to pyrender nearest first.
 * Instance ids come from a second set of chunk nodes whose vertex colours encode ``id + 1`` as a
   24-bit RGB integer (structure and background decode to -1). It is drawn, FLAT and single-sampled,
   only when ids are asked for; depth+ids without RGB is one pass.
@@ -53,6 +59,7 @@ import pyrender  # noqa: E402
 import pyrender.renderer  # noqa: E402
 import pyrender.shader_program  # noqa: E402
 import trimesh  # noqa: E402
+from OpenGL.GL import GL_LINEAR, GL_LINEAR_MIPMAP_LINEAR, GL_REPEAT  # noqa: E402
 from pyrender.constants import GLTF, RenderFlags  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
@@ -262,7 +269,9 @@ class Renderer:
     ``platform`` must be the one PyOpenGL is bound to (:func:`bound_platform`, fixed by
     ``PYOPENGL_PLATFORM`` when OpenGL is first imported).
     ``max_chunk_faces`` bounds the triangles merged into one node (see the module docstring);
-    ``frustum_culling=False`` draws every chunk (for checking the culling).
+    ``frustum_culling=False`` draws every chunk (for checking the culling); ``occlusion_culling``
+    (default: on for scenes of :data:`OCCLUSION_MIN_FACES` triangles or more) skips chunks hidden
+    from the camera's cell.
     One instance holds one GL context; use it from one thread, and call :meth:`close` (or use it
     as a context manager) to free the context.
     """
@@ -276,6 +285,7 @@ class Renderer:
         platform: str = "osmesa",
         max_chunk_faces: int = 60_000,
         frustum_culling: bool = True,
+        occlusion_culling: bool | None = None,
     ) -> None:
         if platform not in PLATFORMS:
             raise RenderError(f"platform must be one of {PLATFORMS}, got {platform!r}")
@@ -297,6 +307,11 @@ class Renderer:
         self.camera = camera
         self.platform = platform
         self.frustum_culling = frustum_culling
+        # Scan-sized scenes: chunks hidden behind walls are skipped too (see _PotentiallyVisible).
+        self.occlusion_culling = (len(asset.mesh.faces) >= OCCLUSION_MIN_FACES if occlusion_culling is None
+                                  else occlusion_culling)
+        if self.occlusion_culling:
+            max_chunk_faces = min(max_chunk_faces, OCCLUSION_CHUNK_FACES)
 
         self._scene = pyrender.Scene(bg_color=np.zeros(4), ambient_light=np.zeros(3))
         self._cam = pyrender.PerspectiveCamera(
@@ -307,11 +322,15 @@ class Renderer:
 
         self._colour_nodes: list[pyrender.Node] = []
         self._id_nodes: list[pyrender.Node] = []
-        two_sided = open_surface_faces(asset.mesh)
+        two_sided = _two_sided_faces(asset)
         self.num_two_sided_faces = int(two_sided.sum())
+        # One GL texture and material per base-colour image, shared by every chunk that uses it.
+        self._materials = [_texture_material(img) for img in asset.textures] if asset.is_textured else []
         box_min, box_max = [], []
-        for faces in spatial_chunks(asset.mesh.triangles_center[:, [0, 2]], max_chunk_faces):
-            colour_mesh, id_mesh, lo, hi = _chunk_meshes(asset, faces, two_sided)
+        chunks = spatial_chunks(asset.mesh.triangles_center[:, [0, 2]], max_chunk_faces)
+        self._pvs = _PotentiallyVisible(asset.mesh, chunks) if self.occlusion_culling else None
+        for faces in chunks:
+            colour_mesh, id_mesh, lo, hi = _chunk_meshes(asset, faces, two_sided, self._materials)
             self._colour_nodes.append(self._scene.add(colour_mesh))
             self._id_nodes.append(self._scene.add(id_mesh))
             box_min.append(lo)
@@ -321,6 +340,10 @@ class Renderer:
 
         # Last: the GL context (pyrender picks OSMesa/EGL from PYOPENGL_PLATFORM).
         self._gl: pyrender.OffscreenRenderer | None = pyrender.OffscreenRenderer(camera.width, camera.height)
+        # The draw list lives in a list the override closes over (not in self): no reference cycle.
+        self._draw_list: list[pyrender.Node] = []
+        draw_list = self._draw_list
+        self._gl._renderer._sorted_mesh_nodes = lambda scene: draw_list
 
     # -- public --------------------------------------------------------------------------------
 
@@ -408,16 +431,33 @@ class Renderer:
         return self._gl
 
     def _visible(self, pose: np.ndarray) -> np.ndarray:
-        if not self.frustum_culling:
-            return np.ones(self.num_chunks, dtype=bool)
-        planes = frustum_planes(self._proj @ np.linalg.inv(pose))
-        return boxes_in_frustum(planes, self._box_min, self._box_max)
+        keep = np.ones(self.num_chunks, dtype=bool)
+        if self.frustum_culling:
+            planes = frustum_planes(self._proj @ np.linalg.inv(pose))
+            keep = boxes_in_frustum(planes, self._box_min, self._box_max)
+        if self._pvs is not None:
+            keep &= self._pvs(pose[:3, 3])
+        return keep
 
     def _show(self, colour: np.ndarray | None, ids: np.ndarray | None) -> None:
-        """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set."""
+        """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set.
+
+        pyrender sorts every mesh node far-to-near on each pass (a Python loop over all nodes); the
+        renderer is handed the visible ones near-to-far instead, so hidden chunks cost nothing and
+        nearer geometry fills the depth buffer first.
+        """
+        draw = []
         for nodes, keep in ((self._colour_nodes, colour), (self._id_nodes, ids)):
             for i, node in enumerate(nodes):
                 node.mesh.is_visible = bool(keep is not None and keep[i])
+            if keep is not None:
+                idx = np.flatnonzero(keep)
+                if len(idx) > 1:
+                    cam = self._scene.get_pose(self._cam_node)[:3, 3]
+                    centre = (self._box_min[idx] + self._box_max[idx]) / 2.0
+                    idx = idx[np.argsort(np.linalg.norm(centre - cam, axis=1), kind="stable")]
+                draw += [nodes[i] for i in idx]
+        self._draw_list[:] = draw
 
     def _draw(self, gl: pyrender.OffscreenRenderer, flags: int):
         if self.platform == "egl":
@@ -446,6 +486,76 @@ def _multisample_disabled() -> Iterator[None]:
         yield
     finally:
         pyrender.renderer.glEnable = enable
+
+
+OCCLUSION_MIN_FACES = 200_000  # scenes this large get occlusion culling by default
+OCCLUSION_CHUNK_FACES = 8_000  # finer chunks, so walls hide whole chunks
+PVS_CELL = 0.5  # metres: camera positions are grouped into cubes of this side
+PVS_DIRECTIONS = 16384  # rays per sample point (about 1.6 deg apart)
+
+
+class _PotentiallyVisible:
+    """Chunks visible from a camera cell, found by casting rays from the cell's corners.
+
+    The camera's position is put in a cube of side :data:`PVS_CELL`; the first time a cube is
+    entered, the chunks seen from each of its 8 corners are the union of the chunks first hit by
+    rays in :data:`PVS_DIRECTIONS` directions (Embree) and the chunks whose box holds the corner.
+    Corners are shared by neighbouring cubes and computed once. Chunks behind walls are then
+    skipped. Sampling, not an exact visibility proof: a chunk seen only through a gap narrower than
+    the rays' spacing may be missed, which is why only scan-sized scenes (chunks of thousands of
+    triangles, which rays hit many times) use it by default.
+    """
+
+    def __init__(self, mesh: trimesh.Trimesh, chunks: list[np.ndarray]) -> None:
+        self._mesh = mesh
+        self._face_chunk = np.empty(len(mesh.faces), np.int64)
+        for k, faces in enumerate(chunks):
+            self._face_chunk[faces] = k
+        self._n = len(chunks)
+        tri = mesh.triangles
+        self._lo = np.array([tri[c].reshape(-1, 3).min(axis=0) for c in chunks])
+        self._hi = np.array([tri[c].reshape(-1, 3).max(axis=0) for c in chunks])
+        i = np.arange(PVS_DIRECTIONS) + 0.5  # Fibonacci sphere: near-uniform directions
+        phi = np.arccos(1 - 2 * i / PVS_DIRECTIONS)
+        theta = np.pi * (1 + 5 ** 0.5) * i
+        self._dirs = np.stack([np.cos(theta) * np.sin(phi), np.cos(phi), np.sin(theta) * np.sin(phi)], axis=1)
+        self._cells: dict[tuple[int, int, int], np.ndarray] = {}
+        self._corners: dict[tuple[int, int, int], np.ndarray] = {}
+
+    def __call__(self, position: np.ndarray) -> np.ndarray:
+        cell = tuple(int(v) for v in np.floor(np.asarray(position) / PVS_CELL))
+        vis = self._cells.get(cell)
+        if vis is None:
+            corners = [(cell[0] + x, cell[1] + y, cell[2] + z) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+            self._add_corners([c for c in corners if c not in self._corners])
+            vis = self._cells[cell] = np.logical_or.reduce([self._corners[c] for c in corners])
+        return vis
+
+    def _add_corners(self, corners: list[tuple[int, int, int]]) -> None:
+        if not corners:
+            return
+        points = np.asarray(corners, float) * PVS_CELL
+        hit = self._mesh.ray.intersects_first(np.repeat(points, len(self._dirs), axis=0),
+                                              np.tile(self._dirs, (len(points), 1)))
+        hit = hit.reshape(len(points), -1)
+        for k, c in enumerate(corners):
+            vis = np.all((points[k] >= self._lo - 1e-6) & (points[k] <= self._hi + 1e-6), axis=1)
+            h = hit[k]
+            vis[self._face_chunk[h[h >= 0]]] = True
+            self._corners[c] = vis
+
+
+def _two_sided_faces(asset: SceneAsset) -> np.ndarray:
+    """(F,) bool: faces drawn with both windings. Textured faces are single-sided, as Habitat draws
+    scans with back-face culling; vertex-coloured faces follow :func:`open_surface_faces`."""
+    mesh = asset.mesh
+    if asset.face_texture is None:
+        return open_surface_faces(mesh)
+    out = np.zeros(len(mesh.faces), dtype=bool)
+    plain = np.flatnonzero(asset.face_texture < 0)
+    if len(plain):
+        out[plain] = open_surface_faces(trimesh.Trimesh(mesh.vertices, mesh.faces[plain], process=False))
+    return out
 
 
 def spatial_chunks(points_xz: np.ndarray, max_faces: int) -> list[np.ndarray]:
@@ -495,14 +605,25 @@ def open_surface_faces(mesh: trimesh.Trimesh) -> np.ndarray:
     return np.isin(labels, np.unique(labels[bad_face]))
 
 
+def _texture_material(image: np.ndarray) -> pyrender.MetallicRoughnessMaterial:
+    """Unlit base-colour material over ``image`` (RGBA, row 0 at the top): trilinear, repeating, as
+    glTF's default sampler; FLAT rendering outputs the filtered texel as it is."""
+    sampler = pyrender.Sampler(magFilter=GL_LINEAR, minFilter=GL_LINEAR_MIPMAP_LINEAR, wrapS=GL_REPEAT, wrapT=GL_REPEAT)
+    texture = pyrender.Texture(source=np.ascontiguousarray(image), source_channels="RGBA", sampler=sampler)
+    return pyrender.MetallicRoughnessMaterial(baseColorFactor=np.ones(4), baseColorTexture=texture, doubleSided=False)
+
+
 def _chunk_meshes(
-    asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray
+    asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray,
+    materials: list[pyrender.MetallicRoughnessMaterial] | None = None,
 ) -> tuple[pyrender.Mesh, pyrender.Mesh, np.ndarray, np.ndarray]:
     """Colour and id meshes of one chunk, plus its AABB.
 
     Everything is drawn with back-face culling (pyrender's DEPTH_ONLY pass always culls, so the
     FLAT passes must too to see the same geometry); faces flagged in ``two_sided`` are stored once
-    per winding so they show from both sides.
+    per winding so they show from both sides. Textured faces of a textured scene are drawn as one
+    primitive per texture (positions and UVs); the rest, and every untextured scene, with vertex
+    colours. The id mesh is one primitive whatever the colour mesh's make-up.
     """
     mesh = asset.mesh
     tri = mesh.faces[faces]
@@ -530,4 +651,38 @@ def _chunk_meshes(
         )
         return pyrender.Mesh(primitives=[prim])
 
-    return build(colours), build(id_colours), positions.min(axis=0), positions.max(axis=0)
+    if not materials or asset.face_texture is None:
+        return build(colours), build(id_colours), positions.min(axis=0), positions.max(axis=0)
+    prims = []
+    chunk_tex = asset.face_texture[faces]
+    for t in np.unique(chunk_tex):
+        sel = faces[chunk_tex == t]
+        if t < 0:
+            prims += build(colours).primitives if (chunk_tex < 0).all() else _colour_primitive(asset, sel, two_sided)
+            continue
+        tri_t = mesh.faces[sel]
+        used, local = np.unique(tri_t.reshape(-1), return_inverse=True)
+        front_t = local.reshape(-1, 3).astype(np.uint32)
+        prims.append(pyrender.Primitive(
+            positions=mesh.vertices[used].astype(np.float32),
+            texcoord_0=asset.uv[used].astype(np.float32),
+            indices=np.concatenate([front_t, front_t[two_sided[sel], ::-1]]),
+            material=materials[int(t)],
+            mode=GLTF.TRIANGLES,
+        ))
+    return pyrender.Mesh(primitives=prims), build(id_colours), positions.min(axis=0), positions.max(axis=0)
+
+
+def _colour_primitive(asset: SceneAsset, faces: np.ndarray, two_sided: np.ndarray) -> list[pyrender.Primitive]:
+    """The vertex-coloured faces of a chunk that also holds textured ones, as one primitive."""
+    mesh = asset.mesh
+    used, local = np.unique(mesh.faces[faces].reshape(-1), return_inverse=True)
+    front = local.reshape(-1, 3).astype(np.uint32)
+    colours = np.asarray(mesh.visual.vertex_colors, dtype=np.uint8)[used].copy()
+    colours[:, 3] = 255
+    return [pyrender.Primitive(
+        positions=mesh.vertices[used].astype(np.float32), color_0=colours,
+        indices=np.concatenate([front, front[two_sided[faces], ::-1]]),
+        material=pyrender.MetallicRoughnessMaterial(baseColorFactor=np.ones(4), doubleSided=False),
+        mode=GLTF.TRIANGLES,
+    )]

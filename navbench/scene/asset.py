@@ -12,6 +12,11 @@ Inside a GLB, geometry belonging to object ``k`` sits under a node named ``obj_{
 node is structure (walls, floor, ceiling, door frames) and gets instance id -1.
 
 Coordinates are Habitat's: metres, y up, the floor of a house at y = 0.
+
+Scans keep their base-colour textures (GLB/glTF, OBJ+MTL; Basis Universal via
+:mod:`navbench.scene.textures`) beside the vertex colours, and read their annotations from the
+dataset's own files (HM3D ``*.semantic.txt`` + ``*.semantic.glb``, MP3D ``*_semantic.ply`` +
+``*.house``; see :mod:`navbench.scene.datasets`) when no ``.semantic.json`` sidecar is present.
 """
 
 from __future__ import annotations
@@ -24,12 +29,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from navbench.scene.errors import SceneError
+
 OBJECT_NODE = re.compile(r"^obj_(\d+)$")
 STRUCTURE_ID = -1
-
-
-class SceneError(ValueError):
-    """A scene file is missing, unreadable or unusable; the message names the file."""
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,16 @@ class SceneAsset:
     face_ids: np.ndarray  # (F,) int32: object id of each face, -1 for structure
     objects: dict[int, ObjectAnnotation] = field(default_factory=dict)
     rooms: list[RoomAnnotation] = field(default_factory=list)
+    # Textured scans: per-vertex texture coordinates (OpenGL convention, v up), per-face index into
+    # ``textures`` (-1: the face is drawn with its vertex colours) and the RGBA base-colour images
+    # (row 0 at the top). None / empty for vertex-coloured scenes.
+    uv: np.ndarray | None = None
+    face_texture: np.ndarray | None = None
+    textures: list[np.ndarray] = field(default_factory=list)
+
+    @property
+    def is_textured(self) -> bool:
+        return self.face_texture is not None and bool((self.face_texture >= 0).any())
 
     def objects_of(self, category: str) -> list[ObjectAnnotation]:
         return [o for o in self.objects.values() if o.category == category]
@@ -112,34 +125,22 @@ def semantic_path(mesh_path: Path) -> Path:
 
 
 def load_scene(path: str | Path) -> SceneAsset:
-    """Load a GLB/OBJ/PLY scene and its sidecar annotations (if any) into a :class:`SceneAsset`."""
+    """Load a GLB/glTF/OBJ/PLY scene and its annotations (if any) into a :class:`SceneAsset`.
+
+    Annotations come from the ``.semantic.json`` sidecar, else from the dataset files beside the
+    mesh (:func:`navbench.scene.datasets.load_annotations`). A ``*.scene_dataset_config.json`` above
+    the mesh may declare the mesh's up/front axes; the mesh is then rotated into Habitat's frame.
+    """
+    from navbench.scene import datasets
+
     path = Path(path)
     if not path.is_file():
         raise SceneError(f"{path}: scene file not found")
-    try:
-        loaded = trimesh.load(str(path), force="scene", process=False)
-    except Exception as exc:  # trimesh raises many types for a bad file
-        raise SceneError(f"{path}: cannot read mesh ({type(exc).__name__}: {exc})") from None
-    parts: list[trimesh.Trimesh] = []
-    ids: list[np.ndarray] = []
-    for node in loaded.graph.nodes_geometry:
-        transform, geom_name = loaded.graph[node]
-        geom = loaded.geometry[geom_name]
-        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
-            continue
-        part = geom.copy()
-        part.apply_transform(transform)
-        colours = _vertex_colours(part)
-        part = trimesh.Trimesh(part.vertices, part.faces, vertex_colors=colours, process=False)
-        m = OBJECT_NODE.match(str(node)) or OBJECT_NODE.match(str(geom_name))
-        parts.append(part)
-        ids.append(np.full(len(part.faces), int(m.group(1)) if m else STRUCTURE_ID, np.int32))
-    if not parts:
-        raise SceneError(f"{path}: mesh has no triangles")
-    mesh = trimesh.util.concatenate(parts) if len(parts) > 1 else parts[0]
-    face_ids = np.concatenate(ids)
-    if not np.isfinite(mesh.vertices).all():
-        raise SceneError(f"{path}: mesh has non-finite vertex coordinates")
+    stage = datasets.stage_attributes(path)
+    mesh, face_ids, uv, face_texture, textures = read_mesh(path)
+    frame = datasets.frame_rotation(stage)
+    if frame is not None:
+        mesh.vertices = mesh.vertices @ frame.T
 
     objects: dict[int, ObjectAnnotation] = {}
     rooms: list[RoomAnnotation] = []
@@ -153,7 +154,98 @@ def load_scene(path: str | Path) -> SceneAsset:
             scene_id = data.get("scene_id", scene_id)
         except (ValueError, KeyError, TypeError) as exc:
             raise SceneError(f"{sem}: corrupt semantic annotation ({exc})") from None
-    return SceneAsset(scene_id=scene_id, path=path, mesh=mesh, face_ids=face_ids, objects=objects, rooms=rooms)
+    else:
+        found = datasets.load_annotations(path, mesh, stage)
+        if found is not None:
+            face_ids, objects, rooms = found
+    return SceneAsset(scene_id=scene_id, path=path, mesh=mesh, face_ids=face_ids, objects=objects, rooms=rooms,
+                      uv=uv, face_texture=face_texture, textures=textures)
+
+
+def read_mesh(path: Path) -> tuple[trimesh.Trimesh, np.ndarray, np.ndarray | None, np.ndarray | None,
+                                   list[np.ndarray]]:
+    """Merged mesh (vertex colours), per-face ids from ``obj_{k}`` node names, and the texture table.
+
+    Returns ``(mesh, face_ids, uv, face_texture, textures)``; the last three are None, None, [] for a
+    scene without textures, which keeps the vertex-colour path exactly as it was.
+    """
+    from navbench.scene import textures as tx
+
+    suffix = path.suffix.lower()
+    source: object = str(path)
+    kwargs: dict = {}
+    if suffix == ".glb":
+        prepared = tx.prepare_glb(path)
+        if prepared is not None:
+            source, kwargs = trimesh.util.wrap_as_stream(prepared), {"file_type": "glb"}
+    elif suffix == ".gltf":
+        tx.check_gltf_images(path)
+    elif suffix == ".obj":
+        tx.check_obj_textures(path)
+    try:
+        loaded = trimesh.load(source, force="scene", process=False, **kwargs)
+        return _merge_parts(path, loaded)
+    except SceneError:
+        raise
+    except Exception as exc:  # trimesh raises many types for a bad file
+        raise SceneError(f"{path}: cannot read mesh ({type(exc).__name__}: {exc})") from None
+    finally:
+        tx.forget_decoded(path)
+
+
+def _merge_parts(path: Path, loaded: trimesh.Scene):
+    from navbench.scene import textures as tx
+
+    parts: list[trimesh.Trimesh] = []
+    ids: list[np.ndarray] = []
+    part_uv: list[np.ndarray | None] = []
+    part_tex: list[int] = []
+    images: list[np.ndarray] = []
+    image_index: dict[int, int] = {}
+    for node in loaded.graph.nodes_geometry:
+        transform, geom_name = loaded.graph[node]
+        geom = loaded.geometry[geom_name]
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        part = geom
+        if not np.allclose(transform, np.eye(4)):
+            part = geom.copy()
+            part.apply_transform(transform)
+        tex = -1
+        uv = None
+        colours = None
+        if part.visual.kind == "texture":
+            material = part.visual.material
+            image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+            if image is not None and part.visual.uv is not None and len(part.visual.uv) == len(part.vertices):
+                key = id(image)
+                if key not in image_index:
+                    image_index[key] = len(images)
+                    images.append(tx.texture_image(part.visual))
+                tex = image_index[key]
+                uv = np.asarray(part.visual.uv, np.float32)
+                # Vertex colours (for consumers of the merged mesh's colours): the texel under each vertex.
+                colours = tx.sample(images[tex], uv)
+        if colours is None:
+            colours = _vertex_colours(part)
+        part = trimesh.Trimesh(part.vertices, part.faces, vertex_colors=colours, process=False)
+        m = OBJECT_NODE.match(str(node)) or OBJECT_NODE.match(str(geom_name))
+        parts.append(part)
+        ids.append(np.full(len(part.faces), int(m.group(1)) if m else STRUCTURE_ID, np.int32))
+        part_uv.append(uv)
+        part_tex.append(tex)
+    if not parts:
+        raise SceneError(f"{path}: mesh has no triangles")
+    mesh = trimesh.util.concatenate(parts) if len(parts) > 1 else parts[0]
+    face_ids = np.concatenate(ids)
+    if not np.isfinite(mesh.vertices).all():
+        raise SceneError(f"{path}: mesh has non-finite vertex coordinates")
+    if not images:
+        return mesh, face_ids, None, None, []
+    uv_all = np.concatenate([u if u is not None else np.zeros((len(p.vertices), 2), np.float32)
+                             for u, p in zip(part_uv, parts)])
+    face_texture = np.concatenate([np.full(len(p.faces), t, np.int32) for t, p in zip(part_tex, parts)])
+    return mesh, face_ids, uv_all, face_texture, images
 
 
 def _vertex_colours(mesh: trimesh.Trimesh) -> np.ndarray:

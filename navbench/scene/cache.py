@@ -13,6 +13,8 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
+import numpy as np
+
 from navbench.paths import cache_dir
 from navbench.scene.asset import SceneAsset, SceneError, load_scene
 from navbench.scene import navigability
@@ -42,19 +44,41 @@ def _builder_digest() -> str:
     return hashlib.sha1(Path(navigability.__file__).read_bytes()).hexdigest()
 
 
-def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConfig(),
-                           use_cache: bool = True) -> tuple[SceneAsset, NavGrid]:
-    path = Path(path)
-    asset = load_scene(path)
-    # The key covers the scene's bytes, the grid config and the grid-building code itself, so a change
-    # to any of them rebuilds instead of silently reusing a grid made by other rules.
-    key = hashlib.sha1((scene_digest(path) + json.dumps(dataclasses.asdict(config), sort_keys=True)
+def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConfig(), use_cache: bool = True,
+                           floor_hint: float | None = None) -> tuple[SceneAsset, NavGrid]:
+    """The scene and the grid of its floor; with ``floor_hint`` (an episode's start height), the grid of
+    the storey a point at that height stands on (see :func:`navgrid_for`)."""
+    asset = load_scene(Path(path))
+    return asset, navgrid_for(asset, config, use_cache, floor_hint)
+
+
+def navgrid_for(asset: SceneAsset, config: NavGridConfig = NavGridConfig(), use_cache: bool = True,
+                floor_hint: float | None = None) -> NavGrid:
+    """The (disk-cached) grid of ``asset``. The default floor serves every hint within half the agent's
+    height of it, so single-floor scenes build one grid; another storey gets its own grid."""
+    grid = _cached_grid(asset, config, use_cache)
+    if floor_hint is None or config.floor_height is not None or \
+            abs(floor_hint - grid.floor_height) <= config.agent_height / 2:
+        return grid
+    floor = round(NavGrid.floor_for(asset.mesh, floor_hint, config), 4)
+    if abs(floor - grid.floor_height) <= config.max_climb / 2:
+        return grid
+    return _cached_grid(asset, dataclasses.replace(config, floor_height=floor), use_cache)
+
+
+def _cached_grid(asset: SceneAsset, config: NavGridConfig, use_cache: bool) -> NavGrid:
+    path = Path(asset.path)
+    # The key covers the scene's bytes, its placement (a dataset config may rotate the mesh), the grid
+    # config and the grid-building code itself, so a change to any of them rebuilds instead of
+    # silently reusing a grid made by other rules.
+    placement = json.dumps(np.round(asset.mesh.bounds, 4).tolist())
+    key = hashlib.sha1((scene_digest(path) + placement + json.dumps(dataclasses.asdict(config), sort_keys=True)
                         + _builder_digest()).encode())
     cached = cache_dir("navgrid") / f"{path.name.split('.')[0]}-{key.hexdigest()[:16]}.npz"
     if use_cache and cached.is_file():
         try:
-            return asset, NavGrid.load(cached)
-        except (OSError, ValueError, KeyError):
+            return NavGrid.load(cached)
+        except (OSError, ValueError, KeyError, SceneError):
             pass  # a stale or partial cache file is rebuilt below
     grid = NavGrid.from_mesh(asset.mesh, config)
     if use_cache:
@@ -63,4 +87,4 @@ def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConf
         tmp = cached.with_name(f"{cached.stem}.{os.getpid()}.tmp.npz")
         grid.save(tmp)
         tmp.replace(cached)
-    return asset, grid
+    return grid

@@ -289,6 +289,38 @@ class NavGrid:
         first = int(np.flatnonzero(counts >= 0.5 * counts.max())[0])  # levels are sorted bottom-up
         return float(np.median(levels[first]))
 
+    @classmethod
+    def floor_for(cls, mesh: trimesh.Trimesh, y: float, config: NavGridConfig = NavGridConfig()) -> float:
+        """Height of the floor a point at height ``y`` stands on (a multi-floor scan's storey).
+
+        Same walkable hits as the default floor choice (see :meth:`from_mesh`), grouped into levels;
+        among levels holding at least 5% of the largest one's hits, the highest at most ``max_climb``
+        above ``y`` wins, else the nearest; its median height is returned.
+        """
+        normals_y = np.asarray(mesh.face_normals)[:, 1]
+        lo, hi = mesh.bounds
+        extent = max(hi[0] - lo[0], hi[2] - lo[2])
+        step = max(4 * config.cell_size, extent / 150.0)
+        gx, gz = np.meshgrid(np.arange(lo[0] + step / 2, hi[0], step), np.arange(lo[2] + step / 2, hi[2], step))
+        origins = np.column_stack([gx.ravel(), np.full(gx.size, hi[1] + 1.0), gz.ravel()])
+        if len(origins) == 0:
+            return cls._floor_level(mesh, normals_y, config)
+        locs, ray_idx, tri_idx = mesh.ray.intersects_location(
+            origins, np.tile([0.0, -1.0, 0.0], (len(origins), 1)), multiple_hits=True)
+        order = np.lexsort((-locs[:, 1], ray_idx))
+        ys, rays, tris = locs[order, 1], ray_idx[order], tri_idx[order]
+        above = np.full(len(ys), np.inf)
+        same_ray = rays[1:] == rays[:-1]
+        above[1:][same_ray] = ys[:-1][same_ray]
+        heights = np.sort(ys[(np.abs(normals_y[tris]) >= _HORIZONTAL_NY) & (above - ys >= config.agent_height)])
+        if len(heights) == 0:
+            raise SceneError(f"mesh has no walkable floor: no horizontal surface with {config.agent_height} m headroom")
+        levels = np.split(heights, np.flatnonzero(np.diff(heights) > config.max_climb / 2) + 1)
+        counts = np.array([len(lv) for lv in levels])
+        medians = np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
+        below = medians[medians <= y + config.max_climb]
+        return float(below.max()) if len(below) else float(medians[np.argmin(np.abs(medians - y))])
+
     @staticmethod
     def _clearance(free: np.ndarray, blocked: np.ndarray, surface: np.ndarray, outline: np.ndarray,
                    cs: float, radius: float) -> np.ndarray:

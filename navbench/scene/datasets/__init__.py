@@ -1,0 +1,209 @@
+"""Habitat scene datasets on disk: where an episode's ``scene_id`` lives, the dataset config's stage
+attributes, and the annotation readers of HM3D (:mod:`.hm3d`) and MP3D (:mod:`.mp3d`).
+
+Layouts read (as downloaded, unchanged)::
+
+    scene_datasets/hm3d/hm3d_annotated_basis.scene_dataset_config.json
+    scene_datasets/hm3d/val/00800-TEEsavR23oF/TEEsavR23oF.basis.glb   (+ .glb, .semantic.glb, .semantic.txt)
+    scene_datasets/mp3d/mp3d.scene_dataset_config.json
+    scene_datasets/mp3d/17DRP5sb8fy/17DRP5sb8fy.glb                    (+ _semantic.ply, .house)
+
+Episode files name scenes relative to ``scene_datasets/`` (``hm3d/val/00800-.../X.basis.glb``),
+sometimes with a ``data/scene_datasets/`` prefix; :func:`resolve_scene` accepts either and also a
+``--scene-dir`` pointing at the dataset's own folder.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from navbench.scene.errors import SceneError
+
+CONFIG_SUFFIX = ".scene_dataset_config.json"
+_NAME_TEMPLATE = "%%CONFIG_NAME_AS_ASSET_FILENAME%%"
+_PREFIXES = ("data/scene_datasets/", "scene_datasets/", "./data/scene_datasets/")
+
+
+def scene_name(path: Path) -> str:
+    """Habitat's config name of a scene asset: the file name before its first dot."""
+    return Path(path).name.split(".")[0]
+
+
+def resolve_scene(scene_id: str, scene_dir: Path) -> Path:
+    """The mesh file an episode's ``scene_id`` names under ``scene_dir``; SceneError listing where it looked."""
+    p = Path(scene_id)
+    if p.is_absolute():
+        if p.is_file():
+            return p
+        tried = [p]
+    else:
+        scene_dir = Path(scene_dir)
+        rel = scene_id
+        for prefix in _PREFIXES:
+            if rel.startswith(prefix):
+                rel = rel[len(prefix):]
+                break
+        parts = Path(rel).parts
+        # scene_dir may be scene_datasets/ itself, its parent (data/) or one dataset's folder (hm3d/).
+        bases = [scene_dir / rel, scene_dir / scene_id, scene_dir / "scene_datasets" / rel]
+        bases += [scene_dir / Path(*parts[k:]) for k in range(1, len(parts))]
+        tried = []
+        for base in bases:
+            for cand in _variants(base):
+                if cand not in tried:
+                    tried.append(cand)
+        for cand in tried:
+            if cand.is_file():
+                return cand
+    more = f" (also looked for: {', '.join(str(t) for t in tried[1:])})" if len(tried) > 1 else ""
+    raise SceneError(f"{tried[0]}: scene file not found{more}")
+
+
+def _variants(path: Path) -> list[Path]:
+    """``X.basis.glb`` and ``X.glb`` stand in for each other (HM3D ships both, episodes name one)."""
+    name = path.name
+    out = [path]
+    if name.endswith(".basis.glb"):
+        out.append(path.with_name(name[: -len(".basis.glb")] + ".glb"))
+    elif name.endswith(".glb"):
+        out.append(path.with_name(name[: -len(".glb")] + ".basis.glb"))
+    return out
+
+
+def find_config(mesh_path: Path, levels: int = 4) -> Path | None:
+    """The nearest ``*.scene_dataset_config.json`` in the mesh's folder or up to ``levels`` above it
+    (annotated configs first, as habitat-lab's HM3D episodes name them)."""
+    d = Path(mesh_path).resolve().parent
+    for _ in range(levels + 1):
+        found = sorted(d.glob("*" + CONFIG_SUFFIX), key=lambda f: ("annotated" not in f.name, f.name))
+        if found:
+            return found[0]
+        if d.parent == d:
+            break
+        d = d.parent
+    return None
+
+
+def stage_attributes(mesh_path: Path) -> dict:
+    """The config's ``stages.default_attributes`` for this mesh, templates filled in; {} without a config."""
+    cfg = find_config(mesh_path)
+    if cfg is None:
+        return {}
+    try:
+        data = json.loads(cfg.read_text())
+        attrs = dict(data.get("stages", {}).get("default_attributes", {}) or {})
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError) as exc:
+        raise SceneError(f"{cfg}: corrupt scene dataset config ({type(exc).__name__}: {exc})") from None
+    name = scene_name(mesh_path)
+    out = {}
+    for k, v in attrs.items():
+        out[k] = v.replace(_NAME_TEMPLATE, name) if isinstance(v, str) else v
+    out["__config__"] = str(cfg)
+    return out
+
+
+def frame_rotation(stage: dict) -> np.ndarray | None:
+    """3x3 rotation from the asset frame declared by ``up``/``front`` to Habitat's (y up, -z front)."""
+    if "up" not in stage and "front" not in stage:
+        return None
+    up = np.asarray(stage.get("up", [0, 1, 0]), float)
+    front = np.asarray(stage.get("front", [0, 0, -1]), float)
+    if up.shape != (3,) or front.shape != (3,) or abs(float(up @ front)) > 1e-6 or not (up.any() and front.any()):
+        raise SceneError(f"{stage.get('__config__', 'scene dataset config')}: 'up' {up.tolist()} and "
+                         f"'front' {front.tolist()} must be orthogonal 3-vectors")
+    up, front = up / np.linalg.norm(up), front / np.linalg.norm(front)
+    rot = np.stack([np.cross(front, up), up, -front])
+    return None if np.allclose(rot, np.eye(3)) else rot
+
+
+def _asset(mesh_path: Path, stage: dict, key: str, default: str) -> Path:
+    value = stage.get(key) or default
+    p = Path(value)
+    return p if p.is_absolute() else Path(mesh_path).parent / p
+
+
+def load_annotations(mesh_path: Path, mesh: trimesh.Trimesh, stage: dict):
+    """(face_ids, objects, rooms) from the dataset's annotation files beside the mesh, or None if it has none."""
+    from navbench.scene.datasets import hm3d, mp3d
+
+    name = scene_name(mesh_path)
+    txt = _asset(mesh_path, stage, "semantic_descriptor_filename", f"{name}.semantic.txt")
+    if txt.suffix == ".txt" and txt.is_file():
+        sem_mesh = _asset(mesh_path, stage, "semantic_asset", f"{name}.semantic.glb")
+        return hm3d.load(txt, sem_mesh, mesh, frame_rotation(_semantic_frame(stage)))
+    house = Path(mesh_path).parent / f"{name}.house"
+    ply = _asset(mesh_path, stage, "semantic_asset", f"{name}_semantic.ply")
+    if house.is_file() or ply.suffix == ".ply" and ply.is_file():
+        return mp3d.load(house, ply, mesh, frame_rotation(_semantic_frame(stage)))
+    return None
+
+
+def _semantic_frame(stage: dict) -> dict:
+    """The semantic asset's own frame where the config gives one, else the render asset's."""
+    out = {k: v for k, v in stage.items() if k in ("up", "front", "__config__")}
+    if "semantic_up" in stage:
+        out["up"] = stage["semantic_up"]
+    if "semantic_front" in stage:
+        out["front"] = stage["semantic_front"]
+    return out
+
+
+def transfer_face_labels(src_mesh: trimesh.Trimesh, src_labels: np.ndarray, dst_mesh: trimesh.Trimesh) -> np.ndarray:
+    """Per-face labels of ``dst_mesh`` from the annotated ``src_mesh``: the same faces when the two
+    meshes are one triangulation, else the label of the nearest source face centroid."""
+    if len(src_mesh.faces) == len(dst_mesh.faces):
+        src_c, dst_c = _centres(src_mesh), _centres(dst_mesh)
+        if np.allclose(src_c, dst_c, atol=1e-4):
+            return src_labels.astype(np.int32)
+    from scipy.spatial import cKDTree
+
+    _, nearest = cKDTree(_centres(src_mesh)).query(_centres(dst_mesh), workers=-1)
+    return src_labels[nearest].astype(np.int32)
+
+
+def _centres(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Face centroids without trimesh's cache (which hashes the whole mesh to key them)."""
+    v = np.asarray(mesh.vertices)
+    f = np.asarray(mesh.faces)
+    return (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
+
+
+def objects_from_faces(mesh: trimesh.Trimesh, face_ids: np.ndarray, records: dict[int, dict]):
+    """ObjectAnnotations (AABB from the object's faces) for the ids that label at least one face."""
+    from navbench.scene.asset import ObjectAnnotation
+
+    objects = {}
+    tri = mesh.triangles
+    order = np.argsort(face_ids, kind="stable")
+    ids_sorted = face_ids[order]
+    uniq, starts = np.unique(ids_sorted, return_index=True)
+    ends = np.append(starts[1:], len(ids_sorted))
+    for oid, a, b in zip(uniq, starts, ends):
+        if oid < 0 or int(oid) not in records:
+            continue
+        pts = tri[order[a:b]].reshape(-1, 3)
+        rec = records[int(oid)]
+        objects[int(oid)] = ObjectAnnotation(
+            id=int(oid), category=rec["category"], room=rec.get("room", ""), colour="",
+            colour_rgb=tuple(rec.get("rgb", (128, 128, 128))),
+            aabb_min=tuple(float(v) for v in pts.min(axis=0)), aabb_max=tuple(float(v) for v in pts.max(axis=0)))
+    return objects
+
+
+def rooms_from_faces(mesh: trimesh.Trimesh, face_rooms: np.ndarray, names: dict[int, str]):
+    """RoomAnnotations: the AABB of each region's faces."""
+    from navbench.scene.asset import RoomAnnotation
+
+    rooms = []
+    tri_c = mesh.triangles_center
+    for rid in np.unique(face_rooms):
+        if rid < 0 or int(rid) not in names:
+            continue
+        pts = tri_c[face_rooms == rid]
+        rooms.append(RoomAnnotation(names[int(rid)], tuple(float(v) for v in pts.min(axis=0)),
+                                    tuple(float(v) for v in pts.max(axis=0))))
+    return rooms
