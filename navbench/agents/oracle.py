@@ -35,13 +35,15 @@ class OracleAgent:
         self.env_config = env_config
         self.nav_config = env_config.nav_grid_config()
         self._pose = PoseTracker()
-        self._grids: dict[Path, object] = {}
+        self._grids: dict[tuple[Path, float], object] = {}
 
     def _navgrid(self, episode: Episode):
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
-        if path not in self._grids:
-            self._grids = {path: load_scene_and_navgrid(path, self.nav_config)[1]}  # keep one scene
-        return self._grids[path]
+        key = (path, round(float(episode.start_position[1]), 2))
+        if key not in self._grids:  # keep one scene; on a multi-storey scan, the grid of the start's storey
+            self._grids = {key: load_scene_and_navgrid(path, self.nav_config,
+                                                       floor_hint=float(episode.start_position[1]))[1]}
+        return self._grids[key]
 
     def reset(self, episode: Episode) -> None:
         self._pose.reset(episode)

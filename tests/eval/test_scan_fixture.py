@@ -9,13 +9,13 @@ import dataclasses
 import numpy as np
 import pytest
 
+from navbench.agents.registry import make_memory, make_oracle, prebuild_memories
 from navbench.bench_scan import _walk, make_scan_fixture
-from navbench.cli import make_memory, make_oracle, prebuild_memories
 from navbench.env.config import EnvConfig
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, NavigationGoal
-from navbench.eval.runner import RunConfig, read_records, run
+from navbench.eval.runner import RunConfig, read_records, run, select_episodes
 from navbench.paths import POLICIES_DIR
 from navbench.render import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
@@ -67,7 +67,7 @@ def test_oracle_reaches_its_goals_on_the_scan(scan, tmp_path):
 def test_memory_agent_runs_on_the_scan(scan, tmp_path):
     cfg = _cfg(scan, "memory", limit=1, env={"max_steps": 60},
                agent_options={"memory_root": str(tmp_path / "memory"), "checkpoint": str(CHECKPOINT)})
-    prebuild_memories(cfg)
+    prebuild_memories(cfg, select_episodes(load_dataset(cfg.episodes), cfg.limit))
     summary = run(cfg, make_memory, tmp_path / "run")
     (rec,) = read_records(tmp_path / "run" / "episodes.jsonl")
     assert summary["num_episodes"] == 1 and rec["num_steps"] <= 60
