@@ -12,7 +12,8 @@ OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen
 LIMIT ?=
 LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
-	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h
+	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
+	figures
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing.
@@ -79,20 +80,19 @@ tables-objectnav: setup
 	    $(RUNS)/objectnav/val_unseen/memory-noise_default; } > results/objectnav.md
 	$(BIN)/python -m navbench.eval.failures $(foreach a,frontier memory-norerank memory,$(foreach s,$(OBJNAV_SPLITS),\
 	  $(RUNS)/objectnav/$(s)/$(a))) $(RUNS)/objectnav/val_unseen/memory-noise_default > results/objectnav_failures.md
-
 results-objectnav-least-tried: setup
 	for s in $(OBJNAV_SPLITS); do for a in memory frontier; do \
 	  $(RUN) --split $$s --agent $$a --decoding least-tried $(LIMIT_ARG) || exit 1; done; done
 	$(NB) table $(foreach a,frontier memory,$(foreach s,$(OBJNAV_SPLITS),$(RUNS)/objectnav/$(s)/$(a)-least-tried)) \
 	  > results/objectnav_least_tried.md
-
 results-memory: setup
 	test -f $(RUNS)/objectnav/val_unseen/memory/summary.json || $(RUN) --split val_unseen --agent memory
 	for v in "--all-frames" "--keyframe-res 640x480" "--keyframe-res 160x120"; do \
 	  $(RUN) --split val_unseen --agent memory $$v --limit 20 || exit 1; done
 	$(BIN)/python -m navbench.eval.memory_table --first 20 $(foreach v,memory memory-allframes memory-640x480 \
 	  memory-160x120,$(RUNS)/objectnav/val_unseen/$(v)) > results/memory_efficiency.md
-
+figures: setup  # docs/img/topdown.png and docs/img/report.png, the README's pictures
+	NB=$(NB) bash docs/figures.sh
 # The shipped PointNav checkpoints' recipes (policies/MODEL_CARD.md); outputs under runs/pointnav/.
 train-pointnav: setup
 	$(NB) train --config configs/pointnav/full.toml
