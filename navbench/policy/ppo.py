@@ -37,6 +37,7 @@ from navbench.policy.config import PPOConfig
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.progress import log_row
 from navbench.policy.rollout import Collection, EnvSlots, make_envs
+from navbench.progress import progress
 
 __all__ = ["PPOConfig", "Rollout", "gae", "ppo_update", "step_reward", "train_ppo"]
 
@@ -254,7 +255,7 @@ def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frame
     t_start = time.time() - wall0
     last: dict[str, float] = {}
     window: list[dict] = []  # the last 100 finished rollout episodes
-    for u in range(start, cfg.updates):
+    for u in progress(range(start, cfg.updates), desc="ppo updates"):
         t0 = time.time()
         data, finished = source.collect(policy)
         t_collect = time.time() - t0

@@ -44,6 +44,7 @@ from navbench.render.renderer import CameraConfig, Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
+from navbench.progress import progress
 
 
 # ------------------------------------------------------------------------------------------- targets
@@ -208,7 +209,7 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
     last: dict[str, float] = {}
     running: dict[str, list[float]] = {}
     policy.train()
-    for u in range(start, cfg.updates):
+    for u in progress(range(start, cfg.updates), desc="encoder updates"):
         idx = rng.integers(train_n, size=cfg.batch_size)
         batch = batch_tensors(data, idx, flip=rng.random(cfg.batch_size) < 0.5)
         with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg.bf16):

@@ -44,6 +44,7 @@ from navbench.policy.config import TrainConfig
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.progress import log_row
 from navbench.policy.rollout import Collection, EnvSlots, make_envs
+from navbench.progress import progress
 
 __all__ = ["TrainConfig", "Collector", "EpisodeBuffer", "build_learner", "evaluate", "train", "train_step"]
 
@@ -328,7 +329,7 @@ def _train_loop(cfg, policy, opt, rng, source: Collection, start_it, frames_tota
     buffer = EpisodeBuffer(cfg.buffer_frames)
     t_start = time.time() - wall0
     last: dict[str, float] = {}
-    for it in range(start_it, cfg.iterations):
+    for it in progress(range(start_it, cfg.iterations), desc="dagger iterations"):
         beta = max(cfg.beta_min, cfg.beta0 * cfg.beta_decay ** it)
         lr = iteration_lr(cfg, it)
         for group in opt.param_groups:
