@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -179,6 +180,8 @@ def cmd_memory(args) -> int:
     from navbench.memory.prescan import build_memory
     from navbench.scene.asset import load_scene
 
+    if args.perception not in PERCEPTION:
+        raise ValueError(f"unknown perception {args.perception!r}: choose from {', '.join(PERCEPTION)}")
     scene = Path(args.scene)
     if not scene.is_file():
         scene = SCENES_DIR / args.scene
@@ -225,8 +228,47 @@ def cmd_bench(args) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with usage errors as the house's one line and exit code 2 (subcommands inherit it)."""
+
+    def error(self, message: str):
+        self.exit(2, f"navbench: error: {self.prog}: {message.splitlines()[0]} (see {self.prog} --help)\n")
+
+
+def _count(text: str) -> int:
+    """An integer >= 1 (episode counts, workers, k)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return n
+
+
+def _seed(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return n
+
+
+def _positive(text: str) -> float:
+    """A finite number > 0 (distances, temperatures, seconds)."""
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not math.isfinite(x) or x <= 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return x
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="navbench", description=__doc__.split("\n\n")[0])
+    p = _Parser(prog="navbench", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="evaluate an agent on a split and print SR/SPL")
@@ -242,9 +284,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "keywords; a remote agent takes timeout=SECONDS (per request, default 30)")
     r.add_argument("--episodes", help="a Habitat-format episode file (.json/.json.gz) instead of a bundled split")
     r.add_argument("--scene-dir", help="where episode scene_id paths are resolved (default: bundled envs/)")
-    r.add_argument("--limit", type=int, help="first N episodes only")
-    r.add_argument("--per-scene", type=int, help="first K episodes of each scene only (before --limit)")
-    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--limit", type=_count, help="first N episodes only")
+    r.add_argument("--per-scene", type=_count, help="first K episodes of each scene only (before --limit)")
+    r.add_argument("--seed", type=_seed, default=0)
     r.add_argument("--out", help="run directory (default runs/TASK/SPLIT/LABEL: the agent, then what differs "
                                  "from its defaults, e.g. runs/pointnav/val/pointnav-argmax)")
     r.add_argument("--runs-dir", default="runs", help="root of the default run directory (default runs; the "
@@ -263,7 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "workers a call that never returns is killed)")
     r.add_argument("--fail-fast", action="store_true", help="stop at the first failed episode (exit 2) instead of "
                                                            "recording it and going on")
-    r.add_argument("--success-distance", type=float)
+    r.add_argument("--success-distance", type=_positive)
     p_ = r.add_argument_group("PointNav policy (pointnav, memory and frontier agents)")
     p_.add_argument("--checkpoint", help="policy checkpoint in habitat's layout (default: the shipped one)")
     p_.add_argument("--decoding", choices=("argmax", "sample", "least-tried"),
@@ -286,9 +328,9 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--siglip2", help="local SigLIP2 model directory")
     m.add_argument("--qwen-vl", help="local Qwen2.5-VL model directory")
     m.add_argument("--sam3", help="local SAM 3 model directory")
-    r.add_argument("--envs-per-worker", type=int, help="episodes a worker steps at once with one batched "
+    r.add_argument("--envs-per-worker", type=_count, help="episodes a worker steps at once with one batched "
                    "policy forward pass (pointnav agent; default 8)")
-    r.add_argument("--workers", type=int, default=2, help="parallel episode workers (default 2)")
+    r.add_argument("--workers", type=_count, default=2, help="parallel episode workers (default 2)")
     r.add_argument("--video", default="none", choices=("none", "failures", "all"),
                    help="write OUT/videos/EPISODE.mp4 (RGB | depth | map, 10 fps) for failed or all episodes")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
@@ -307,14 +349,14 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("run_dirs", nargs="+")
     t.add_argument("--format", default="markdown", choices=("markdown", "csv", "latex"))
     t.add_argument("--long", action="store_true", help="one row per run instead of agent x split")
-    t.add_argument("--first", type=int, help="score every run on the first N episodes of its split only")
+    t.add_argument("--first", type=_count, help="score every run on the first N episodes of its split only")
     t.set_defaults(func=cmd_table)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
                                         "extra training houses and episodes (policy-train) or its houses and "
                                         "episodes for choosing among policies (policy-select)")
     g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select"))
-    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
     g.set_defaults(func=cmd_generate)
 
@@ -337,8 +379,8 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("--noise", default="none")
     lo.add_argument("--no-fusion", action="store_true")
     lo.add_argument("--rerank", default="vlm", choices=("vlm", "none"))
-    lo.add_argument("-k", type=int, default=5)
-    lo.add_argument("--limit", type=int)
+    lo.add_argument("-k", type=_count, default=5)
+    lo.add_argument("--limit", type=_count)
     lo.add_argument("--out")
     lo.add_argument("--viz", action="store_true", help="save a picture per query in OUT/viz: the re-ranked keyframes "
                     "with scores and masks, the fused points, top-K centres and ground truth on the top-down map")
@@ -365,7 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="simulator, geodesic and policy speed")
     b.add_argument("--json", action="store_true")
     b.add_argument("--scene", help="scene file (default: first bundled val scene)")
-    b.add_argument("--seconds", type=float, default=3.0, help="time per measurement")
+    b.add_argument("--seconds", type=_positive, default=3.0, help="time per measurement")
     b.add_argument("--no-policy", action="store_true", help="skip the policy inference figures")
     b.add_argument("--scan", metavar="DIR", help="scan-scale figures on the HM3D-layout scan fixture in DIR "
                                                 "(made there first if missing; benchmarks/scan_fixture.py)")

@@ -54,6 +54,8 @@ def read_json(path: str | Path) -> Any:
         return json.loads(raw)
     except (OSError, EOFError, zlib.error, gzip.BadGzipFile, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})") from None
+    except RecursionError:
+        raise EpisodeError(f"{path}: JSON nested too deeply to read") from None
 
 
 def load_dataset(path: str | Path) -> EpisodeDataset:
@@ -70,6 +72,8 @@ def load_dataset(path: str | Path) -> EpisodeDataset:
             if f.name.endswith((".json", ".json.gz")):
                 _merge(dataset, read_json(f), f)
     for ep in dataset.episodes:
+        if ep.object_category is None and not ep.goals:
+            raise EpisodeError(f"{path}: episode {ep.episode_id}: no goals and no object_category")
         if ep.object_category is not None and not ep.goals:
             key = goals_key(ep.scene_id, ep.object_category)
             goals = dataset.goals_by_category.get(key)
@@ -82,24 +86,45 @@ def load_dataset(path: str | Path) -> EpisodeDataset:
 
 def _merge(dataset: EpisodeDataset, data: dict, path: Path) -> None:
     try:
-        for key, goals in data.get("goals_by_category", {}).items():
+        if not isinstance(data, dict) or not isinstance(data.get("episodes"), list):
+            raise TypeError("'episodes' must be a list of episodes")
+        for key, goals in _mapping(data, "goals_by_category").items():
+            if not isinstance(goals, list):
+                raise TypeError(f"goals_by_category[{key!r}] must be a list of goals")
             dataset.goals_by_category[key] = [_object_goal(g) for g in goals]
-        dataset.category_to_task_category_id.update(data.get("category_to_task_category_id", {}))
-        dataset.category_to_scene_annotation_category_id.update(
-            data.get("category_to_scene_annotation_category_id", {}))
+        for name in ("category_to_task_category_id", "category_to_scene_annotation_category_id"):
+            table = _mapping(data, name)
+            if not all(isinstance(v, int) and not isinstance(v, bool) for v in table.values()):
+                raise TypeError(f"{name} must map category names to integer ids")
+            getattr(dataset, name).update(table)
         for k, v in data.items():
             if k not in ("episodes", "goals_by_category", "category_to_task_category_id",
                          "category_to_scene_annotation_category_id"):
                 dataset.extra.setdefault(k, v)
         for raw in data["episodes"]:
             dataset.episodes.append(_episode(raw, path))
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         if isinstance(exc, EpisodeError):
             raise
         raise EpisodeError(f"{path}: malformed dataset ({type(exc).__name__}: {exc})") from None
 
 
+def _mapping(data: dict, key: str) -> dict:
+    value = data.get(key) or {}
+    if not isinstance(value, dict):
+        raise TypeError(f"{key!r} must be an object, got {type(value).__name__}")
+    return value
+
+
+def _dict(v: Any, what: str) -> dict:
+    if not isinstance(v, dict):
+        raise TypeError(f"{what} must be an object, got {type(v).__name__}")
+    return v
+
+
 def _vec(v: Any, n: int, what: str) -> list[float]:
+    if not isinstance(v, (list, tuple)) or any(isinstance(x, (str, bool)) for x in v):
+        raise ValueError(f"{what} must be {n} finite numbers, got {v!r}"[:200])
     out = [float(x) for x in v]
     if len(out) != n or not all(math.isfinite(x) for x in out):
         raise ValueError(f"{what} must be {n} finite numbers, got {v!r}")
@@ -107,45 +132,78 @@ def _vec(v: Any, n: int, what: str) -> list[float]:
 
 
 def _episode(raw: dict, path: Path) -> Episode:
-    eid = str(raw.get("episode_id", "?"))
+    eid = str(raw.get("episode_id", "?"))[:40] if isinstance(raw, dict) else "?"
     try:
+        raw = _dict(raw, "an episode")
         goals: list[NavigationGoal | ObjectGoal] = []
-        for g in raw.get("goals", []) or []:
+        raw_goals = raw.get("goals", []) or []
+        if not isinstance(raw_goals, list):
+            raise TypeError(f"goals must be a list, got {type(raw_goals).__name__}")
+        for g in raw_goals:
+            g = _dict(g, "a goal")
             if "object_id" in g or "view_points" in g:
                 goals.append(_object_goal(g))
             else:
-                goals.append(NavigationGoal(position=_vec(g["position"], 3, "goal position"), radius=g.get("radius"),
+                goals.append(NavigationGoal(position=_vec(g["position"], 3, "goal position"),
+                                            radius=_radius(g.get("radius")),
                                             extra={k: v for k, v in g.items() if k not in ("position", "radius")}))
+        for key in ("episode_id", "scene_id"):
+            if not isinstance(raw.get(key), (str, int)) or isinstance(raw.get(key), bool):
+                raise TypeError(f"{key} must be a string, got {raw.get(key)!r}"[:200])
+        category = raw.get("object_category")
+        if category is not None and not isinstance(category, str):
+            raise TypeError(f"object_category must be a string, got {category!r}"[:200])
         return Episode(
             episode_id=eid,
             scene_id=str(raw["scene_id"]),
             start_position=_vec(raw["start_position"], 3, "start_position"),
             start_rotation=_vec(raw["start_rotation"], 4, "start_rotation"),
             goals=goals,
-            info=dict(raw.get("info") or {}),
-            object_category=raw.get("object_category"),
+            info=dict(_mapping(raw, "info")),
+            object_category=category,
             extra={k: v for k, v in raw.items() if k not in _EPISODE_KEYS},
         )
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise EpisodeError(f"{path}: episode {eid}: {type(exc).__name__}: {exc}") from None
 
 
+def _radius(r: Any) -> float | None:
+    """A goal's radius: None (the task's success distance) or a finite non-negative number."""
+    if r is None:
+        return None
+    if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r) or r < 0:
+        raise ValueError(f"goal radius must be a finite number >= 0 or null, got {r!r}"[:200])
+    return float(r)
+
+
 def _object_goal(g: dict) -> ObjectGoal:
-    vps = [ViewPoint(AgentState(_vec(vp["agent_state"]["position"], 3, "view point position"),
-                                _vec(vp["agent_state"].get("rotation", [0, 0, 0, 1]), 4, "view point rotation")),
-                     float(vp.get("iou", 0.0)))
-           for vp in g.get("view_points", []) or []]
+    g = _dict(g, "an object goal")
+    raw_vps = g.get("view_points", []) or []
+    if not isinstance(raw_vps, list):
+        raise TypeError(f"view_points must be a list, got {type(raw_vps).__name__}")
+    vps = []
+    for vp in raw_vps:
+        state = _dict(_dict(vp, "a view point").get("agent_state"), "a view point's agent_state")
+        vps.append(ViewPoint(AgentState(_vec(state["position"], 3, "view point position"),
+                                        _vec(state.get("rotation", [0, 0, 0, 1]), 4, "view point rotation")),
+                             _number(vp.get("iou", 0.0), "view point iou")))
     return ObjectGoal(
         position=_vec(g["position"], 3, "goal position"),
-        object_id=int(g.get("object_id", -1)),
+        object_id=int(_number(g.get("object_id", -1), "object_id")),
         object_category=str(g.get("object_category", "")),
-        radius=g.get("radius"),
+        radius=_radius(g.get("radius")),
         object_name=str(g.get("object_name", "")),
         room_id=g.get("room_id"),
         room_name=g.get("room_name"),
         view_points=vps,
         extra={k: v for k, v in g.items() if k not in _OBJECT_GOAL_KEYS},
     )
+
+
+def _number(v: Any, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ValueError(f"{what} must be a finite number, got {v!r}"[:200])
+    return float(v)
 
 
 # -------------------------------------------------------------------------------------------- write

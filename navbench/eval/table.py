@@ -23,14 +23,58 @@ class TableError(ValueError):
     pass
 
 
+METRICS = ("success", "spl", "soft_spl", "distance_to_goal")
+
+
+def _read_object(path: Path, what: str) -> dict[str, Any]:
+    """A JSON object from ``path``, or a one-line TableError naming it."""
+    try:
+        doc = json.loads(path.read_bytes())
+    except FileNotFoundError:
+        raise TableError(f"{path}: no {path.name} (is this a navbench run directory?)") from None
+    except (OSError, ValueError, RecursionError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise TableError(f"{path}: corrupt {what} ({type(exc).__name__}: {exc})") from None
+    if not isinstance(doc, dict):
+        raise TableError(f"{path}: corrupt {what} (not a JSON object)")
+    return doc
+
+
 def load_summary(run_dir: str | Path) -> dict[str, Any]:
     path = Path(run_dir) / "summary.json"
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise TableError(f"{path}: no summary.json (is this a navbench run directory?)") from None
-    except json.JSONDecodeError as exc:
-        raise TableError(f"{path}: corrupt summary ({exc})") from None
+    s = _read_object(path, "summary")
+    for k in METRICS:
+        v = s.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise TableError(f"{path}: corrupt summary ({k!r} must be a number, got {v!r})"[:300])
+    for k in ("agent", "task", "split"):
+        if s.get(k) is not None and not isinstance(s[k], str):
+            raise TableError(f"{path}: corrupt summary ({k!r} must be a string, got {s[k]!r})"[:300])
+    return s
+
+
+def load_config(run_dir: str | Path) -> dict[str, Any]:
+    """A run's config.json, with the fields the table reads checked for type."""
+    path = Path(run_dir) / "config.json"
+    cfg = _read_object(path, "config")
+    problem = None
+    for k in ("agent", "task", "split", "episodes"):
+        if cfg.get(k) is not None and not isinstance(cfg[k], str):
+            problem = f"{k!r} must be a string, got {cfg[k]!r}"
+    if isinstance(cfg.get("seed"), bool) or not isinstance(cfg.get("seed", 0), int):
+        problem = f"'seed' must be an integer, got {cfg.get('seed')!r}"
+    o = cfg.get("agent_options", {})
+    if not isinstance(o, dict):
+        problem = f"'agent_options' must be an object, got {o!r}"
+    else:
+        for k in ("checkpoint", "decoding", "perception", "noise"):
+            if o.get(k) is not None and not isinstance(o[k], str):
+                problem = f"agent_options.{k} must be a string, got {o[k]!r}"
+        t = o.get("temperature", 1.0)
+        if isinstance(t, bool) or not isinstance(t, (int, float)):
+            problem = f"agent_options.temperature must be a number, got {t!r}"
+    if problem:
+        raise TableError(f"{path}: corrupt config ({problem})"[:300])
+    return cfg
 
 
 def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
@@ -41,10 +85,12 @@ def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
     from navbench.paths import split_file
 
     run_dir = Path(run_dir)
-    cfg = json.loads((run_dir / "config.json").read_text())
+    cfg = load_config(run_dir)
+    if not cfg.get("task") or not (cfg.get("split") or cfg.get("episodes")):
+        raise TableError(f"{run_dir / 'config.json'}: corrupt config (no 'task', or neither 'split' nor 'episodes')")
     # a bundled split is read where this checkout keeps it (config.json holds the writer's path)
     bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
-    episodes = bundled if bundled is not None and bundled.is_file() else Path(cfg["episodes"])
+    episodes = bundled if bundled is not None and bundled.is_file() else Path(cfg.get("episodes") or "")
     keep = {(e.scene_id, e.episode_id) for e in load_dataset(episodes).episodes[:first]}
     recs = [r for r in read_records(run_dir / "episodes.jsonl") if (r["scene_id"], r["episode_id"]) in keep]
     if len(recs) < len(keep):
@@ -69,13 +115,7 @@ DEFAULT_CHECKPOINT = "pointnav_navbench"
 
 def run_identity(run_dir: str | Path) -> dict[str, Any]:
     """What makes a run what it is, beyond its agent and split: the table's identity columns."""
-    path = Path(run_dir) / "config.json"
-    try:
-        cfg = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise TableError(f"{path}: no config.json (is this a navbench run directory?)") from None
-    except json.JSONDecodeError as exc:
-        raise TableError(f"{path}: corrupt config ({exc})") from None
+    cfg = load_config(run_dir)
     o, agent = cfg.get("agent_options", {}), cfg.get("agent")
     ident = {k: "-" for k in IDENTITY}
     ident["seed"] = cfg.get("seed", 0)

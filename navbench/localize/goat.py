@@ -25,6 +25,7 @@ from __future__ import annotations
 import gzip
 import json
 import math
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -84,9 +85,20 @@ class GoatSubtask:
 
     @classmethod
     def from_json(cls, d: dict) -> "GoatSubtask":
-        return cls(str(d["id"]), str(d["scene_id"]), str(d["type"]), d.get("query"), d.get("image"),
-                   d.get("image_ids"), tuple(int(i) for i in d["target_ids"]),
-                   np.asarray(d["gt_positions"], dtype=np.float64).reshape(-1, 3))
+        """Raises ValueError/TypeError/KeyError on a subtask that could not be asked or scored."""
+        kind = d["type"]
+        if kind not in ("object", "image", "language"):
+            raise ValueError(f"subtask {d.get('id')!r}: type must be object, image or language, got {kind!r}")
+        fields = ("image", "image_ids") if kind == "image" else ("query",)
+        if not all(isinstance(d.get(f), str) for f in fields):
+            raise ValueError(f"subtask {d.get('id')!r}: a {kind} query needs string {' and '.join(fields)}")
+        gt = np.asarray(d["gt_positions"], dtype=np.float64).reshape(-1, 3)
+        if len(gt) == 0 or not np.isfinite(gt).all():
+            raise ValueError(f"subtask {d.get('id')!r}: gt_positions must be finite xyz points")
+        if isinstance(d["target_ids"], (str, dict)):
+            raise TypeError(f"subtask {d.get('id')!r}: target_ids must be a list of ints")
+        return cls(str(d["id"]), str(d["scene_id"]), kind, d.get("query"), d.get("image"),
+                   d.get("image_ids"), tuple(int(i) for i in d["target_ids"]), gt)
 
     def to_query(self, split_dir: str | Path) -> Query:
         """The localiser's :class:`Query`, loading the image files relative to ``split_dir``."""
@@ -114,8 +126,10 @@ def load_goat_split(split: str | Path = "goat_val", root: str | Path | None = No
         return [GoatSubtask.from_json(d) for d in doc["subtasks"]]
     except FileNotFoundError:
         raise GoatSplitError(f"{path}: GOAT split not found (run generate_goat_split)") from None
-    except (OSError, KeyError, TypeError, ValueError) as e:
-        raise GoatSplitError(f"{path}: malformed GOAT split ({e})") from None
+    except (OSError, EOFError, zlib.error, KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+        raise GoatSplitError(f"{path}: malformed GOAT split ({type(e).__name__}: {e})") from None
+    except RecursionError:
+        raise GoatSplitError(f"{path}: malformed GOAT split (JSON nested too deeply)") from None
 
 
 # ------------------------------------------------------------------------------------------ generation

@@ -194,8 +194,8 @@ def load_checkpoint(path: str | Path, policy: PointNavResNetPolicy | None = None
     """Load weights into ``policy`` (built from the checkpoint's shapes when None); returns it in eval mode.
 
     fp16 tensors are converted to the policy's dtype. Any missing or unexpected key, or a shape
-    mismatch, raises :class:`CheckpointError` naming the file and the first offending tensors; nothing
-    is copied into ``policy`` in that case.
+    mismatch, a float/integer dtype mismatch or a non-finite weight, raises :class:`CheckpointError` naming
+    the file and the first offending tensors; nothing is copied into ``policy`` in that case.
     """
     path = Path(path)
     data = read_checkpoint(path)
@@ -219,6 +219,16 @@ def load_checkpoint(path: str | Path, policy: PointNavResNetPolicy | None = None
     ]
     if mismatched:
         raise CheckpointError(f"{path}: shape mismatch: {_names(mismatched, 2)}")
-    converted = {k: v.to(own[k].dtype) if v.is_floating_point() else v for k, v in data.state_dict.items()}
-    policy.load_state_dict(converted, strict=True, assign=built_here)
+    wrong = [f"{k} {v.dtype} vs policy {own[k].dtype}" for k, v in data.state_dict.items()
+             if v.is_floating_point() != own[k].is_floating_point() or v.is_complex()]
+    if wrong:
+        raise CheckpointError(f"{path}: dtype mismatch: {_names(wrong, 2)}")
+    bad = [k for k, v in data.state_dict.items() if v.is_floating_point() and not torch.isfinite(v).all()]
+    if bad:
+        raise CheckpointError(f"{path}: non-finite values in {_names(bad)}")
+    converted = {k: v.to(own[k].dtype) for k, v in data.state_dict.items()}
+    try:
+        policy.load_state_dict(converted, strict=True, assign=built_here)
+    except RuntimeError as exc:  # anything the checks above missed, still one line naming the file
+        raise CheckpointError(f"{path}: does not fit the policy ({str(exc).splitlines()[-1].strip()})") from None
     return policy.eval()

@@ -93,8 +93,13 @@ def load_recipe(path: str | Path) -> Recipe:
     """Parse a recipe file: a ``name`` and a list of ``[[stage]]`` tables, each with ``name``, ``trainer`` and
     that trainer's options."""
     path = Path(path)
-    with open(path, "rb") as f:
-        data = tomllib.load(f)
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: recipe file not found") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ValueError(f"{path}: unreadable recipe ({type(exc).__name__}: {exc})") from None
     unknown = set(data) - {"name", "description", "stage"}
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}: a recipe has name, description and [[stage]]")

@@ -33,7 +33,7 @@ coordinates, so the image spans ``[-0.5, W - 0.5]`` and the principal point of t
 frustum is ``((W - 1) / 2, (H - 1) / 2)``. :func:`backproject` uses the same convention.
 
 Importing this module sets ``PYOPENGL_PLATFORM`` to ``osmesa`` unless it is already set (set it to
-``egl`` before the first import to use EGL), and patches pyrender's shader cache (see
+``egl`` before the first import to use EGL), ``LP_NUM_THREADS`` to 0 unless set (fork safety, below), and patches pyrender's shader cache (see
 :func:`_patch_shader_cache`). It never creates a GL context; :class:`Renderer` does.
 """
 
@@ -43,6 +43,12 @@ import os
 
 # PyOpenGL binds its platform on first import, so this must run before pyrender is imported.
 os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+# llvmpipe (OSMesa) starts its rasterizer threads with the first GL context and keeps them for the
+# life of the process; a process forked after that (multiprocessing's default on Linux, e.g.
+# Gymnasium's AsyncVectorEnv) inherits the thread pool without its threads and hangs on its first
+# draw. Rasterizing on the calling thread keeps forked workers usable and is no slower at agent
+# resolutions; Mesa reads this when the first context is created.
+os.environ.setdefault("LP_NUM_THREADS", "0")
 
 import contextlib  # noqa: E402
 import ctypes  # noqa: E402

@@ -66,9 +66,9 @@ class ObjectAnnotation:
             category=str(d["category"]),
             room=str(d.get("room", "")),
             colour=str(d.get("colour", "")),
-            colour_rgb=tuple(int(c) for c in d.get("colour_rgb", (128, 128, 128))),
-            aabb_min=tuple(float(v) for v in d["aabb"]["min"]),
-            aabb_max=tuple(float(v) for v in d["aabb"]["max"]),
+            colour_rgb=_rgb(d.get("colour_rgb", (128, 128, 128))),
+            aabb_min=_xyz(d["aabb"]["min"]),
+            aabb_max=_xyz(d["aabb"]["max"]),
         )
 
 
@@ -85,9 +85,25 @@ class RoomAnnotation:
     def from_json(cls, d: dict) -> "RoomAnnotation":
         return cls(
             name=str(d["name"]),
-            aabb_min=tuple(float(v) for v in d["aabb"]["min"]),
-            aabb_max=tuple(float(v) for v in d["aabb"]["max"]),
+            aabb_min=_xyz(d["aabb"]["min"]),
+            aabb_max=_xyz(d["aabb"]["max"]),
         )
+
+
+def _xyz(v: object) -> tuple[float, float, float]:
+    """Three finite coordinates, or ValueError/TypeError."""
+    if not isinstance(v, (list, tuple)) or len(v) != 3 or any(isinstance(x, (str, bool)) for x in v):
+        raise ValueError(f"expected 3 numbers, got {v!r}"[:120])
+    out = tuple(float(x) for x in v)
+    if not all(np.isfinite(out)):
+        raise ValueError(f"expected 3 finite numbers, got {v!r}"[:120])
+    return out  # type: ignore[return-value]
+
+
+def _rgb(v: object) -> tuple[int, int, int]:
+    if not isinstance(v, (list, tuple)) or len(v) != 3 or any(isinstance(x, (str, bool)) for x in v):
+        raise ValueError(f"colour_rgb must be 3 integers, got {v!r}"[:120])
+    return tuple(int(c) for c in v)  # type: ignore[return-value]
 
 
 @dataclass
@@ -141,6 +157,8 @@ def load_scene(path: str | Path) -> SceneAsset:
     frame = datasets.frame_rotation(stage)
     if frame is not None:
         mesh.vertices = mesh.vertices @ frame.T
+    if mesh.vertices.ndim != 2 or mesh.vertices.shape[1] != 3:
+        raise SceneError(f"{path}: mesh vertices are not 3-D points (shape {mesh.vertices.shape})")
 
     objects: dict[int, ObjectAnnotation] = {}
     rooms: list[RoomAnnotation] = []
@@ -148,12 +166,14 @@ def load_scene(path: str | Path) -> SceneAsset:
     scene_id = path.name.split(".")[0]
     if sem.is_file():
         try:
-            data = json.loads(sem.read_text())
+            data = json.loads(sem.read_bytes())
+            if not isinstance(data, dict) or not all(isinstance(data.get(k, []), list) for k in ("objects", "rooms")):
+                raise TypeError("expected an object with 'objects' and 'rooms' lists")
             objects = {o.id: o for o in map(ObjectAnnotation.from_json, data.get("objects", []))}
             rooms = [RoomAnnotation.from_json(r) for r in data.get("rooms", [])]
-            scene_id = data.get("scene_id", scene_id)
-        except (ValueError, KeyError, TypeError) as exc:
-            raise SceneError(f"{sem}: corrupt semantic annotation ({exc})") from None
+            scene_id = str(data.get("scene_id", scene_id))
+        except (ValueError, KeyError, TypeError, AttributeError, IndexError, OverflowError, RecursionError) as exc:
+            raise SceneError(f"{sem}: corrupt semantic annotation ({type(exc).__name__}: {exc})"[:300]) from None
     else:
         found = datasets.load_annotations(path, mesh, stage)
         if found is not None:

@@ -44,6 +44,19 @@ def _builder_digest() -> str:
     return hashlib.sha1(Path(navigability.__file__).read_bytes()).hexdigest()
 
 
+# Largest grid built (250 m x 250 m at 5 cm): bigger means a scene in other units or stray geometry.
+MAX_GRID_CELLS = 25_000_000
+
+
+def _check_extent(bounds, cell_size: float) -> None:
+    """Refuse a grid too large to allocate, before any per-cell array is built."""
+    (x0, _, z0), (x1, _, z1) = bounds
+    cells = ((x1 - x0) / cell_size + 2) * ((z1 - z0) / cell_size + 2)
+    if cells > MAX_GRID_CELLS:
+        raise SceneError(f"mesh spans {x1 - x0:.4g} x {z1 - z0:.4g} m: over {MAX_GRID_CELLS:.0e} grid cells of "
+                         f"{cell_size} m (units not metres, or stray geometry?)")
+
+
 def load_scene_and_navgrid(path: str | Path, config: NavGridConfig = NavGridConfig(), use_cache: bool = True,
                            floor_hint: float | None = None) -> tuple[SceneAsset, NavGrid]:
     """The scene and the grid of its floor; with ``floor_hint`` (an episode's start height), the grid of
@@ -80,7 +93,11 @@ def _cached_grid(asset: SceneAsset, config: NavGridConfig, use_cache: bool) -> N
             return NavGrid.load(cached)
         except (OSError, ValueError, KeyError, SceneError):
             pass  # a stale or partial cache file is rebuilt below
-    grid = NavGrid.from_mesh(asset.mesh, config)
+    try:
+        _check_extent(asset.mesh.bounds, config.cell_size)
+        grid = NavGrid.from_mesh(asset.mesh, config)
+    except ValueError as exc:  # the grid builder's messages describe the mesh; name its file
+        raise SceneError(f"{path}: {exc}") from None
     if use_cache:
         # A per-process temporary name: parallel workers may build the same grid at once, and each
         # must rename its own complete file into place (the last rename wins; both are identical).
