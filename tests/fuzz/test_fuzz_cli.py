@@ -16,7 +16,7 @@ COUNTS = [(["run", "--split", "val_unseen"], "--limit"), (["run", "--split", "va
           (["localize"], "-k"), (["localize"], "--limit"), (["table", "runs/x"], "--first")]
 POSITIVE = [(["run", "--split", "val_unseen"], "--success-distance"), (["bench"], "--seconds")]
 SEEDS = [(["run", "--split", "val_unseen"], "--seed"), (["generate", "episodes"], "--seed")]
-CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--rerank"], ["run", "--keyframe-res"],
+CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
            ["table", "x", "--format"], ["generate"], ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
            ["localize", "--rerank"]]
 
@@ -25,7 +25,8 @@ bad_numbers = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0", "1e999", "
 
 def test_parser_covers_every_subcommand():
     sub = next(a for a in build_parser()._actions if a.dest == "command")
-    assert set(sub.choices) == {"run", "table", "generate", "train", "memory", "localize", "bench"}
+    assert set(sub.choices) == {"run", "table", "generate", "train", "memory", "localize", "bench", "merge", "viz",
+                                "report", "agents", "serve-agent"}
 
 
 @given(case=st.sampled_from(COUNTS + POSITIVE + SEEDS), value=bad_numbers)
@@ -47,7 +48,8 @@ def test_unknown_choices(prefix):
     assert_cli_error([*prefix, "no-such-choice"], "no-such-choice")
 
 
-@pytest.mark.parametrize("argv", [[], ["nosuch"], ["run", "--nosuch"], ["table"], ["memory", "build"],
+@pytest.mark.parametrize("argv", [[], ["nosuch"], ["run", "--nosuch"], ["table"], ["memory", "build"], ["merge"],
+                                  ["merge", "x"], ["viz"], ["report"], ["serve-agent"], ["agents", "extra"],
                                   ["run", "--limit"], ["run", "--split", "val_unseen", "extra-positional"]],
                          ids=repr)
 def test_usage_errors(argv):
@@ -78,6 +80,9 @@ def test_bad_names(argv):
     ["bench", "--scene", "{}", "--seconds", "0.1"],
     ["table", "{}"],
     ["train", "--config", "{}"],
+    ["merge", "{}", "--out", "{}-merged"],
+    ["viz", "{}"],
+    ["report", "{}", "-o", "{}.html"],
     ["localize", "--split", "{}/x.json.gz", "--limit", "1"],
 ], ids=lambda a: " ".join(a[:2]))
 def test_missing_files_and_directories(argv, kind, tmp_path):
