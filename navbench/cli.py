@@ -235,25 +235,21 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"navbench: error: {self.prog}: {message.splitlines()[0]} (see {self.prog} --help)\n")
 
 
-def _count(text: str) -> int:
-    """An integer >= 1 (episode counts, workers, k)."""
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
-    return n
+def _int_at_least(lo: int):
+    """An argparse type: an integer >= ``lo``."""
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            n = lo - 1
+        if n < lo:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text!r}")
+        return n
+    return parse
 
 
-def _seed(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return n
+_count = _int_at_least(1)  # episode counts, workers, k
+_seed = _int_at_least(0)
 
 
 def _positive(text: str) -> float:

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from navbench.episodes.io import load_dataset
-from navbench.eval.rundir import RunError, RunLock, read_records, write_atomic
+from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.runner import RunConfig, config_diff, select_episodes, summarize
 
 # Keys shards may differ in: how each was run, not what it computes.
@@ -74,10 +74,7 @@ def merge(run_dirs: list[Path], out: Path, overwrite: bool = False, note=print) 
     if missing:
         raise RunError(f"{len(missing)} of {len(expected)} episodes are in none of the runs, e.g. {missing[0][1]!r} "
                        f"({missing[0][0]}): a shard missing or unfinished (finish it with --resume)")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise RunError(f"{out}: cannot create the run directory: {exc.strerror or exc}") from None
+    make_run_dir(out)
     lock = RunLock(out, note)
     try:
         if not overwrite and ((out / "episodes.jsonl").exists() or (out / "config.json").exists()):

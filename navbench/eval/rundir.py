@@ -163,3 +163,11 @@ class RecordFile:
 
     def close(self) -> None:
         os.close(self.fd)
+
+
+def make_run_dir(out: Path) -> None:
+    """Create a run directory (and its parents), or say in one line why it cannot be."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RunError(f"{out}: cannot create the run directory: {exc.strerror or exc}") from None

@@ -44,7 +44,7 @@ from navbench.env.pointnav import PointNavEnv
 from navbench.eval.trace import Trace
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
-from navbench.eval.rundir import RecordFile, RunError, RunLock, read_records, write_atomic
+from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.metrics import aggregate
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
@@ -528,10 +528,7 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
     if retries < 0:
         raise RunError(f"--retries must be 0 or more, got {retries}")
     out = Path(out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise RunError(f"{out}: cannot create the run directory: {exc.strerror or exc}") from None
+    make_run_dir(out)
     lock = RunLock(out, note)
     try:
         return _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note)
