@@ -12,7 +12,8 @@ def _run(tmp_path, name, all_frames, logs):
     d.mkdir()
     (d / "config.json").write_text(json.dumps({"agent_options": {"all_frames": all_frames, "keyframe_res": "160x120"}}))
     (d / "summary.json").write_text(json.dumps({"agent": name, "split": "val_unseen", "num_episodes": len(logs),
-                                                "success": 0.5, "spl": 0.25}))
+                                                "success": 0.5, "spl": 0.25, "soft_spl": 0.5,
+                                                "distance_to_goal": 1.0}))
     with open(d / "episodes.jsonl", "w") as f:
         for scene, log in logs:
             f.write(json.dumps({"episode_id": str(len(log)), "scene_id": scene, "log": log}) + "\n")
@@ -47,9 +48,11 @@ def test_first_n_scores_runs_with_different_limits_on_the_same_episodes(tmp_path
     eps = load_dataset(path).episodes[:3]
     d = tmp_path / "memory"
     d.mkdir()
-    (d / "config.json").write_text(json.dumps({"episodes": str(path), "agent_options": {}}))
+    (d / "config.json").write_text(json.dumps({"task": "objectnav", "split": "val_unseen", "episodes": str(path),
+                                               "agent": "memory", "agent_options": {}}))
     (d / "summary.json").write_text(json.dumps({"agent": "memory", "split": "val_unseen", "num_episodes": 3,
-                                                "success": 2 / 3, "spl": 0.5}))
+                                                "success": 2 / 3, "spl": 0.5, "soft_spl": 2 / 3,
+                                                "distance_to_goal": 1 / 3}))
     log = {"memory_keyframes": 1, "memory_frames": 2, "memory_bytes": 1e6, "memory_build_s": 1.0, "query_ms": 5}
     with open(d / "episodes.jsonl", "w") as f:
         for e, ok in zip(eps, (1.0, 0.0, 1.0)):
