@@ -30,7 +30,9 @@ class Agent(Protocol):
 class BatchAgent(Protocol):
     """An agent that acts for ``num_envs`` episodes at once (one forward pass of its network for all):
     ``reset_env(i, episode)`` starts an episode in slot ``i``; ``act_batch`` takes one observation
-    dict per slot (slots without an episode repeat their last one) and returns an action per slot."""
+    dict per slot (None for a slot without an episode) and returns per slot an action, or the
+    exception that ends that slot's episode as failed. It may expose ``slot(i)``, the object whose
+    ``episode_log()`` and ``decision()`` describe slot ``i``'s episode."""
     sensors: tuple[str, ...]
     num_envs: int
 
@@ -43,6 +45,12 @@ def episode_seed(seed: int, episode: Episode) -> list[int]:
     """A generator seed for one episode's draws: from the run's seed and the episode, not from the worker,
     slot or order the episode runs in, so a run's records do not depend on how it is split up."""
     return [seed, zlib.crc32(f"{episode.scene_id}:{episode.episode_id}".encode())]
+
+
+def slot_agent(agent: BatchAgent, i: int) -> Any:
+    """What describes slot ``i``'s episode of a batched agent (its ``slot(i)``), or None."""
+    slot = getattr(agent, "slot", None)
+    return slot(i) if callable(slot) else None
 
 
 def episode_log(agent: Agent) -> dict[str, Any]:

@@ -9,7 +9,8 @@ as the split names it (a synonym or an unseen category name), never a hidden cat
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,15 +44,36 @@ class PerceptionConfig:
     models: ModelDirs = field(default_factory=ModelDirs)
 
 
+# The perception stacks and memories of the scenes a process used last, shared by the agents of its env
+# slots (models and keyframes are loaded once per process, not once per slot).
+_SHARED: OrderedDict[tuple, Any] = OrderedDict()
+_SHARED_SCENES = 4
+
+
+def _shared(key: tuple, build: Callable[[], Any]) -> Any:
+    if key in _SHARED:
+        _SHARED.move_to_end(key)
+        return _SHARED[key]
+    value = _SHARED[key] = build()
+    while len(_SHARED) > 2 * _SHARED_SCENES:  # a stack and a memory per scene
+        _SHARED.popitem(last=False)
+    return value
+
+
 def _stack(scene_path: Path, cfg: PerceptionConfig) -> Perception:
     if cfg.perception not in PERCEPTION:
         raise ValueError(f"unknown perception {cfg.perception!r} (choose from {', '.join(PERCEPTION)})")
-    return PERCEPTION[cfg.perception](load_scene(scene_path), noise_profile(cfg.noise), cfg.models)
+    return _shared(("stack", scene_path, cfg), lambda: PERCEPTION[cfg.perception](
+        load_scene(scene_path), noise_profile(cfg.noise), cfg.models))
 
 
 def scene_memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
     """Build (or reuse from the cache) the keyframe memory of a scene for this perception config."""
     return load_or_build_memory(scene_path, cfg.memory_root, cfg.prescan, _stack(scene_path, cfg).encoder)
+
+
+def _memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
+    return _shared(("memory", scene_path, cfg), lambda: scene_memory(scene_path, cfg))
 
 
 class SceneLocalizer:
@@ -66,7 +88,7 @@ class SceneLocalizer:
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if path != self._path:
             stack = _stack(path, self.cfg)
-            self.memory = load_or_build_memory(path, self.cfg.memory_root, self.cfg.prescan, stack.encoder)
+            self.memory = _memory(path, self.cfg)
             self._localizer = Localizer.from_perception(
                 self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
             self.routes = KeyframeRoutes(self.memory.store, self.memory.config.camera_height)

@@ -46,6 +46,9 @@ class PointNavAgent:
         # seeded by the episode, not by the slot or the order episodes arrive in
         self.policy.reset(i, seed=episode_seed(self.seed, episode))
 
-    def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray:
-        return self.policy.act(np.stack([o["depth"] for o in observations]),
-                               np.stack([o["pointgoal_with_gps_compass"] for o in observations]))
+    def act_batch(self, observations: list[dict[str, np.ndarray] | None]) -> np.ndarray:
+        # a slot without an episode steps on another slot's frame (its state is reset before it is used)
+        filler = next(o for o in observations if o is not None)
+        obs = [filler if o is None else o for o in observations]
+        return self.policy.act(np.stack([o["depth"] for o in obs]),
+                               np.stack([o["pointgoal_with_gps_compass"] for o in obs]))

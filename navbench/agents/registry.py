@@ -104,12 +104,22 @@ def _perception_config(cfg):
                             memory_root=o.get("memory_root"), models=models)
 
 
-def _step_policy(cfg):
+def _step_policy(cfg, num_envs: int = 1):
     from navbench.agents.pointnav import DEFAULT_CHECKPOINT
     from navbench.policy.checkpoint import load_checkpoint
     from navbench.policy.net import PointNavAgentPolicy
     return PointNavAgentPolicy(load_checkpoint(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT),
-                               config=_inference_config(cfg))
+                               num_envs=num_envs, config=_inference_config(cfg))
+
+
+def _driving(cfg, build: Callable[[Any], Any]):
+    """``build(policy)``: one agent driving with ``policy``; with ``envs_per_worker`` > 1, that many agents
+    stepped in lockstep over one batched policy (:mod:`navbench.agents.lockstep`)."""
+    n = max(1, cfg.envs_per_worker)
+    if n == 1:
+        return build(_step_policy(cfg))
+    from navbench.agents.lockstep import LockstepAgent
+    return LockstepAgent(_step_policy(cfg, n), build)
 
 
 def make_memory(cfg):
@@ -122,18 +132,21 @@ def make_memory(cfg):
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
     env_cfg = cfg.env_config(("depth",))
-    localizer = SceneLocalizer(cfg.scene_dir, pcfg)
-    return MemoryAgent(localizer, _step_policy(cfg), agent_cfg, env_cfg,
-                       verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg), route=localizer.route_lengths,
-                       route_path=localizer.route_path, seed=cfg.seed)
+
+    def build(policy):
+        localizer = SceneLocalizer(cfg.scene_dir, pcfg)
+        return MemoryAgent(localizer, policy, agent_cfg, env_cfg, verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg),
+                           route=localizer.route_lengths, route_path=localizer.route_path, seed=cfg.seed)
+    return _driving(cfg, build)
 
 
 def make_frontier(cfg):
     from navbench.agents.frontier import FrontierAgent, FrontierAgentConfig
     from navbench.agents.perceive import LiveDetector
     env_cfg = cfg.env_config(FrontierAgentConfig().sensors)
-    return FrontierAgent(LiveDetector(cfg.scene_dir, _perception_config(cfg), env_cfg), _step_policy(cfg),
-                         FrontierAgentConfig(), env_cfg, seed=cfg.seed)
+    pcfg = _perception_config(cfg)
+    return _driving(cfg, lambda policy: FrontierAgent(LiveDetector(cfg.scene_dir, pcfg, env_cfg), policy,
+                                                      FrontierAgentConfig(), env_cfg, seed=cfg.seed))
 
 
 AgentFactory = Callable[[Any], Any]

@@ -224,6 +224,8 @@ class _Session:
 
     def act(self, obs: dict[str, np.ndarray]) -> int:
         action = self.agent.act_batch([obs])[0] if self.batched else self.agent.act(obs)
+        if isinstance(action, Exception):  # a batched agent's way of saying this episode's step failed
+            raise action
         return int(action)
 
 

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from navbench import __version__
-from navbench.agents.base import Agent, BatchAgent, episode_log
+from navbench.agents.base import Agent, BatchAgent, episode_log, slot_agent
 from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
@@ -356,7 +356,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             except Exception as exc:
                 finish(_fail(record, exc, d0, None, t0))
                 continue
-            slots[i], obs[i], traces[i] = (record, t0, d0, None), first, Trace(envs[i])
+            slots[i], obs[i], traces[i] = (record, t0, d0, None), first, Trace(envs[i], slot_agent(agent, i))
             return
 
     def fail(i: int, exc: Exception) -> None:
@@ -367,9 +367,8 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
     for i in range(len(envs)):
         start(i)
     while any(s is not None for s in slots):
-        filler = next(o for o, s in zip(obs, slots) if s is not None)
         try:
-            actions = clock.call(agent.act_batch, [o if s is not None else filler for o, s in zip(obs, slots)])
+            actions = clock.call(agent.act_batch, [o if s is not None else None for o, s in zip(obs, slots)])
         except Exception as exc:
             for i in [i for i, s in enumerate(slots) if s is not None]:
                 fail(i, exc)
@@ -378,6 +377,8 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             if slots[i] is None:
                 continue
             try:
+                if isinstance(actions[i], Exception):  # this slot's agent raised; the others go on
+                    raise actions[i]
                 action = _action(env, actions[i])
                 obs[i], _, terminated, truncated, info = env.step(action)
             except (EpisodeError, SceneError):
@@ -390,7 +391,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             record, t0, d0, _ = slots[i]
             slots[i] = (record, t0, d0, info)
             if terminated or truncated:
-                finish(_end(record, info, t0, {}, traces[i]))
+                finish(_end(record, info, t0, episode_log(slot_agent(agent, i)), traces[i]))
                 start(i)
     if failed:
         raise failed[0]
@@ -398,6 +399,16 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
 
 # ------------------------------------------------------------------------------------------ workers
 _WORKER: dict[str, Any] = {}
+
+
+def task_size(n: int, workers: int, envs_per_worker: int) -> int:
+    """Episodes per pool task: one for one-episode workers; for batched ones, chunks of at most
+    ``_CHUNK_PER_SLOT`` episodes per slot (a worker's slots stay busy between refills), as many per worker
+    (the workers finish together rather than one running a last chunk alone)."""
+    if envs_per_worker <= 1:
+        return 1
+    per_worker = math.ceil(n / (workers * envs_per_worker * _CHUNK_PER_SLOT))
+    return max(1, math.ceil(n / (workers * per_worker)))
 
 
 def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) -> None:
@@ -585,10 +596,8 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
         else:
             from navbench.eval.pool import run_pool
 
-            # Batched agents take chunks of episodes (a worker keeps its slots busy; a killed run
-            # loses at most the chunks in flight), others one episode per task.
-            size = cfg.envs_per_worker * _CHUNK_PER_SLOT if cfg.envs_per_worker > 1 else 1
-            tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
+            tasks = [todo[i:i + size] for size in [task_size(len(todo), cfg.workers, cfg.envs_per_worker)]
+                     for i in range(0, len(todo), size)]
             run_pool(cfg, make_agent, tasks, finish, workers=cfg.workers, n_slots=max(1, cfg.envs_per_worker),
                      retries=retries, step_timeout=step_timeout)
         complete = True

@@ -391,58 +391,69 @@ class PointNavAgentPolicy:
         # As VLFM does, remember the latest goal even after a small move, so slow drift never resets.
         self.goal_world = goal
 
-    def _taken_here(self, pointgoal: np.ndarray) -> list[np.ndarray]:
-        """Per env: how often each action was taken at this goal vector (rho to 2 cm, theta to 2 degrees)
-        since the reset; all zeros at a new pose. The caller counts the action it takes. A refused FORWARD
-        or a turn back and forth repeats the pose and so the vector."""
+    def _taken_here(self, pointgoal: np.ndarray, envs: list[int]) -> list[np.ndarray]:
+        """Per env of ``envs``: how often each action was taken at this goal vector (rho to 2 cm, theta to 2
+        degrees) since the reset; all zeros at a new pose. The caller counts the action it takes. A refused
+        FORWARD or a turn back and forth repeats the pose and so the vector."""
         return [self.visited[k].setdefault((int(round(rho / 0.02)), int(round(np.degrees(theta) / 2.0)) % 180),
                                            np.zeros(4, np.int64))
-                for k, (rho, theta) in enumerate(pointgoal.astype(np.float64))]
+                for k, (rho, theta) in zip(envs, pointgoal.astype(np.float64))]
 
     def act(
         self,
         depth: np.ndarray | torch.Tensor,
         pointgoal: np.ndarray | torch.Tensor,
         goal_world: np.ndarray | None = None,
+        rows: list[int] | None = None,
     ) -> np.ndarray:
         """depth (N, H, W, 1) in [0, 1], pointgoal (N, 2) [rho, theta] -> actions (N,) int64.
 
         Depth of another size is area-resized to the network's input. With ``goal_world`` (N, 3)
         (or (N, 2)), an env whose goal moved more than ``reset_goal_dist`` since the last call
-        restarts its recurrent state first.
+        restarts its recurrent state first. With ``rows``, steps only those envs (N = len(rows)),
+        leaving the others' state as it was: a batch of the envs that want an action this step.
         """
-        return self.act_and_encode(depth, pointgoal, goal_world)[0]
+        return self.act_and_encode(depth, pointgoal, goal_world, rows)[0]
 
     def act_and_encode(
         self,
         depth: np.ndarray | torch.Tensor,
         pointgoal: np.ndarray | torch.Tensor,
         goal_world: np.ndarray | None = None,
+        rows: list[int] | None = None,
     ) -> tuple[np.ndarray, torch.Tensor]:
         """:meth:`act`, also returning the visual encoder's output (N, C*h*w) for these frames: DAgger
         collection with a frozen encoder stores it rather than encoding every frame a second time."""
         if goal_world is not None:
+            if rows is not None:
+                raise ValueError("goal_world tracks every env's goal: step all envs (rows=None) with it")
             self._track_goals(goal_world)
+        envs = list(range(self.num_envs)) if rows is None else [int(k) for k in rows]
+        idx = slice(None) if rows is None else envs
         x = prepare_depth(depth, self.policy.cfg.input_size)
         goal = torch.as_tensor(pointgoal, dtype=torch.float32).reshape(-1, 2)
-        if x.shape[0] != self.num_envs or goal.shape[0] != self.num_envs:
+        if x.shape[0] != len(envs) or goal.shape[0] != len(envs):
             raise ValueError(
-                f"expected a batch of {self.num_envs}, got depth {tuple(x.shape)} and pointgoal {tuple(goal.shape)}"
+                f"expected a batch of {len(envs)}, got depth {tuple(x.shape)} and pointgoal {tuple(goal.shape)}"
             )
         with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=self.config.bf16):
             # The two halves of PointNavResNetPolicy.forward, so the encoder output can be handed out.
             visual = self.policy.net.encode_depth(x)
-            logits, _, hidden = self.policy.forward_features(visual[None], goal[None], self.prev_actions[None],
-                                                             self.masks[None], self.hidden)
+            logits, _, hidden = self.policy.forward_features(visual[None], goal[None], self.prev_actions[idx][None],
+                                                             self.masks[idx][None], self.hidden[idx])
         # Outside inference_mode these ops give normal tensors, which reset_hidden may edit in place.
-        actions = self._decode(logits[0], goal)
-        self.hidden = hidden.float().clone()
-        self.prev_actions = actions.clone()
-        self.masks[:] = True
+        actions = self._decode(logits[0], goal, envs)
+        if rows is None:
+            self.hidden = hidden.float().clone()
+            self.prev_actions = actions.clone()
+        else:
+            self.hidden[idx] = hidden.float()
+            self.prev_actions[idx] = actions
+        self.masks[idx] = True
         return actions.numpy().astype(np.int64), visual.float()  # an inference tensor: read it, or copy it
 
-    def _decode(self, logits: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
-        """Actions (N,) from the logits (N, A) as ``config.decoding`` says."""
+    def _decode(self, logits: torch.Tensor, goal: torch.Tensor, envs: list[int]) -> torch.Tensor:
+        """Actions (len(envs),) from the logits (len(envs), A) of ``envs`` as ``config.decoding`` says."""
         decoding = self.config.decoding
         argmax = logits.float().argmax(dim=-1)
         if decoding == "argmax":
@@ -450,10 +461,10 @@ class PointNavAgentPolicy:
         # inverse CDF with one uniform draw per env and step (drawn whether or not it is used): the same
         # draws give the same actions at any batch size
         probs = torch.softmax(logits.double() / self.config.temperature, dim=-1).numpy()
-        u = np.array([rng.random() for rng in self.rngs])
+        u = np.array([self.rngs[k].random() for k in envs])
         if decoding == "sample":
             return torch.as_tensor(self._pick(probs, u), dtype=torch.long)
-        taken = self._taken_here(goal.numpy())
+        taken = self._taken_here(goal.numpy(), envs)
         seen = np.array([t.any() for t in taken])
         for k in np.flatnonzero(seen):
             p = probs[k].copy()
@@ -465,7 +476,7 @@ class PointNavAgentPolicy:
                 p[1:] *= (1.0 - p[0]) / p[1:].sum()
                 probs[k] = p
         picks = np.where(seen, self._pick(probs, u), argmax.numpy())
-        for k in range(self.num_envs):
+        for k in range(len(envs)):
             taken[k][int(picks[k])] += 1
         return torch.as_tensor(picks, dtype=torch.long)
 

@@ -68,7 +68,7 @@ AGENT_MODULE = textwrap.dedent('''
 
         def act_batch(self, observations):
             self.largest_batch = max(self.largest_batch, len(observations))
-            return np.array([a.act(o) for a, o in zip(self.slots, observations)])
+            return [None if o is None else a.act(o) for a, o in zip(self.slots, observations)]
 
 
     class SlowAgent(WalkAgent):

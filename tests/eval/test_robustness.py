@@ -180,8 +180,8 @@ class _BatchOfOracles:
         self.agents[i].reset(episode)
 
     def act_batch(self, observations):
-        return np.array([7 if self.ids[i] == self.bad else a.act(o)
-                         for i, (a, o) in enumerate(zip(self.agents, observations))])
+        return [None if o is None else 7 if self.ids[i] == self.bad else a.act(o)
+                for i, (a, o) in enumerate(zip(self.agents, observations))]
 
 
 def test_batched_invalid_action_fails_only_its_slot(pointnav_file, tmp_path):
