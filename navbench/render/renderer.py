@@ -350,6 +350,11 @@ class Renderer:
         self._draw_list: list[pyrender.Node] = []
         draw_list = self._draw_list
         self._gl._renderer._sorted_mesh_nodes = lambda scene: draw_list
+        # OSMesa: frames are drawn by _DirectDraw (pyrender's programs, buffers and state, without
+        # pyrender's per-frame Python). EGL keeps pyrender's path (its multisampled framebuffer).
+        self._direct = (_DirectDraw.create(self._scene, self._gl, self._colour_nodes, self._id_nodes,
+                                           self._box_min, self._box_max, camera)
+                        if platform == "osmesa" else None)
 
     # -- public --------------------------------------------------------------------------------
 
@@ -380,6 +385,9 @@ class Renderer:
             raise RenderError("render() needs at least one of rgb, depth, ids")
         gl = self._require_open()
         pose = camera_pose(position, rotation_xyzw)
+        if self._direct is not None:
+            view = np.linalg.inv(pose)
+            return self._direct.render(pose, view, self._visible(pose, view), rgb, depth, ids)
         self._scene.set_pose(self._cam_node, pose)
         keep = self._visible(pose)
 
@@ -404,6 +412,7 @@ class Renderer:
         """Free the GL context and buffers. Idempotent."""
         if self._gl is not None:
             gl, self._gl = self._gl, None
+            self._direct = None
             # What OffscreenRenderer.delete() does, minus the full gc.collect() it ends with on every
             # call, which is slow in a process holding many Python objects (a policy, a replay buffer)
             # and would be paid on every scene switch. The GL buffers and context are freed here; the
@@ -436,10 +445,10 @@ class Renderer:
             raise RenderError(f"renderer for {self.asset.path} is closed")
         return self._gl
 
-    def _visible(self, pose: np.ndarray) -> np.ndarray:
+    def _visible(self, pose: np.ndarray, view: np.ndarray | None = None) -> np.ndarray:
         keep = np.ones(self.num_chunks, dtype=bool)
         if self.frustum_culling:
-            planes = frustum_planes(self._proj @ np.linalg.inv(pose))
+            planes = frustum_planes(self._proj @ (np.linalg.inv(pose) if view is None else view))
             keep = boxes_in_frustum(planes, self._box_min, self._box_max)
         if self._pvs is not None:
             keep &= self._pvs(pose[:3, 3])
@@ -474,6 +483,191 @@ class Renderer:
             with _multisample_disabled():
                 return gl.render(self._scene, flags)
         return gl.render(self._scene, flags)
+
+
+class _DirectDraw:
+    """The per-frame draw path on OSMesa: pyrender's compiled programs, vertex arrays, textures and GL
+    state, without pyrender's per-frame Python.
+
+    ``pyrender.Renderer.render`` re-derives per frame what never changes here: it walks every node
+    and primitive, looks up the program (building its defines), queries every uniform location by
+    name, sets the projection, model and material uniforms and about a dozen pieces of state per
+    draw, then reads colour and depth back with ``glReadPixels`` into fresh arrays and flips them. On a
+    1k-triangle house at 224x224 that Python is most of a frame. This class does it once: the
+    programs are the ones pyrender compiled for these primitives (same shaders, same defines), the
+    constant uniforms (P, M, material factors, texture unit) and the state pyrender sets per draw
+    (depth test LESS, back-face culling, blending ONE/ZERO, filled polygons) are set at
+    construction, and a frame sets V, binds and draws. So the rasterized fragments are pyrender's.
+
+    Read-back: OSMesa renders into a user buffer (pyrender's platform ``_buffer``, RGBA, bottom row
+    first), complete after ``glFinish``; colour and ids are taken from it directly (one flipped copy),
+    and depth is read with one ``glReadPixels`` into a preallocated array and linearized with
+    pyrender's formula in float32 into the output. A depth-only pass writes no colour
+    (``glColorMask``): the depth shader's constant colour was never read.
+
+    Holds no reference to its :class:`Renderer` (whose ``__del__`` frees the context).
+    """
+
+    @classmethod
+    def create(cls, scene: pyrender.Scene, gl: pyrender.OffscreenRenderer, colour_nodes: list, id_nodes: list,
+               box_min: np.ndarray, box_max: np.ndarray, camera: CameraConfig) -> "_DirectDraw | None":
+        """The direct path, or None if some primitive needs state it does not reproduce."""
+        from pyrender.constants import TexFlags
+
+        for node in colour_nodes + id_nodes:
+            for prim in node.mesh.primitives:
+                m = prim.material
+                if (prim.mode != GLTF.TRIANGLES or prim.indices is None or prim.poses is not None
+                        or not isinstance(m, pyrender.MetallicRoughnessMaterial) or m.alphaMode != "OPAQUE"
+                        or m.wireframe or m.doubleSided or m.tex_flags & ~TexFlags.BASE_COLOR):
+                    return None
+        return cls(scene, gl, colour_nodes, id_nodes, box_min, box_max, camera)
+
+    def __init__(self, scene, gl, colour_nodes, id_nodes, box_min, box_max, camera: CameraConfig) -> None:
+        from OpenGL import GL
+        from pyrender.constants import ProgramFlags, TexFlags
+
+        self._GL = GL
+        self._platform = gl._platform
+        self._w, self._h = camera.width, camera.height
+        self._znear, self._zfar = camera.znear, camera.zfar
+        self._centre = (box_min + box_max) / 2.0
+        r = gl._renderer
+        self._platform.make_current()
+        r._update_context(scene, RenderFlags.FLAT)  # upload buffers and textures, as render() would
+        proj = scene.main_camera_node.camera.get_projection_matrix(camera.width, camera.height)
+        self._programs: dict[int, dict] = {}
+
+        def program(prim, flags) -> dict:
+            prog = r._get_primitive_program(prim, flags, ProgramFlags.USE_MATERIAL)
+            info = self._programs.get(prog._program_id)
+            if info is None:
+                pid = prog._program_id
+                loc = {n: GL.glGetUniformLocation(pid, n) for n in (
+                    "V", "P", "M", "cam_pos", "material.emissive_factor", "material.base_color_factor",
+                    "material.metallic_factor", "material.roughness_factor", "material.base_color_texture")}
+                info = self._programs[pid] = {"id": pid, "loc": loc, "material": None}
+                GL.glUseProgram(pid)
+                self._uniform_matrix(loc["P"], proj)
+                self._uniform_matrix(loc["M"], np.eye(4))  # every chunk node sits at the origin
+            return info
+
+        def draws(nodes: list, flags: int) -> list[list[tuple]]:
+            out = []
+            for node in nodes:
+                chunk = []
+                for prim in node.mesh.primitives:
+                    m = prim.material
+                    tex = m.baseColorTexture._texid if m.tex_flags & TexFlags.BASE_COLOR else None
+                    chunk.append((program(prim, flags), prim._vaid, int(prim.indices.size), m, tex))
+                out.append(chunk)
+            return out
+
+        self._flat = draws(colour_nodes, RenderFlags.FLAT)
+        self._depth = draws(colour_nodes, RenderFlags.DEPTH_ONLY)
+        self._ids = draws(id_nodes, RenderFlags.FLAT)
+        GL.glUseProgram(0)
+        # The state pyrender's forward pass sets for FLAT and DEPTH_ONLY draws of opaque, one-sided,
+        # filled triangles; nothing else touches this context's state after this.
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+        GL.glReadBuffer(GL.GL_FRONT)
+        GL.glViewport(0, 0, self._w, self._h)
+        GL.glEnable(GL.GL_DEPTH_TEST)
+        GL.glDepthMask(GL.GL_TRUE)
+        GL.glDepthFunc(GL.GL_LESS)
+        GL.glDepthRange(0.0, 1.0)
+        GL.glClearColor(0.0, 0.0, 0.0, 0.0)  # the scene's bg_color
+        GL.glEnable(GL.GL_MULTISAMPLE)  # as pyrender; OSMesa's buffer has one sample
+        GL.glEnable(GL.GL_CULL_FACE)
+        GL.glCullFace(GL.GL_BACK)
+        GL.glEnable(GL.GL_BLEND)
+        GL.glBlendFunc(GL.GL_ONE, GL.GL_ZERO)
+        GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
+        GL.glDisable(GL.GL_PROGRAM_POINT_SIZE)
+        GL.glActiveTexture(GL.GL_TEXTURE0)
+        GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 4)
+        self._colour_mask = True
+        self._zbuf = np.empty((self._h, self._w), np.float32)
+        self._colour = np.asarray(self._platform._buffer)  # (H, W, 4) uint8, bottom row first
+        assert self._colour.shape == (self._h, self._w, 4) and self._colour.dtype == np.uint8
+
+    def _uniform_matrix(self, loc: int, m: np.ndarray) -> None:
+        if loc != -1:
+            self._GL.glUniformMatrix4fv(loc, 1, self._GL.GL_TRUE, np.ascontiguousarray(m, dtype=np.float32))
+
+    def _set_material(self, info: dict, m) -> None:
+        GL, loc = self._GL, info["loc"]
+        for name, value in (("material.emissive_factor", m.emissiveFactor),
+                            ("material.base_color_factor", m.baseColorFactor)):
+            if loc[name] != -1:
+                v = np.ascontiguousarray(value, dtype=np.float32)
+                (GL.glUniform3fv if v.size == 3 else GL.glUniform4fv)(loc[name], 1, v)
+        for name, value in (("material.metallic_factor", m.metallicFactor),
+                            ("material.roughness_factor", m.roughnessFactor)):
+            if loc[name] != -1:
+                GL.glUniform1f(loc[name], float(value))
+        if loc["material.base_color_texture"] != -1:
+            GL.glUniform1i(loc["material.base_color_texture"], 0)
+        info["material"] = m
+
+    def render(self, pose: np.ndarray, view: np.ndarray, keep: np.ndarray, rgb: bool, depth: bool,
+               ids: bool) -> RenderOutput:
+        self._platform.make_current()
+        idx = np.flatnonzero(keep)
+        if len(idx) > 1:  # near to far, as Renderer._show orders pyrender's draw list
+            idx = idx[np.argsort(np.linalg.norm(self._centre[idx] - pose[:3, 3], axis=1), kind="stable")]
+        v = np.ascontiguousarray(view, dtype=np.float32)
+        out = RenderOutput(rgb=None, depth=None, ids=None)
+        if rgb or (depth and not ids):
+            self._pass(self._flat if rgb else self._depth, idx, v, colour=rgb)
+            if rgb:
+                out.rgb = np.ascontiguousarray(self._colour[::-1, :, :3])
+            if depth:
+                out.depth = self._read_depth()
+        if ids:
+            self._pass(self._ids, idx, v, colour=True)
+            out.ids = (self._colour[::-1].view("<u4")[..., 0] & 0xFFFFFF).astype(np.int32) - 1
+            if depth and out.depth is None:
+                out.depth = self._read_depth()  # same geometry, so the id pass's depth is the depth image
+        return out
+
+    def _pass(self, chunks: list, idx: np.ndarray, view: np.ndarray, colour: bool) -> None:
+        GL = self._GL
+        if colour != self._colour_mask:
+            GL.glColorMask(colour, colour, colour, colour)
+            self._colour_mask = colour
+        GL.glClear(GL.GL_DEPTH_BUFFER_BIT | (GL.GL_COLOR_BUFFER_BIT if colour else 0))
+        current, bound_tex = None, None
+        for i in idx:
+            for info, vao, count, material, tex in chunks[i]:
+                if info is not current:
+                    GL.glUseProgram(info["id"])
+                    self._uniform_matrix(info["loc"]["V"], view)
+                    current = info
+                if colour and info["material"] is not material:
+                    self._set_material(info, material)
+                if tex is not None and tex != bound_tex:
+                    GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+                    bound_tex = tex
+                GL.glBindVertexArray(vao)
+                GL.glDrawElementsInstanced(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT, None, 1)
+        GL.glBindVertexArray(0)
+        GL.glUseProgram(0)
+        GL.glFinish()
+
+    def _read_depth(self) -> np.ndarray:
+        GL = self._GL
+        GL.glReadPixels(0, 0, self._w, self._h, GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, self._zbuf)
+        z = self._zbuf[::-1]
+        # pyrender's linearization, operation for operation in float32 (so the values are its values).
+        near, far = self._znear, self._zfar
+        d = np.multiply(z, 2.0)
+        d -= 1.0
+        d *= far - near
+        np.subtract(far + near, d, out=d)
+        np.divide(2.0 * near * far, d, out=d)
+        d[z == 1.0] = 0.0
+        return d
 
 
 @contextlib.contextmanager
