@@ -65,7 +65,21 @@ import pyrender  # noqa: E402
 import pyrender.renderer  # noqa: E402
 import pyrender.shader_program  # noqa: E402
 import trimesh  # noqa: E402
-from OpenGL.GL import GL_LINEAR, GL_LINEAR_MIPMAP_LINEAR, GL_REPEAT  # noqa: E402
+from OpenGL.GL import (  # noqa: E402
+    GL_COLOR_BUFFER_BIT,
+    GL_DEPTH_BUFFER_BIT,
+    GL_DEPTH_COMPONENT,
+    GL_FLOAT,
+    GL_LINEAR,
+    GL_LINEAR_MIPMAP_LINEAR,
+    GL_REPEAT,
+    GL_RGB,
+    GL_RGBA,
+    GL_TEXTURE_2D,
+    GL_TRIANGLES,
+    GL_UNSIGNED_BYTE,
+    GL_UNSIGNED_INT,
+)
 from pyrender.constants import GLTF, RenderFlags  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
@@ -387,7 +401,10 @@ class Renderer:
         pose = camera_pose(position, rotation_xyzw)
         if self._direct is not None:
             view = np.linalg.inv(pose)
-            return self._direct.render(pose, view, self._visible(pose, view), rgb, depth, ids)
+            # One chunk: drawing it when it is out of view yields what skipping it would (nothing
+            # survives clipping), so the test is skipped; it is most of a small house's frames.
+            keep = self._visible(pose, view) if self.num_chunks > 1 else None
+            return self._direct.render(pose, view, keep, rgb, depth, ids)
         self._scene.set_pose(self._cam_node, pose)
         keep = self._visible(pose)
 
@@ -485,6 +502,33 @@ class Renderer:
         return gl.render(self._scene, flags)
 
 
+GL_PACK_INVERT_MESA = 0x8758  # GL_MESA_pack_invert: glReadPixels returns rows top first
+
+
+@functools.lru_cache(maxsize=None)
+def _raw_gl() -> dict:
+    """The GL entry points of the per-frame path as plain ctypes functions of the bound GL library.
+
+    PyOpenGL's wrappers convert arguments and call ``glGetError`` after every call (a few
+    microseconds each, tens of calls a frame); these call the library directly. Mesa's exported
+    ``gl*`` symbols dispatch to the current context.
+    """
+    lib = OpenGL.platform.PLATFORM.GL
+    u, i, f, p = ctypes.c_uint, ctypes.c_int, ctypes.c_float, ctypes.c_void_p
+    sigs = {
+        "glClear": (u,), "glUseProgram": (u,), "glBindVertexArray": (u,), "glBindTexture": (u, u),
+        "glColorMask": (ctypes.c_ubyte,) * 4, "glUniformMatrix4fv": (i, i, ctypes.c_ubyte, p),
+        "glUniform1f": (i, f), "glUniform1i": (i, i), "glUniform3fv": (i, i, p), "glUniform4fv": (i, i, p),
+        "glDrawElementsInstanced": (u, i, u, p, i), "glReadPixels": (i, i, i, i, u, u, p), "glFinish": (),
+    }
+    out = {}
+    for name, args in sigs.items():
+        fn = getattr(lib, name)
+        fn.argtypes, fn.restype = list(args), None
+        out[name] = fn
+    return out
+
+
 class _DirectDraw:
     """The per-frame draw path on OSMesa: pyrender's compiled programs, vertex arrays, textures and GL
     state, without pyrender's per-frame Python.
@@ -492,18 +536,20 @@ class _DirectDraw:
     ``pyrender.Renderer.render`` re-derives per frame what never changes here: it walks every node
     and primitive, looks up the program (building its defines), queries every uniform location by
     name, sets the projection, model and material uniforms and about a dozen pieces of state per
-    draw, then reads colour and depth back with ``glReadPixels`` into fresh arrays and flips them. On a
-    1k-triangle house at 224x224 that Python is most of a frame. This class does it once: the
-    programs are the ones pyrender compiled for these primitives (same shaders, same defines), the
-    constant uniforms (P, M, material factors, texture unit) and the state pyrender sets per draw
-    (depth test LESS, back-face culling, blending ONE/ZERO, filled polygons) are set at
-    construction, and a frame sets V, binds and draws. So the rasterized fragments are pyrender's.
+    draw through PyOpenGL's checked wrappers, then reads colour and depth back with ``glReadPixels``
+    into fresh arrays and flips them (a strided RGB copy alone is about 0.2 ms at 224x224). This
+    class does the set-up once: the programs are the ones pyrender compiled for these primitives
+    (same shaders, same defines), the constant uniforms (P, M, material factors, texture unit) and
+    the state pyrender sets per draw (depth test LESS, back-face culling, blending ONE/ZERO, filled
+    polygons) are set at construction, and a frame sets V, binds and draws, through ctypes
+    (:func:`_raw_gl`). So the rasterized fragments are pyrender's.
 
-    Read-back: OSMesa renders into a user buffer (pyrender's platform ``_buffer``, RGBA, bottom row
-    first), complete after ``glFinish``; colour and ids are taken from it directly (one flipped copy),
-    and depth is read with one ``glReadPixels`` into a preallocated array and linearized with
-    pyrender's formula in float32 into the output. A depth-only pass writes no colour
-    (``glColorMask``): the depth shader's constant colour was never read.
+    Read-back: ``glReadPixels`` with ``GL_PACK_INVERT_MESA`` writes rows top first, so RGB goes
+    straight into the output array and depth into a preallocated one, linearized with pyrender's
+    formula, operation for operation in float32, into the output. Ids are read as RGBA words. A
+    depth-only pass writes no colour (``glColorMask``): the depth shader's constant colour was
+    never read. The fixture test (tests/render/test_image_equality.py) holds the images to the old
+    path's, bit for bit at the time of writing.
 
     Holds no reference to its :class:`Renderer` (whose ``__del__`` frees the context).
     """
@@ -511,7 +557,9 @@ class _DirectDraw:
     @classmethod
     def create(cls, scene: pyrender.Scene, gl: pyrender.OffscreenRenderer, colour_nodes: list, id_nodes: list,
                box_min: np.ndarray, box_max: np.ndarray, camera: CameraConfig) -> "_DirectDraw | None":
-        """The direct path, or None if some primitive needs state it does not reproduce."""
+        """The direct path, or None if some primitive needs state it does not reproduce, or Mesa
+        lacks ``GL_MESA_pack_invert``."""
+        from OpenGL import GL
         from pyrender.constants import TexFlags
 
         for node in colour_nodes + id_nodes:
@@ -521,32 +569,39 @@ class _DirectDraw:
                         or not isinstance(m, pyrender.MetallicRoughnessMaterial) or m.alphaMode != "OPAQUE"
                         or m.wireframe or m.doubleSided or m.tex_flags & ~TexFlags.BASE_COLOR):
                     return None
+        gl._platform.make_current()
+        n = GL.glGetIntegerv(GL.GL_NUM_EXTENSIONS)
+        if b"GL_MESA_pack_invert" not in {GL.glGetStringi(GL.GL_EXTENSIONS, k) for k in range(int(n))}:
+            return None
         return cls(scene, gl, colour_nodes, id_nodes, box_min, box_max, camera)
 
     def __init__(self, scene, gl, colour_nodes, id_nodes, box_min, box_max, camera: CameraConfig) -> None:
         from OpenGL import GL
+        from OpenGL.osmesa import OSMesaMakeCurrent
         from pyrender.constants import ProgramFlags, TexFlags
 
-        self._GL = GL
-        self._platform = gl._platform
+        self._gl = _raw_gl()
+        platform = gl._platform
+        self._make_current = functools.partial(OSMesaMakeCurrent, platform._context, platform._buffer,
+                                               GL.GL_UNSIGNED_BYTE, camera.width, camera.height)
         self._w, self._h = camera.width, camera.height
         self._znear, self._zfar = camera.znear, camera.zfar
         self._centre = (box_min + box_max) / 2.0
         r = gl._renderer
-        self._platform.make_current()
+        platform.make_current()
         r._update_context(scene, RenderFlags.FLAT)  # upload buffers and textures, as render() would
         proj = scene.main_camera_node.camera.get_projection_matrix(camera.width, camera.height)
-        self._programs: dict[int, dict] = {}
+        programs: dict[int, dict] = {}
 
         def program(prim, flags) -> dict:
             prog = r._get_primitive_program(prim, flags, ProgramFlags.USE_MATERIAL)
-            info = self._programs.get(prog._program_id)
+            info = programs.get(prog._program_id)
             if info is None:
                 pid = prog._program_id
                 loc = {n: GL.glGetUniformLocation(pid, n) for n in (
-                    "V", "P", "M", "cam_pos", "material.emissive_factor", "material.base_color_factor",
+                    "V", "P", "M", "material.emissive_factor", "material.base_color_factor",
                     "material.metallic_factor", "material.roughness_factor", "material.base_color_texture")}
-                info = self._programs[pid] = {"id": pid, "loc": loc, "material": None}
+                info = programs[pid] = {"id": pid, "loc": loc, "V": loc["V"], "material": None}
                 GL.glUseProgram(pid)
                 self._uniform_matrix(loc["P"], proj)
                 self._uniform_matrix(loc["M"], np.eye(4))  # every chunk node sits at the origin
@@ -585,80 +640,93 @@ class _DirectDraw:
         GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
         GL.glDisable(GL.GL_PROGRAM_POINT_SIZE)
         GL.glActiveTexture(GL.GL_TEXTURE0)
-        GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 4)
+        GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)  # tight rows for any width (RGB rows of odd widths)
+        GL.glPixelStorei(GL_PACK_INVERT_MESA, 1)
         self._colour_mask = True
         self._zbuf = np.empty((self._h, self._w), np.float32)
-        self._colour = np.asarray(self._platform._buffer)  # (H, W, 4) uint8, bottom row first
-        assert self._colour.shape == (self._h, self._w, 4) and self._colour.dtype == np.uint8
+        self._words = np.empty((self._h, self._w), np.uint32)
 
     def _uniform_matrix(self, loc: int, m: np.ndarray) -> None:
-        if loc != -1:
-            self._GL.glUniformMatrix4fv(loc, 1, self._GL.GL_TRUE, np.ascontiguousarray(m, dtype=np.float32))
+        if loc != -1:  # transposed, as pyrender's set_uniform passes it
+            m = np.ascontiguousarray(m, dtype=np.float32)
+            self._gl["glUniformMatrix4fv"](loc, 1, 1, m.ctypes.data)
 
     def _set_material(self, info: dict, m) -> None:
-        GL, loc = self._GL, info["loc"]
+        gl, loc = self._gl, info["loc"]
         for name, value in (("material.emissive_factor", m.emissiveFactor),
                             ("material.base_color_factor", m.baseColorFactor)):
             if loc[name] != -1:
                 v = np.ascontiguousarray(value, dtype=np.float32)
-                (GL.glUniform3fv if v.size == 3 else GL.glUniform4fv)(loc[name], 1, v)
+                gl["glUniform3fv" if v.size == 3 else "glUniform4fv"](loc[name], 1, v.ctypes.data)
         for name, value in (("material.metallic_factor", m.metallicFactor),
                             ("material.roughness_factor", m.roughnessFactor)):
             if loc[name] != -1:
-                GL.glUniform1f(loc[name], float(value))
+                gl["glUniform1f"](loc[name], float(value))
         if loc["material.base_color_texture"] != -1:
-            GL.glUniform1i(loc["material.base_color_texture"], 0)
+            gl["glUniform1i"](loc["material.base_color_texture"], 0)
         info["material"] = m
 
-    def render(self, pose: np.ndarray, view: np.ndarray, keep: np.ndarray, rgb: bool, depth: bool,
+    def render(self, pose: np.ndarray, view: np.ndarray, keep: np.ndarray | None, rgb: bool, depth: bool,
                ids: bool) -> RenderOutput:
-        self._platform.make_current()
-        idx = np.flatnonzero(keep)
-        if len(idx) > 1:  # near to far, as Renderer._show orders pyrender's draw list
-            idx = idx[np.argsort(np.linalg.norm(self._centre[idx] - pose[:3, 3], axis=1), kind="stable")]
+        """One frame; ``keep`` flags the chunks to draw (None: all, in order)."""
+        self._make_current()
+        if keep is None:
+            idx = range(len(self._flat))
+        else:
+            idx = np.flatnonzero(keep)
+            if len(idx) > 1:  # near to far, as Renderer._show orders pyrender's draw list
+                idx = idx[np.argsort(np.linalg.norm(self._centre[idx] - pose[:3, 3], axis=1), kind="stable")]
         v = np.ascontiguousarray(view, dtype=np.float32)
         out = RenderOutput(rgb=None, depth=None, ids=None)
+        read = self._gl["glReadPixels"]
         if rgb or (depth and not ids):
             self._pass(self._flat if rgb else self._depth, idx, v, colour=rgb)
             if rgb:
-                out.rgb = np.ascontiguousarray(self._colour[::-1, :, :3])
+                out.rgb = np.empty((self._h, self._w, 3), np.uint8)
+                read(0, 0, self._w, self._h, GL_RGB, GL_UNSIGNED_BYTE, out.rgb.ctypes.data)
             if depth:
                 out.depth = self._read_depth()
         if ids:
             self._pass(self._ids, idx, v, colour=True)
-            out.ids = (self._colour[::-1].view("<u4")[..., 0] & 0xFFFFFF).astype(np.int32) - 1
+            read(0, 0, self._w, self._h, GL_RGBA, GL_UNSIGNED_BYTE, self._words.ctypes.data)
+            # id + 1 in the low 24 bits of the little-endian RGBA word (black: structure/background).
+            words = np.bitwise_and(self._words, 0xFFFFFF)
+            out.ids = words.view(np.int32)
+            out.ids -= 1
             if depth and out.depth is None:
                 out.depth = self._read_depth()  # same geometry, so the id pass's depth is the depth image
         return out
 
-    def _pass(self, chunks: list, idx: np.ndarray, view: np.ndarray, colour: bool) -> None:
-        GL = self._GL
+    def _pass(self, chunks: list, idx, view: np.ndarray, colour: bool) -> None:
+        gl = self._gl
         if colour != self._colour_mask:
-            GL.glColorMask(colour, colour, colour, colour)
+            gl["glColorMask"](colour, colour, colour, colour)
             self._colour_mask = colour
-        GL.glClear(GL.GL_DEPTH_BUFFER_BIT | (GL.GL_COLOR_BUFFER_BIT if colour else 0))
+        gl["glClear"](GL_DEPTH_BUFFER_BIT | (GL_COLOR_BUFFER_BIT if colour else 0))
+        use, bind, tex2d, draw = gl["glUseProgram"], gl["glBindVertexArray"], gl["glBindTexture"], gl[
+            "glDrawElementsInstanced"]
+        set_matrix, v = gl["glUniformMatrix4fv"], view.ctypes.data
         current, bound_tex = None, None
         for i in idx:
             for info, vao, count, material, tex in chunks[i]:
                 if info is not current:
-                    GL.glUseProgram(info["id"])
-                    self._uniform_matrix(info["loc"]["V"], view)
+                    use(info["id"])
+                    if info["V"] != -1:
+                        set_matrix(info["V"], 1, 1, v)
                     current = info
                 if colour and info["material"] is not material:
                     self._set_material(info, material)
                 if tex is not None and tex != bound_tex:
-                    GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+                    tex2d(GL_TEXTURE_2D, tex)
                     bound_tex = tex
-                GL.glBindVertexArray(vao)
-                GL.glDrawElementsInstanced(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT, None, 1)
-        GL.glBindVertexArray(0)
-        GL.glUseProgram(0)
-        GL.glFinish()
+                bind(vao)
+                draw(GL_TRIANGLES, count, GL_UNSIGNED_INT, None, 1)
+        bind(0)
+        use(0)
 
     def _read_depth(self) -> np.ndarray:
-        GL = self._GL
-        GL.glReadPixels(0, 0, self._w, self._h, GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, self._zbuf)
-        z = self._zbuf[::-1]
+        z = self._zbuf
+        self._gl["glReadPixels"](0, 0, self._w, self._h, GL_DEPTH_COMPONENT, GL_FLOAT, z.ctypes.data)
         # pyrender's linearization, operation for operation in float32 (so the values are its values).
         near, far = self._znear, self._zfar
         d = np.multiply(z, 2.0)
@@ -666,8 +734,9 @@ class _DirectDraw:
         d *= far - near
         np.subtract(far + near, d, out=d)
         np.divide(2.0 * near * far, d, out=d)
-        d[z == 1.0] = 0.0
+        np.copyto(d, 0.0, where=z == 1.0)
         return d
+
 
 
 @contextlib.contextmanager
