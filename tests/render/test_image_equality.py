@@ -124,6 +124,20 @@ def test_every_pass_combination_matches_reference(reference, chunked):
                 _check(reference, key, ids=out.ids)
 
 
+def test_camera_rotation_equals_scipy_bit_for_bit():
+    """camera_pose builds the rotation itself; the view matrix, so every pixel, depends on its last bits."""
+    from scipy.spatial.transform import Rotation
+
+    from navbench.render.renderer import _quat_matrix
+
+    rng = np.random.default_rng(0)
+    qs = rng.normal(size=(20000, 4)) * rng.uniform(0.01, 100.0, size=(20000, 1))
+    qs[:2000, [0, 2]] = 0.0  # yaw only, as the agent turns
+    qs[2000:2100] = [quat_from_yaw(float(a)) for a in rng.uniform(-7, 7, 100)]
+    for q in qs:
+        assert np.array_equal(_quat_matrix(q), Rotation.from_quat(q).as_matrix()), q
+
+
 if __name__ == "__main__":
     if "--regenerate" not in sys.argv:
         sys.exit(__doc__)
