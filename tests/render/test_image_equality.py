@@ -124,6 +124,40 @@ def test_every_pass_combination_matches_reference(reference, chunked):
                 _check(reference, key, ids=out.ids)
 
 
+def test_direct_path_equals_pyrender_path_on_a_textured_scan(tmp_path, monkeypatch):
+    """A small textured scan (texture atlas, vertex-coloured parts, occlusion culling on, 8 chunks
+    or more): frames of the direct OSMesa path equal those of pyrender's own render(), which the
+    renderer still uses on EGL, for every pass combination along an agent's walk."""
+    from navbench.bench_scan import _walk, make_scan_fixture
+    from navbench.render import renderer as renderer_mod
+    from navbench.scene.cache import load_scene_and_navgrid
+
+    fx = make_scan_fixture(tmp_path, faces=30_000, texture_size=512, basis=False, episodes=1)
+    monkeypatch.setenv("NAVBENCH_CACHE", str(tmp_path / "cache"))
+    asset, grid = load_scene_and_navgrid(fx.glb)
+    assert asset.is_textured
+    kw = dict(occlusion_culling=True, max_chunk_faces=4_000)
+    with monkeypatch.context() as m:
+        m.setattr(renderer_mod._DirectDraw, "create", classmethod(lambda cls, *a: None))
+        reference = Renderer(asset, **kw)
+    direct = Renderer(asset, **kw)
+    assert reference._direct is None and direct._direct is not None and direct.num_chunks >= 8
+    with reference, direct:
+        for p, q in _walk(grid, 40, seed=3)[::2]:
+            for flags in ((True, True, True), (True, True, False), (False, True, False), (False, True, True),
+                          (False, False, True)):
+                a, b = reference.render(p, q, *flags), direct.render(p, q, *flags)
+                for name in ("rgb", "depth", "ids"):
+                    x, y = getattr(a, name), getattr(b, name)
+                    assert (x is None) == (y is None)
+                    if x is not None:
+                        assert x.dtype == y.dtype, (name, flags, p)
+                        if name == "depth":
+                            assert np.abs(x.astype(np.float64) - y).max() <= DEPTH_TOL, (flags, p)
+                        else:
+                            assert np.array_equal(x, y), (name, flags, p)
+
+
 def test_camera_rotation_equals_scipy_bit_for_bit():
     """camera_pose builds the rotation itself; the view matrix, so every pixel, depends on its last bits."""
     from scipy.spatial.transform import Rotation
