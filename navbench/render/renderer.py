@@ -19,6 +19,13 @@ A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores
   :data:`OCCLUSION_MIN_FACES` or more triangles are cut into chunks of at most
   :data:`OCCLUSION_CHUNK_FACES` and also skip chunks that rays cast from the camera's cell never
   reach (:class:`_PotentiallyVisible`). The visible chunks are handed to pyrender nearest first.
+* On OSMesa, frames are drawn by :class:`_DirectDraw`: pyrender's own compiled programs, vertex
+  arrays, textures and state, set up once per renderer, so a frame is one ``V`` uniform, a bind and
+  a draw per visible chunk, and one ``glReadPixels`` per image, rows top first
+  (``GL_MESA_pack_invert``), straight into the output arrays. pyrender's ``render()`` (Python per
+  node, per uniform and per state, and flipped copies of what it reads) cost about as much as the
+  rasterizing itself at 224x224. Images are pyrender's bit for bit (tests/render/test_image_equality.py);
+  EGL keeps pyrender's path.
 * Instance ids come from a second set of chunk nodes whose vertex colours encode ``id + 1`` as a
   24-bit RGB integer (structure and background decode to -1). It is drawn, FLAT and single-sampled,
   only when ids are asked for; depth+ids without RGB is one pass.
@@ -47,7 +54,10 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
 # life of the process; a process forked after that (multiprocessing's default on Linux, e.g.
 # Gymnasium's AsyncVectorEnv) inherits the thread pool without its threads and hangs on its first
 # draw. Rasterizing on the calling thread keeps forked workers usable and is no slower at agent
-# resolutions; Mesa reads this when the first context is created.
+# resolutions (benchmarks/render_anchor.py --lp 0 / --lp 2 on 2 shared cores: the same frames/s and
+# CPU per frame within noise, for navbench and the plain pyrender path alike); Mesa reads this when
+# the first context is created. It cannot be left to forked children: what hangs is the parent's
+# llvmpipe state, made with the parent's first context, before anyone knows a fork will follow.
 os.environ.setdefault("LP_NUM_THREADS", "0")
 
 import contextlib  # noqa: E402
