@@ -17,6 +17,8 @@ machine, and less noisy than wall time on a shared one) and the ratios navbench 
     PYTHONPATH=$PWD python benchmarks/render_anchor.py                       # both scenes, both modes
     PYTHONPATH=$PWD python benchmarks/render_anchor.py --scenes dense --modes depth --rounds 5
     PYTHONPATH=$PWD python benchmarks/render_anchor.py --lp 0                # LP_NUM_THREADS=0 for both
+    git archive 37ef89d navbench | tar -x -C /tmp/nb-before                  # (mkdir it first) and
+    PYTHONPATH=$PWD python benchmarks/render_anchor.py --baseline /tmp/nb-before   # before vs after too
 
 ``--anchor DIR`` (or ``NAVBENCH_RENDER_ANCHOR``) names the anchor directory (default
 ``../shared/render-anchor`` beside the repository); ``SBS_DIR`` holds the GLBs. ``--lp`` sets
@@ -94,6 +96,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--rounds", type=int, default=3, help="alternations of the two engines")
     ap.add_argument("--reps", type=int, default=3, help="passes over the 300 poses per run")
     ap.add_argument("--lp", default="unset", help="LP_NUM_THREADS for both engines, or 'unset'")
+    ap.add_argument("--baseline", help="another navbench checkout (e.g. an older commit, `git archive`d) "
+                    "to run as a third engine, alternated with the other two")
     ap.add_argument("--worker", nargs=3, metavar=("SCENE", "MODE", "REPS"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     anchor = Path(args.anchor).resolve()
@@ -114,13 +118,17 @@ def main(argv: list[str] | None = None) -> dict:
     for scene in args.scenes.split(","):
         for mode in args.modes.split(","):
             runs: dict[str, list[dict]] = {"pyrender": [], "navbench": []}
+            if args.baseline:
+                runs["baseline"] = []
             for k in range(args.rounds):
-                order = ["pyrender", "navbench"] if k % 2 == 0 else ["navbench", "pyrender"]
+                order = list(runs) if k % 2 == 0 else list(runs)[::-1]
                 for engine in order:
                     cmd = ([sys.executable, str(anchor / "bench_pyr.py"), scene, mode, str(args.reps)]
                            if engine == "pyrender" else
                            [sys.executable, __file__, "--anchor", str(anchor), "--worker", scene, mode, str(args.reps)])
-                    out = _run(cmd, env, anchor if engine == "pyrender" else REPO)
+                    run_env = env if engine != "baseline" else dict(env, PYTHONPATH=str(Path(args.baseline).resolve()))
+                    out = _run(cmd, run_env, anchor if engine == "pyrender" else REPO)
+                    out["engine"] = engine
                     runs[engine].append(out)
                     print(json.dumps({k2: out[k2] for k2 in ("engine", "scene", "mode", "LP", "fps", "cpu_ms_per_frame")}),
                           flush=True)
@@ -131,6 +139,10 @@ def main(argv: list[str] | None = None) -> dict:
                        anchor_cpu_ms=med["pyrender"]["cpu_ms"], navbench_cpu_ms=med["navbench"]["cpu_ms"],
                        ratio_fps=round(med["navbench"]["fps"] / med["pyrender"]["fps"], 2),
                        ratio_cpu=round(med["pyrender"]["cpu_ms"] / med["navbench"]["cpu_ms"], 2))
+            if args.baseline:
+                row.update(baseline_fps=round(med["baseline"]["fps"], 1), baseline_cpu_ms=med["baseline"]["cpu_ms"],
+                           baseline_ratio_fps=round(med["baseline"]["fps"] / med["pyrender"]["fps"], 2),
+                           baseline_ratio_cpu=round(med["pyrender"]["cpu_ms"] / med["baseline"]["cpu_ms"], 2))
             summary[f"{scene}/{mode}"] = row
             print("SUMMARY " + json.dumps(row), flush=True)
     return summary
