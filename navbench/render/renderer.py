@@ -544,12 +544,8 @@ def _raw_gl() -> dict:
         "glUniform1f": (i, f), "glUniform1i": (i, i), "glUniform3fv": (i, i, p), "glUniform4fv": (i, i, p),
         "glDrawElementsInstanced": (u, i, u, p, i), "glReadPixels": (i, i, i, i, u, u, p), "glFinish": (),
     }
-    out = {}
-    for name, args in sigs.items():
-        fn = getattr(lib, name)
-        fn.argtypes, fn.restype = list(args), None
-        out[name] = fn
-    return out
+    # Own function objects from prototypes (not ``getattr(lib, name)``, whose cached objects others may share).
+    return {name: ctypes.CFUNCTYPE(None, *args)((name, lib)) for name, args in sigs.items()}
 
 
 class _DirectDraw:
