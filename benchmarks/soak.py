@@ -5,8 +5,10 @@
 
 Episodes cycle through the houses (the 8 train houses' ``train`` split, the 4 val houses'
 ``val_seen``/``val_unseen``), one house after another, so nearly every episode switches scene: the
-path that closes a GL context and opens the next. After every episode each worker records its RSS,
-open file descriptors, live GL contexts (renderers holding an OSMesa/EGL context) and threads. The CSV
+path that closes a GL context and opens the next. Each worker steps its episodes as a ``navbench run``
+worker does (one core, ``--envs-per-worker`` episodes in lockstep, one env and GL context per slot).
+After every episode each worker records its RSS, open file descriptors, live GL contexts (renderers
+holding an OSMesa/EGL context) and threads. The CSV
 has one row per episode; the summary gives the RSS growth between the 500th and the last episode of
 each worker (scaled to a quarter of the run when it is shorter; the goal is under 5%) and the
 fd / context / thread counts of the first and the last episode.
@@ -24,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER
 from navbench.episodes.io import load_dataset, save_dataset
 from navbench.episodes.types import EpisodeDataset
 from navbench.paths import SCENES_DIR, split_file
@@ -75,32 +78,41 @@ def probe() -> dict:
 
 
 def worker(args: tuple) -> list[dict]:
-    wid, episodes_file, indices, csv_dir = args
+    wid, episodes_file, indices, csv_dir, envs = args
     from navbench.agents.registry import AGENTS, agent_options
     from navbench.env.config import SUCCESS_DISTANCE
-    from navbench.eval.runner import RunConfig, make_env, run_episode
+    from navbench.eval.runner import RunConfig, make_env, run_episode, run_episodes_batched
+    from navbench.policy.workers import share_cores
 
+    share_cores(1)  # as a `navbench run` worker
     cfg = RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes_file),
-                    scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"],
+                    scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"], envs_per_worker=envs,
                     agent_options=agent_options("memory"))
     dataset = load_dataset(episodes_file)
     agent = AGENTS["memory"](cfg)
-    env = make_env(cfg, dataset, tuple(getattr(agent, "sensors", ("rgb", "depth"))))
-    rows = []
+    envs_ = [make_env(cfg, dataset, tuple(getattr(agent, "sensors", ("rgb", "depth")))) for _ in range(envs)]
+    rows: list[dict] = []
     t0 = time.perf_counter()
     path = Path(csv_dir) / f"worker{wid}.csv"
     with open(path, "w", newline="") as fh:
         w = csv.DictWriter(fh, FIELDS)
         w.writeheader()
-        for n, i in enumerate(indices, 1):
-            ep = dataset.episodes[i]
-            rec = run_episode(env, agent, ep, cfg)
-            row = {"worker": wid, "episode": n, "elapsed_s": round(time.perf_counter() - t0, 2),
-                   "scene_id": ep.scene_id, "success": rec.get("success"), **probe()}
+
+        def finish(rec: dict) -> None:
+            row = {"worker": wid, "episode": len(rows) + 1, "elapsed_s": round(time.perf_counter() - t0, 2),
+                   "scene_id": rec["scene_id"], "success": rec.get("success"), **probe()}
             w.writerow(row)
             fh.flush()
             rows.append(row)
-    env.close()
+
+        episodes = [dataset.episodes[i] for i in indices]
+        if envs > 1:
+            run_episodes_batched(envs_, agent, episodes, cfg, finish)
+        else:
+            for ep in episodes:
+                finish(run_episode(envs_[0], agent, ep, cfg))
+    for env in envs_:
+        env.close()
     return rows
 
 
@@ -127,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--warmup", type=int, default=500, help="RSS growth is measured from this episode of each "
                    "worker on (a quarter of the worker's episodes if it runs fewer than 4x this)")
+    p.add_argument("--envs-per-worker", type=int, default=DEFAULT_ENVS_PER_WORKER["memory"],
+                   help="episodes a worker steps in lockstep (default: navbench run's)")
     p.add_argument("--csv", default="soak.csv")
     args = p.parse_args(argv)
     if args.episodes < 1 or args.workers < 1:
@@ -141,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
                     scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"],
                     agent_options=agent_options("memory"))
     prebuild_memories(cfg, load_dataset(episodes_file).episodes)
-    chunks = [(w, str(episodes_file), list(range(w, args.episodes, args.workers)), str(out_dir))
+    chunks = [(w, str(episodes_file), list(range(w, args.episodes, args.workers)), str(out_dir), args.envs_per_worker)
               for w in range(args.workers)]
     # spawn: each worker starts clean, as `navbench run` workers do, not a copy of this process
     with mp.get_context("spawn").Pool(args.workers) as pool:

@@ -84,12 +84,12 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     each worker when ``workers > 1``). A module-level class or function is recorded in config.json by
     its import path, so the CLI can rerun or ``--resume`` the run; an instance or a function defined
     in ``__main__`` runs but cannot be rerun from config.json alone. Agents with ``act_batch`` step
-    ``envs_per_worker`` episodes at once (default: the agent's ``num_envs``, else 1; the pointnav
-    agent's 8). ``resume``, ``overwrite``, ``retries``, ``step_timeout`` and ``fail_fast`` are
+    ``envs_per_worker`` episodes at once (default: the agent's ``num_envs``, else 1; 8 for the pointnav,
+    memory and frontier agents). ``resume``, ``overwrite``, ``retries``, ``step_timeout`` and ``fail_fast`` are
     ``navbench run``'s options of the same names.
     """
     from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
-    from navbench.agents.registry import prebuild_memories
+    from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
     from navbench.eval.runner import RunConfig, run, select_episodes
 
     options = dict(options or {})
@@ -115,7 +115,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
                          f"(with act or act_batch)")
     if envs_per_worker is None:
         n = getattr(agent, "num_envs", 1)
-        envs_per_worker = 8 if resolved.spec == "pointnav" else n if isinstance(n, int) and n > 0 else 1
+        envs_per_worker = DEFAULT_ENVS_PER_WORKER.get(resolved.spec) or (n if isinstance(n, int) and n > 0 else 1)
 
     task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),

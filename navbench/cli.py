@@ -29,7 +29,8 @@ import sys
 from pathlib import Path
 
 from navbench.agents.plugins import parse_options, resolve_agent
-from navbench.agents.registry import AGENTS, DEFAULT_DECODING, agent_options, prebuild_memories, scan_config
+from navbench.agents.registry import AGENTS, DEFAULT_DECODING, DEFAULT_ENVS_PER_WORKER, agent_options, prebuild_memories
+from navbench.agents.registry import scan_config
 from navbench.agents.registry import agent_factory, make_oracle, make_pointnav  # noqa: F401  (importable from here too)
 from navbench.api import OBJECTNAV_SPLITS, OVON_SPLITS, POINTNAV_SPLITS, resolve_episodes, run_dir  # noqa: F401
 from navbench.paths import EPISODES_DIR, SCENES_DIR
@@ -51,8 +52,7 @@ def cmd_run(args) -> int:
         scene_dir=str(args.scene_dir or SCENES_DIR),
         success_distance=args.success_distance if args.success_distance is not None else default_sd,
         seed=args.seed, limit=args.limit, per_scene=args.per_scene, workers=args.workers,
-        # batched policy inference: default 8 episodes per worker for the pointnav agent
-        envs_per_worker=args.envs_per_worker or (8 if args.agent == "pointnav" else 1),
+        envs_per_worker=args.envs_per_worker or DEFAULT_ENVS_PER_WORKER.get(args.agent, 1),
         agent_options=agent.options, shard=args.shard,
     )
     cfg.label = agent.label
@@ -325,7 +325,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--qwen-vl", help="local Qwen2.5-VL model directory")
     m.add_argument("--sam3", help="local SAM 3 model directory")
     r.add_argument("--envs-per-worker", type=_count, help="episodes a worker steps at once with one batched "
-                   "policy forward pass (pointnav agent; default 8)")
+                   "policy forward pass (pointnav, memory, frontier; default 8; records do not depend on it)")
     r.add_argument("--workers", type=_count, default=2, help="parallel episode workers (default 2)")
     r.add_argument("--video", default="none", choices=("none", "failures", "all"),
                    help="write OUT/videos/EPISODE.mp4 (RGB | depth | map, 10 fps) for failed or all episodes")

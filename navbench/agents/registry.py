@@ -27,6 +27,9 @@ DEFAULT_DECODING = {
     "memory": "argmax",  # the ObjectNav tables are argmax; least-tried is a listed variant
     "frontier": "argmax",  # as the memory agent, so the two ObjectNav agents compare on one decoding
 }
+# Episodes a worker steps at once when none is given: the policy agents batch their PointNav forward pass
+# over 8 env slots (records do not depend on it); the others run one episode at a time.
+DEFAULT_ENVS_PER_WORKER = {agent: 8 for agent in POLICY_AGENTS}
 # Perception of the ObjectNav agents (the memory agent's localiser, both agents' live detector).
 PERCEPTION_DEFAULTS: dict[str, Any] = {"perception": "oracle", "noise": "none"}
 # The memory agent's localisation and stopping ablations (all on = the agent as reported).

@@ -15,10 +15,12 @@ died ``retries + 1`` times (see :mod:`navbench.eval.pool`). A bad episode or sce
 (EpisodeError, SceneError) is bad input and ends the run.
 
 Parallelism: ``workers`` processes, each with its own env (and renderer) and agent, one episode per
-task; agents with a batched policy (``pointnav``) step ``envs_per_worker`` episodes per worker in
-lockstep with one forward pass for all of them. Every episode's outcome depends only on the episode
-and the seed, never on which worker or slot ran it or in what order, so the same seed gives the same
-records and summary to the last digit (``elapsed_s`` is the records' only wall-clock field).
+task; batched agents (``pointnav``, and ``memory``/``frontier`` through
+:mod:`navbench.agents.lockstep`) step ``envs_per_worker`` episodes per worker in lockstep with one
+policy forward pass for all of them. Every episode's outcome depends only on the episode and the seed,
+never on which worker or slot ran it or in what order, so the same seed gives the same records and
+summary to the last digit (``elapsed_s`` and the localiser's ``log.query_ms`` are the records' only
+wall-clock fields).
 """
 
 from __future__ import annotations
