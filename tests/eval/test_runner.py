@@ -178,7 +178,8 @@ def test_cli_missing_scene(tmp_path, pointnav_file, capsys):
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_cli_start_off_the_navigable_area(tmp_path, pointnav_file, capsys, workers):
     """The default PointNav agent steps 8 episodes at once: the bad third episode ends the run, but the
-    two in flight finish and are recorded first (in a worker process too)."""
+    two in flight finish and are recorded first (in a worker process too, where another worker's
+    episodes may finish as well)."""
     ds = load_dataset(pointnav_file)
     ds.episodes[2].start_position = [400.0, 0.0, 400.0]
     path = save_dataset(ds, tmp_path / "eps.json.gz")
@@ -188,7 +189,9 @@ def test_cli_start_off_the_navigable_area(tmp_path, pointnav_file, capsys, worke
     bad = ds.episodes[2].episode_id
     assert len(err) == 1 and str(path) in err[0] and f"episode {bad} " in err[0] and "not navigable" in err[0]
     # the episodes started before the bad one are finished and kept
-    assert len(read_records(out / "episodes.jsonl")) == 2
+    ids = [r["episode_id"] for r in read_records(out / "episodes.jsonl")]
+    assert {e.episode_id for e in ds.episodes[:2]} <= set(ids) and bad not in ids and len(set(ids)) == len(ids)
+    assert len(ids) == 2 if workers == "1" else len(ids) <= 5
 
 
 def test_parallel_workers_with_a_cold_grid_cache(pointnav_file, tmp_path, monkeypatch):
