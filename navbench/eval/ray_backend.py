@@ -248,7 +248,15 @@ def connect(ray, address: str | None, workers: int) -> None:
         if address is None and not os.environ.get("RAY_ADDRESS"):
             ray.init(num_cpus=workers, include_dashboard=False, logging_level=logging.WARNING)
         else:
-            ray.init(address=address, logging_level=logging.WARNING)
+            host = (address or "").rpartition(":")[0]
+            local: dict[str, Any] = {}
+            if host in ("127.0.0.1", "localhost"):  # a cluster started with --node-ip-address=127.0.0.1
+                # Ray swaps a loopback address for the machine's own, where such a cluster does not listen,
+                # unless it takes the machine for a single-node one.
+                from ray._private import ray_constants
+                ray_constants.ENABLE_RAY_CLUSTER = False
+                local = {"_node_ip_address": "127.0.0.1"}
+            ray.init(address=address, logging_level=logging.WARNING, **local)
     except (ConnectionError, RuntimeError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise RunError(f"--address {address}: cannot join the Ray cluster ({first})") from None

@@ -1,0 +1,145 @@
+"""``navbench run --backend ray``: the same records as the local backend on a two-node cluster with no
+shared cache, an actor killed mid-run costs nothing, and the flag errors are one line with exit 2.
+
+    pytest -m slow tests/eval/test_ray_backend.py    # the cluster tests (~2.5 min); the rest run by default
+
+The cluster is two raylets on loopback (``ray.cluster_utils.Cluster``, as Ray's own tests start one),
+each with its own NAVBENCH_CACHE, as two machines would have: the actors get the files and the memories
+the driver built only through Ray's object store.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from navbench.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+SELECT = ["--split", "val_unseen", "--agent", "memory", "--per-scene", "5"]  # all four val_unseen houses
+
+
+def _records(path: Path) -> list[dict]:
+    """episodes.jsonl sorted by episode, without the wall-clock figures (elapsed_s, the memory query time)."""
+    out = []
+    for line in path.read_text().splitlines():
+        r = json.loads(line)
+        r.pop("elapsed_s")
+        r.get("log", {}).pop("query_ms", None)
+        out.append(r)
+    return sorted(out, key=lambda r: (r["scene_id"], r["episode_id"]))
+
+
+def _env() -> dict[str, str]:
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """(address, the second node's NAVBENCH_CACHE) of a 2-node, 1-CPU-each Ray cluster on 127.0.0.1."""
+    pytest.importorskip("ray")
+    from ray.cluster_utils import Cluster
+
+    caches = [tmp_path_factory.mktemp("node0-cache"), tmp_path_factory.mktemp("node1-cache")]
+    saved = dict(os.environ)
+    c = None
+    try:  # a node's processes (and so its actors) inherit the environment it is started with
+        os.environ.update(_env(), NAVBENCH_CACHE=str(caches[0]), PYOPENGL_PLATFORM="osmesa")
+        c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "node_ip_address": "127.0.0.1",
+                                                          "include_dashboard": False})
+        os.environ["NAVBENCH_CACHE"] = str(caches[1])
+        c.add_node(num_cpus=1, node_ip_address="127.0.0.1")
+        c.wait_for_nodes()
+        os.environ.clear()
+        os.environ.update(saved)
+        yield c.address, caches[1]
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+        if c is not None:
+            c.shutdown()
+
+
+@pytest.fixture(scope="module")
+def local_records(tmp_path_factory) -> list[dict]:
+    """The local backend's records of 20 memory-agent episodes over the four val_unseen houses."""
+    pytest.importorskip("ray")
+    out = tmp_path_factory.mktemp("local") / "run"
+    assert main(["run", *SELECT, "--limit", "20", "--workers", "2", "--out", str(out), "-q"]) == 0
+    return _records(out / "episodes.jsonl")
+
+
+def _ray_run(address: str, out: Path, *args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "navbench.cli", "run", *SELECT, *args, "--out", str(out), "-q",
+                             "--backend", "ray", "--address", address], env=_env(), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+@pytest.mark.slow
+def test_ray_records_equal_the_local_backends(cluster, local_records, tmp_path):
+    proc = _ray_run(cluster[0], tmp_path / "ray", "--limit", "20")
+    stdout, stderr = proc.communicate(timeout=600)
+    assert proc.returncode == 0, stderr[-2000:]
+    assert _records(tmp_path / "ray" / "episodes.jsonl") == local_records
+    assert len(local_records) == 20 and len({r["scene_id"] for r in local_records}) == 4
+
+
+def _actor_pids(cache: Path) -> list[int]:
+    """PIDs of the run's actors on the node whose NAVBENCH_CACHE is ``cache`` (read from /proc)."""
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            if b"NavbenchWorker" in (proc / "cmdline").read_bytes() and \
+                    f"NAVBENCH_CACHE={cache}".encode() in (proc / "environ").read_bytes().split(b"\0"):
+                pids.append(int(proc.name))
+        except (OSError, ValueError):
+            continue
+    return pids
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/environ").is_file(), reason="finds the actor's process in /proc")
+def test_killed_actor_loses_nothing_and_a_local_run_resumes_on_ray(cluster, local_records, tmp_path):
+    out = tmp_path / "run"
+    assert main(["run", *SELECT, "--limit", "3", "--workers", "1", "--out", str(out), "-q"]) == 0  # local start
+    proc = _ray_run(cluster[0], out, "--limit", "8", "--resume")
+    killed = None
+    try:
+        deadline = time.monotonic() + 300
+        while killed is None and proc.poll() is None and time.monotonic() < deadline:
+            lines = (out / "episodes.jsonl").read_text().count("\n")
+            pids = _actor_pids(cluster[1]) if lines >= 5 else []
+            if pids:
+                killed = pids[0]
+                os.kill(killed, signal.SIGKILL)
+            time.sleep(0.2)
+        stdout, stderr = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert killed is not None, "no actor of the run found on the second node while it ran"
+    assert proc.returncode == 0, stderr[-2000:]
+    records = _records(out / "episodes.jsonl")
+    keys = [(r["scene_id"], r["episode_id"]) for r in records]
+    assert len(keys) == 8 == len(set(keys))
+    assert not [r for r in records if r.get("failed")]
+    assert records == local_records[:8]  # file order is scene order here: the same first 8 episodes
+
+
+def test_address_needs_the_ray_backend(tmp_path, capsys):
+    assert main(["run", "--agent", "oracle", "--limit", "1", "--address", "auto", "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--address" in err and "--backend ray" in err
+
+
+def test_ray_backend_without_ray_names_the_extra(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` raises ImportError
+    assert main(["run", "--agent", "oracle", "--limit", "1", "--backend", "ray", "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "pip install navbench[ray]" in err
+    assert not (tmp_path / "r").exists()
