@@ -262,6 +262,13 @@ def connect(ray, address: str | None, workers: int) -> None:
         raise RunError(f"--address {address}: cannot join the Ray cluster ({first})") from None
 
 
+def _kill(ray, handle) -> None:
+    try:
+        ray.kill(handle)
+    except Exception:  # already gone, or the cluster with it: nothing left to stop
+        pass
+
+
 class _Slot:
     def __init__(self, handle, ready_ref) -> None:
         self.handle, self.ready_ref = handle, ready_ref
@@ -306,7 +313,7 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
             """``slot``'s actor is gone: retry or fail the episodes of its task, requeue the retried."""
             nonlocal startup_deaths
             reason = f"ray worker died ({type(exc).__name__})"
-            ray.kill(slot.handle)
+            _kill(ray, slot.handle)
             if not slot.ready:
                 startup_deaths += 1
                 if startup_deaths > retries:
@@ -359,6 +366,6 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
                 raise error
     finally:
         for s in slots:
-            ray.kill(s.handle)
+            _kill(ray, s.handle)
         if started:
             ray.shutdown()

@@ -143,3 +143,32 @@ def test_ray_backend_without_ray_names_the_extra(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "pip install navbench[ray]" in err
     assert not (tmp_path / "r").exists()
+
+
+def test_scene_files_are_the_mesh_its_side_files_and_the_dataset_config(tmp_path):
+    from navbench.eval.ray_backend import scene_files
+
+    for name in ("hm3d.scene_dataset_config.json", "val/00800-TEE/TEE.basis.glb", "val/00800-TEE/TEE.semantic.glb",
+                 "val/00800-TEE/TEE.semantic.txt", "val/00800-TEE/TEE_semantic.ply", "val/00800-TEE/OTHER.glb"):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_bytes(b"x")
+    got = {rel for rel, _ in scene_files("hm3d/val/00800-TEE/TEE.basis.glb", tmp_path)}
+    assert got == {"hm3d.scene_dataset_config.json", "val/00800-TEE/TEE.basis.glb", "val/00800-TEE/TEE.semantic.glb",
+                   "val/00800-TEE/TEE.semantic.txt", "val/00800-TEE/TEE_semantic.ply"}
+    from navbench.paths import SCENES_DIR
+    assert {rel for rel, _ in scene_files("houses/val/house_008.glb", SCENES_DIR)} == {
+        "houses/val/house_008.glb", "houses/val/house_008.semantic.json"}
+
+
+def test_warm_scene_is_the_scene_a_new_env_loads():
+    from navbench.episodes.io import load_dataset
+    from navbench.eval.ray_backend import warm_scene
+    from navbench.eval.runner import RunConfig, make_env
+    from navbench.paths import SCENES_DIR, split_file
+
+    for seed in (0, 3):
+        cfg = RunConfig(task="objectnav", split="val_unseen", agent="oracle", scene_dir=str(SCENES_DIR),
+                        episodes=str(split_file("objectnav", "val_unseen")), success_distance=1.0, seed=seed)
+        env = make_env(cfg, load_dataset(cfg.episodes), ())
+        assert env.episode.scene_id == warm_scene(cfg)
+        env.close()
