@@ -1,5 +1,6 @@
 """``navbench run --backend ray``: the same records as the local backend on a two-node cluster with no
-shared cache, an actor killed mid-run costs nothing, and the flag errors are one line with exit 2.
+shared cache, an actor killed mid-run costs nothing, an episode whose actor always dies is a failed
+record, and the flag errors are one line with exit 2.
 
     pytest -m slow tests/eval/test_ray_backend.py    # the cluster tests (~2.5 min); the rest run by default
 
@@ -172,3 +173,45 @@ def test_warm_scene_is_the_scene_a_new_env_loads():
         env = make_env(cfg, load_dataset(cfg.episodes), ())
         assert env.episode.scene_id == warm_scene(cfg)
         env.close()
+
+
+CRASHING_AGENT = '''
+import os
+from navbench.agents.oracle import OracleAgent
+
+class Crashing(OracleAgent):
+    """The oracle, but its process dies on the episode named in agent_options["die_on"]."""
+    def __init__(self, cfg):
+        super().__init__(cfg.scene_dir, cfg.success_distance)
+        self.die_on = cfg.agent_options["die_on"]
+
+    def reset(self, episode):
+        if episode.episode_id == self.die_on:
+            os._exit(1)
+        super().reset(episode)
+
+def make(cfg):
+    return Crashing(cfg)
+'''
+
+
+def test_an_episode_whose_actor_always_dies_is_recorded_as_failed(tmp_path, monkeypatch, pointnav_file):
+    """On a local Ray instance: retried ``retries`` times on fresh actors, then a failed record; the rest run."""
+    pytest.importorskip("ray")
+    from navbench.episodes.io import load_dataset
+    from navbench.eval.runner import RunConfig, run
+    from navbench.paths import SCENES_DIR
+
+    (tmp_path / "crashing_agent.py").write_text(CRASHING_AGENT)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(tmp_path), str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    import crashing_agent
+
+    ids = [e.episode_id for e in load_dataset(pointnav_file).episodes]
+    cfg = RunConfig(task="pointnav", split=None, agent="crashing_agent:make", episodes=str(pointnav_file),
+                    scene_dir=str(SCENES_DIR), success_distance=0.2, workers=1, agent_options={"die_on": ids[1]})
+    summary = run(cfg, crashing_agent.make, tmp_path / "run", backend="ray", retries=1)
+    records = {r["episode_id"]: r for r in map(json.loads, (tmp_path / "run" / "episodes.jsonl").read_text().splitlines())}
+    assert sorted(records) == sorted(ids)
+    assert records[ids[1]]["failed"] and records[ids[1]]["failure_reason"].startswith("ray worker died (")
+    assert summary["num_failed"] == 1 and not any(r.get("failed") for k, r in records.items() if k != ids[1])
