@@ -58,7 +58,8 @@ def main() -> None:
                 times[backend].append(per)
                 print(f"round {i + 1} {backend:5s}: {per:.2f} s/episode ({args.episodes} episodes, "
                       f"{args.workers} {'workers' if backend == 'local' else 'Ray CPUs'})", flush=True)
-            same = _records(Path(tmp) / f"local{i}" / "episodes.jsonl") == _records(Path(tmp) / f"ray{i}" / "episodes.jsonl")
+            local, ray = (_records(Path(tmp) / f"{b}{i}" / "episodes.jsonl") for b in ("local", "ray"))
+            same = local == ray
             print(f"round {i + 1} records equal: {same}", flush=True)
     local, ray = (min(times[b]) for b in ("local", "ray"))
     print(f"best of {args.rounds}: local {local:.2f} s/episode, ray {ray:.2f} s/episode, overhead ray/local "

@@ -42,6 +42,7 @@ from typing import Any
 from navbench import __version__
 from navbench.eval import runner as R
 from navbench.eval.rundir import RunError
+from navbench.episodes.types import EpisodeError
 from navbench.scene.asset import SceneError
 
 Key = tuple[str, str]
@@ -203,9 +204,11 @@ class NavbenchWorker:
         self.shipment, self.clock = shipment, R.Clock(step_timeout)
         self.root = cache_dir("ray", shipment.digest)
         self.have: set[str] = set()
+        self.episodes = ("", "")
         try:
             materialize(ray, self.root, shipment.base)
             local = worker_config(cfg, self.root, shipment)
+            self.episodes = (local.episodes, cfg.episodes)  # (this copy's, the driver's) episode file
             self._fetch([warm_scene(local)])
             try:
                 R._worker_init(local, make_agent, single_thread=True)
@@ -230,7 +233,9 @@ class NavbenchWorker:
         try:
             self._fetch(k[0] for k in keys)
             R._run_keys(keys, records.append, self.clock)
-        except Exception as exc:  # bad input (EpisodeError, SceneError) or a bug: ends the run
+        except (EpisodeError, SceneError) as exc:  # bad input ends the run; name the user's file, not the copy
+            return records, type(exc)(str(exc).replace(*self.episodes))
+        except Exception as exc:  # a bug: ends the run
             return records, _portable(exc)
         return records, None
 

@@ -37,7 +37,8 @@ def _records(path: Path) -> list[dict]:
 
 
 def _env() -> dict[str, str]:
-    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    return {**os.environ, "PYTHONPATH": path}
 
 
 @pytest.fixture(scope="module")
@@ -211,7 +212,25 @@ def test_an_episode_whose_actor_always_dies_is_recorded_as_failed(tmp_path, monk
     cfg = RunConfig(task="pointnav", split=None, agent="crashing_agent:make", episodes=str(pointnav_file),
                     scene_dir=str(SCENES_DIR), success_distance=0.2, workers=1, agent_options={"die_on": ids[1]})
     summary = run(cfg, crashing_agent.make, tmp_path / "run", backend="ray", retries=1)
-    records = {r["episode_id"]: r for r in map(json.loads, (tmp_path / "run" / "episodes.jsonl").read_text().splitlines())}
+    lines = (tmp_path / "run" / "episodes.jsonl").read_text().splitlines()
+    records = {r["episode_id"]: r for r in map(json.loads, lines)}
     assert sorted(records) == sorted(ids)
     assert records[ids[1]]["failed"] and records[ids[1]]["failure_reason"].startswith("ray worker died (")
     assert summary["num_failed"] == 1 and not any(r.get("failed") for k, r in records.items() if k != ids[1])
+
+
+def test_a_bad_episode_ends_a_ray_run_naming_the_users_file(tmp_path, pointnav_file, capsys):
+    """The PointNav policy agent (its checkpoint shipped to the actor) steps 8 episodes at once: the bad
+    third one ends the run with exit 2 naming the driver's episode file; the two in flight are kept."""
+    pytest.importorskip("ray")
+    from navbench.episodes.io import load_dataset, save_dataset
+    from navbench.eval.runner import read_records
+
+    ds = load_dataset(pointnav_file)
+    ds.episodes[2].start_position = [400.0, 0.0, 400.0]
+    path = save_dataset(ds, tmp_path / "eps.json.gz")
+    out = tmp_path / "o"
+    assert main(["run", "--episodes", str(path), "--out", str(out), "--backend", "ray", "--workers", "1", "-q"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("navbench:")]
+    assert len(err) == 1 and str(path) in err[0] and "not navigable" in err[0]
+    assert len(read_records(out / "episodes.jsonl")) == 2
