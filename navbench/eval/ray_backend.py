@@ -251,7 +251,8 @@ def connect(ray, address: str | None, workers: int) -> None:
     """Join the cluster at ``address``, or start a local instance with ``workers`` CPUs."""
     try:
         if address is None and not os.environ.get("RAY_ADDRESS"):
-            ray.init(num_cpus=workers, include_dashboard=False, logging_level=logging.WARNING)
+            # "local": a new instance for this run, never a cluster that happens to run on this machine
+            ray.init(address="local", num_cpus=workers, include_dashboard=False, logging_level=logging.WARNING)
         else:
             host = (address or "").rpartition(":")[0]
             local: dict[str, Any] = {}
