@@ -23,7 +23,7 @@ osmesa:
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 libosmesa6-dev >/dev/null; \
 	fi
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install -q -e ".[dev,models,viz]"
+	$(BIN)/pip install -q -e ".[dev,models,viz,ray]"
 	touch $(STAMP)
 setup: osmesa $(STAMP)
 run: setup  # the memory agent on ObjectNav val_unseen: the README's headline ObjectNav figures

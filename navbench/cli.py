@@ -2,7 +2,7 @@
 
     navbench run --split val_unseen [--task objectnav] [--agent memory] [--decoding argmax|sample|least-tried]
                  [--limit N] [--out DIR] [--resume | --overwrite] [--shard I/N] [--retries 2]
-                 [--step-timeout SECONDS] [--fail-fast]
+                 [--step-timeout SECONDS] [--fail-fast] [--backend local|ray [--address auto|HOST:PORT]]
     navbench run --agent package.module:Name|http://HOST:PORT|NAME [--agent-opt KEY=VALUE ...] ...
     navbench agents
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
@@ -62,12 +62,17 @@ def cmd_run(args) -> int:
         out = out / f"shard{shard[0]}of{shard[1]}"
     if args.resume and args.overwrite:
         raise ValueError("--resume and --overwrite: choose one")
+    if args.address is not None and args.backend != "ray":
+        raise ValueError("--address applies to --backend ray only")
+    if args.backend == "ray":  # before the memories are built: a missing extra is a one-line error
+        from navbench.eval.ray_backend import require_ray
+        require_ray()
 
     if args.agent == "memory":
         prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit, cfg.per_scene, cfg.shard))
     summary = run(cfg, agent.factory, out, resume=args.resume, progress=None if args.quiet else Progress(),
                   overwrite=args.overwrite, retries=args.retries, step_timeout=args.step_timeout,
-                  fail_fast=args.fail_fast)
+                  fail_fast=args.fail_fast, backend=args.backend, address=args.address)
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
     if args.video != "none":  # drawn from the finished records, so the run itself is the same without
@@ -326,7 +331,13 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--sam3", help="local SAM 3 model directory")
     r.add_argument("--envs-per-worker", type=_count, help="episodes a worker steps at once with one batched "
                    "policy forward pass (pointnav, memory, frontier; default 8; records do not depend on it)")
-    r.add_argument("--workers", type=_count, default=2, help="parallel episode workers (default 2)")
+    r.add_argument("--workers", type=_count, default=2, help="parallel episode workers (default 2; with --backend "
+                                                            "ray and no --address, the local Ray instance's CPUs)")
+    r.add_argument("--backend", default="local", choices=("local", "ray"),
+                   help="where episodes run: local worker processes, or one Ray actor per CPU of a Ray cluster "
+                        "(pip install navbench[ray]; records are the same, so --resume works across backends)")
+    r.add_argument("--address", metavar="auto|HOST:PORT", help="with --backend ray: the cluster to join (default: "
+                                                               "start a local Ray instance)")
     r.add_argument("--video", default="none", choices=("none", "failures", "all"),
                    help="write OUT/videos/EPISODE.mp4 (RGB | depth | map, 10 fps) for failed or all episodes")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")

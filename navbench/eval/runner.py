@@ -14,13 +14,13 @@ whose agent call takes longer than the step limit is recorded with ``failed: tru
 died ``retries + 1`` times (see :mod:`navbench.eval.pool`). A bad episode or scene in the dataset
 (EpisodeError, SceneError) is bad input and ends the run.
 
-Parallelism: ``workers`` processes, each with its own env (and renderer) and agent, one episode per
-task; batched agents (``pointnav``, and ``memory``/``frontier`` through
-:mod:`navbench.agents.lockstep`) step ``envs_per_worker`` episodes per worker in lockstep with one
-policy forward pass for all of them. Every episode's outcome depends only on the episode and the seed,
-never on which worker or slot ran it or in what order, so the same seed gives the same records and
-summary to the last digit (``elapsed_s`` and the localiser's ``log.query_ms`` are the records' only
-wall-clock fields).
+Parallelism: ``workers`` processes (or a Ray cluster's actors, :mod:`navbench.eval.ray_backend`), each
+with its own env (and renderer) and agent, one episode per task; batched agents (``pointnav``, and
+``memory``/``frontier`` through :mod:`navbench.agents.lockstep`) step ``envs_per_worker`` episodes per
+worker in lockstep with one policy forward pass for all of them. Every episode's outcome depends only on
+the episode and the seed, never on which worker or slot ran it or in what order, so the same seed gives
+the same records and summary to the last digit (``elapsed_s`` and the localiser's ``log.query_ms`` are
+the records' only wall-clock fields).
 """
 
 from __future__ import annotations
@@ -526,7 +526,8 @@ def _note_stderr(msg: str) -> None:
 def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = False,
         progress: Callable[[dict[str, Any], int, int], None] | None = None, *, overwrite: bool = False,
         retries: int = 2, step_timeout: float | None = None, fail_fast: bool = False,
-        note: Callable[[str], None] = _note_stderr) -> dict[str, Any]:
+        note: Callable[[str], None] = _note_stderr, backend: str = "local", address: str | None = None
+        ) -> dict[str, Any]:
     """Run ``cfg``'s episodes into ``out`` and return the summary.
 
     ``resume`` keeps the records already there (each episode once; failed episodes are rerun); without it
@@ -535,21 +536,32 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
     ``fail_fast``: then the first failure raises RunError (finished records kept). A worker process that
     dies is replaced and its episodes retried ``retries`` times; an agent call slower than
     ``step_timeout`` seconds fails its episode (with workers, a call that never returns is killed).
+    ``backend="ray"`` runs the episodes on the Ray cluster at ``address`` (see
+    :mod:`navbench.eval.ray_backend`); the backend is not part of the config, so a run may resume on either.
     """
     if step_timeout is not None and step_timeout <= 0:
         raise RunError(f"--step-timeout must be positive, got {step_timeout:g}")
     if retries < 0:
         raise RunError(f"--retries must be 0 or more, got {retries}")
+    if backend not in ("local", "ray"):
+        raise RunError(f"backend {backend!r}: choose local or ray")
+    if address is not None and backend != "ray":
+        raise RunError("--address applies to --backend ray only")
+    if backend == "ray":  # before the run directory is touched: a missing extra is a one-line error
+        from navbench.eval.ray_backend import require_ray
+        require_ray()
     out = Path(out)
     make_run_dir(out)
     lock = RunLock(out, note)
     try:
-        return _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note)
+        return _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note,
+                           backend, address)
     finally:
         lock.release()
 
 
-def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note):
+def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note,
+                backend="local", address=None):
     cfg_json = config_json(cfg)
     jsonl = out / "episodes.jsonl"
     notes: list[str] = []
@@ -591,15 +603,18 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
             if progress:
                 progress(rec, recorded[0], total)
 
+        size = task_size(len(todo), cfg.workers, cfg.envs_per_worker)
+        tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
+        if backend == "ray":
+            from navbench.eval.ray_backend import run_ray
+            run_ray(cfg, make_agent, tasks, finish, address=address, retries=retries, step_timeout=step_timeout,
+                    n_slots=max(1, cfg.envs_per_worker))
         # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
-        if (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
+        elif (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
             _worker_init(cfg, make_agent, single_thread=False)
             _run_keys(todo, finish, Clock(step_timeout))
         else:
             from navbench.eval.pool import run_pool
-
-            tasks = [todo[i:i + size] for size in [task_size(len(todo), cfg.workers, cfg.envs_per_worker)]
-                     for i in range(0, len(todo), size)]
             run_pool(cfg, make_agent, tasks, finish, workers=cfg.workers, n_slots=max(1, cfg.envs_per_worker),
                      retries=retries, step_timeout=step_timeout)
         complete = True

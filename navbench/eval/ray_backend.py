@@ -1,0 +1,377 @@
+"""The evaluation runner on a Ray cluster: ``navbench run ... --backend ray``.
+
+    ray start --head --port 6379                   # on one machine
+    ray start --address HEAD:6379                  # on each of the others
+    navbench run --split val_unseen --backend ray --address HEAD:6379
+
+Without ``--address`` a local Ray instance with ``--workers`` CPUs is started for the run. The driver
+(the machine running ``navbench run``) keeps the run directory: it hands tasks (lists of episode keys, in
+scene order) to one actor per CPU of the cluster and appends each task's records to ``episodes.jsonl`` as
+they come back, so ``--resume`` works as with the local backend, either way round: the records are the
+same.
+
+No shared file system is needed: the driver puts the episode file, the files of the scenes the run
+needs (the mesh and its same-name side files, and the nearest ``*.scene_dataset_config.json``), the
+PointNav checkpoint of the policy agents and, for the memory agent, the keyframe memories it built before
+the run into Ray's object store once. Each actor copies what its tasks need into
+``$NAVBENCH_CACHE/ray/DIGEST`` on its machine (DIGEST names the files' contents, so the copy is shared by
+the actors of a machine and reused by later runs) and runs there. Shipping the driver's memories means no
+two actors ever build one, and the records equal a local run's, whose memory statistics they quote.
+Every machine needs the same navbench (checked) and the agent's code; model directories
+(``--siglip2``...) and absolute ``scene_id`` paths must exist on every machine.
+
+An actor that dies (killed, out of memory, its machine lost) has the episodes of its task retried on a
+fresh actor up to ``retries`` times and then recorded as failed ("ray worker died (ActorDiedError)"). An
+agent call slower than ``step_timeout`` fails its episode when it returns; a call that never returns is
+not killed on this backend.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import logging
+import os
+import pickle
+import time
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from navbench import __version__
+from navbench.eval import runner as R
+from navbench.eval.rundir import RunError
+from navbench.episodes.types import EpisodeError
+from navbench.scene.asset import SceneError
+
+Key = tuple[str, str]
+File = tuple[str, str, Any]  # (path under the actor's copy, sha1 of the bytes, ObjectRef of the bytes)
+
+EXTRA = "pip install navbench[ray]"
+
+
+def require_ray():
+    """The ``ray`` module; an ImportError naming the extra when it is not installed."""
+    try:
+        import ray
+    except ImportError:
+        raise ImportError(f"--backend ray needs Ray: {EXTRA}") from None
+    return ray
+
+
+# ------------------------------------------------------------------------------------------ shipping
+def scene_files(scene_id: str, scene_dir: Path) -> list[tuple[str, Path]]:
+    """(path under the copy's ``scenes/``, file) of what loading ``scene_id`` reads: the mesh, the files
+    beside it named after it (``X.semantic.json``, HM3D's ``X.semantic.txt``, MP3D's ``X_semantic.ply``
+    and ``X.house``) and the nearest scene dataset config. Empty for an absolute ``scene_id``, which
+    every machine must then have."""
+    from navbench.env.base import resolve_scene_path
+    from navbench.scene.datasets import find_config
+
+    if Path(scene_id).is_absolute():
+        return []
+    mesh = resolve_scene_path(scene_id, scene_dir)
+    base = scene_dir.resolve()
+    # Keep the mesh where resolve_scene found it relative to scene_dir, so it resolves the same way there.
+    rel = Path(os.path.relpath(mesh.resolve(), base)) if mesh.resolve().is_relative_to(base) else Path(scene_id)
+    stem = mesh.name.split(".")[0]
+    out = [(str(rel.parent / f.name), f) for f in sorted(mesh.parent.iterdir())
+           if f.is_file() and (f.name.split(".")[0] == stem or f.name.startswith(stem + "_"))]
+    config = find_config(mesh)
+    if config is not None and config.resolve().is_relative_to(base):
+        out.append((os.path.relpath(config.resolve(), base), config))
+    return out
+
+
+def _memory_files(cfg: R.RunConfig, scene_path: Path) -> list[tuple[str, Path]]:
+    """The memory agent's keyframe memory of a scene, as the driver has it (built now if missing)."""
+    from navbench.agents.perceive import scene_memory
+    from navbench.agents.registry import _perception_config
+
+    directory = scene_memory(scene_path, _perception_config(cfg)).directory
+    return [(str(Path(directory.name) / f.relative_to(directory)), f)
+            for f in sorted(directory.rglob("*")) if f.is_file()]
+
+
+class _Shipper:
+    """Puts each file into the object store once; ``digest`` then names the whole set of contents."""
+
+    def __init__(self, ray) -> None:
+        self.ray, self.names = ray, set()
+
+    def put(self, rel: str, path: Path) -> File:
+        data = Path(path).read_bytes()
+        sha = hashlib.sha1(data).hexdigest()
+        self.names.add((rel, sha))
+        return rel, sha, self.ray.put(data)
+
+    def digest(self) -> str:
+        return hashlib.sha1(repr(sorted(self.names)).encode()).hexdigest()[:16]
+
+
+@dataclasses.dataclass
+class Shipment:
+    """What an actor needs to run tasks away from the driver's disk."""
+    digest: str
+    base: list[File]  # the episode file and the checkpoint
+    scenes: dict[str, list[File]]  # scene_id -> its scene files and memory
+    episodes: str  # path of the episode file under the copy
+    checkpoint: str | None  # path of the checkpoint under the copy
+
+
+def ship(ray, cfg: R.RunConfig, scene_ids: list[str]) -> Shipment:
+    from navbench.agents.registry import POLICY_AGENTS
+    from navbench.env.base import resolve_scene_path
+
+    s = _Shipper(ray)
+    episodes = f"episodes/{Path(cfg.episodes).name}"
+    base = [s.put(episodes, Path(cfg.episodes))]
+    checkpoint = None
+    if cfg.agent in POLICY_AGENTS:
+        from navbench.agents.pointnav import DEFAULT_CHECKPOINT
+        src = Path(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT)
+        checkpoint = f"checkpoint/{src.name}"
+        base.append(s.put(checkpoint, src))
+    scene_dir = Path(cfg.scene_dir)
+    scenes: dict[str, list[File]] = {}
+    for scene_id in dict.fromkeys(scene_ids):
+        files = [s.put(f"scenes/{rel}", p) for rel, p in scene_files(scene_id, scene_dir)]
+        if cfg.agent == "memory":
+            mesh = resolve_scene_path(scene_id, scene_dir)
+            files += [s.put(f"memory/{rel}", p) for rel, p in _memory_files(cfg, mesh)]
+        scenes[scene_id] = files
+    return Shipment(s.digest(), base, scenes, episodes, checkpoint)
+
+
+def worker_config(cfg: R.RunConfig, root: Path, shipment: Shipment) -> R.RunConfig:
+    """``cfg`` reading the actor's copy under ``root``: the episode file, scenes, checkpoint and memories."""
+    options = dict(cfg.agent_options)
+    if shipment.checkpoint is not None:
+        options["checkpoint"] = str(root / shipment.checkpoint)
+    if cfg.agent == "memory":
+        options["memory_root"] = str(root / "memory")
+    return dataclasses.replace(cfg, episodes=str(root / shipment.episodes), scene_dir=str(root / "scenes"),
+                               agent_options=options)
+
+
+def materialize(ray, root: Path, files: list[File]) -> None:
+    """Write the files missing under ``root``; each appears whole (renamed into place) or not at all."""
+    for rel, _, ref in files:
+        dest = root / rel
+        if dest.is_file():
+            continue
+        data = ray.get(ref)
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        tmp = dest.with_name(f".{dest.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, dest)
+
+
+# ------------------------------------------------------------------------------------------- actors
+def warm_scene(cfg: R.RunConfig) -> str:
+    """The scene a new env loads when ``make_env`` resets it with the run's seed: the episode that
+    ``NavEnv.reset`` draws without one (gymnasium's seeded generator)."""
+    from gymnasium.utils import seeding
+
+    from navbench.episodes.io import load_dataset
+
+    episodes = load_dataset(cfg.episodes).episodes
+    rng, _ = seeding.np_random(cfg.seed)
+    return episodes[int(rng.integers(len(episodes)))].scene_id
+
+
+def _portable(exc: BaseException) -> BaseException:
+    """``exc`` if it survives pickling to the driver, else a RunError with its one line."""
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return exc
+    except Exception:
+        return RunError(f"ray worker: {R.failure_reason(exc)}")
+
+
+class NavbenchWorker:
+    """A Ray actor: one agent and its envs (``runner._worker_init``) over the actor's copy of the files.
+    Errors come back as values so the driver raises them as the local backend would."""
+
+    def __init__(self, cfg: R.RunConfig, make_agent: R.AgentFactory, shipment: Shipment,
+                 step_timeout: float | None) -> None:
+        import ray
+
+        from navbench.paths import cache_dir
+
+        self.error: BaseException | None = None
+        self.shipment, self.clock = shipment, R.Clock(step_timeout)
+        self.root = cache_dir("ray", shipment.digest)
+        self.have: set[str] = set()
+        self.episodes = ("", "")
+        try:
+            materialize(ray, self.root, shipment.base)
+            local = worker_config(cfg, self.root, shipment)
+            self.episodes = (local.episodes, cfg.episodes)  # (this copy's, the driver's) episode file
+            self._fetch([warm_scene(local)])
+            try:
+                R._worker_init(local, make_agent, single_thread=True)
+            except SceneError:  # the envs warmed up on another scene than expected: fetch them all
+                self._fetch(shipment.scenes)
+                R._worker_init(local, make_agent, single_thread=True)
+        except Exception as exc:
+            self.error = _portable(exc)
+
+    def _fetch(self, scene_ids) -> None:
+        import ray
+        for scene_id in dict.fromkeys(scene_ids):
+            if scene_id not in self.have:
+                materialize(ray, self.root, self.shipment.scenes.get(scene_id, []))
+                self.have.add(scene_id)
+
+    def ready(self) -> tuple[str, int, BaseException | None]:
+        return __version__, os.getpid(), self.error
+
+    def run(self, keys: list[Key]) -> tuple[list[dict[str, Any]], BaseException | None]:
+        records: list[dict[str, Any]] = []
+        try:
+            self._fetch(k[0] for k in keys)
+            R._run_keys(keys, records.append, self.clock)
+        except (EpisodeError, SceneError) as exc:  # bad input ends the run; name the user's file, not the copy
+            return records, type(exc)(str(exc).replace(*self.episodes))
+        except Exception as exc:  # a bug: ends the run
+            return records, _portable(exc)
+        return records, None
+
+
+# ------------------------------------------------------------------------------------------- driver
+def _death_errors(ray) -> tuple[type[BaseException], ...]:
+    ex = ray.exceptions
+    return tuple(getattr(ex, n) for n in ("RayActorError", "WorkerCrashedError", "NodeDiedError",
+                                          "LocalRayletDiedError", "OwnerDiedError") if hasattr(ex, n))
+
+
+def connect(ray, address: str | None, workers: int) -> None:
+    """Join the cluster at ``address``, or start a local instance with ``workers`` CPUs."""
+    try:
+        if address is None and not os.environ.get("RAY_ADDRESS"):
+            # "local": a new instance for this run, never a cluster that happens to run on this machine
+            ray.init(address="local", num_cpus=workers, include_dashboard=False, logging_level=logging.WARNING)
+        else:
+            host = (address or "").rpartition(":")[0]
+            local: dict[str, Any] = {}
+            if host in ("127.0.0.1", "localhost"):  # a cluster started with --node-ip-address=127.0.0.1
+                # Ray swaps a loopback address for the machine's own, where such a cluster does not listen,
+                # unless it takes the machine for a single-node one.
+                from ray._private import ray_constants
+                ray_constants.ENABLE_RAY_CLUSTER = False
+                local = {"_node_ip_address": "127.0.0.1"}
+            ray.init(address=address, logging_level=logging.WARNING, **local)
+    except (ConnectionError, RuntimeError, ValueError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RunError(f"--address {address}: cannot join the Ray cluster ({first})") from None
+
+
+def _kill(ray, handle) -> None:
+    try:
+        ray.kill(handle)
+    except Exception:  # already gone, or the cluster with it: nothing left to stop
+        pass
+
+
+class _Slot:
+    def __init__(self, handle, ready_ref) -> None:
+        self.handle, self.ready_ref = handle, ready_ref
+        self.ready = False
+        self.task: list[Key] | None = None
+        self.task_started = 0.0
+
+
+def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]],
+            finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
+            step_timeout: float | None = None, n_slots: int = 1) -> None:
+    """Run ``tasks`` on Ray actors, handing every record (run or failed) to ``finish`` as its task ends;
+    the contract of :func:`navbench.eval.pool.run_pool`. ``n_slots`` is the batched agents' slot count,
+    which the actors take from ``cfg``."""
+    ray = require_ray()
+    if not tasks:
+        return
+    from navbench.episodes.io import load_dataset
+
+    started = not ray.is_initialized()
+    if started:
+        connect(ray, address, cfg.workers)
+    dying = _death_errors(ray)
+    by_key = {(e.scene_id, e.episode_id): e for e in load_dataset(cfg.episodes).episodes}
+    slots: list[_Slot] = []
+    try:
+        shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for t in tasks for k in t])
+        Actor = ray.remote(num_cpus=1, max_restarts=0)(NavbenchWorker)
+        n_actors = max(1, min(int(ray.cluster_resources().get("CPU", 1)), len(tasks)))
+        queue: deque[list[Key]] = deque(tasks)
+        attempts: dict[Key, int] = {}
+        startup_deaths = 0
+        pending: dict[Any, _Slot] = {}  # ObjectRef of a ready() or run() call -> its actor
+
+        def spawn() -> _Slot:
+            handle = Actor.remote(cfg, make_agent, shipment, step_timeout)
+            slot = _Slot(handle, handle.ready.remote())
+            pending[slot.ready_ref] = slot
+            return slot
+
+        def lost(slot: _Slot, exc: BaseException) -> None:
+            """``slot``'s actor is gone: retry or fail the episodes of its task, requeue the retried."""
+            nonlocal startup_deaths
+            reason = f"ray worker died ({type(exc).__name__})"
+            _kill(ray, slot.handle)
+            if not slot.ready:
+                startup_deaths += 1
+                if startup_deaths > retries:
+                    raise RunError(f"{cfg.episodes}: a Ray worker could not start ({reason})")
+            rest: list[Key] = []
+            for key in slot.task or []:
+                attempts[key] = attempts.get(key, 0) + 1
+                if attempts[key] <= retries:
+                    rest.append(key)
+                    continue
+                ep = by_key[key]
+                finish(R.failed_record(R._base_record(ep, cfg), reason, R.start_distance(ep), None, 0,
+                                       time.monotonic() - slot.task_started))
+            if rest:
+                queue.appendleft(rest)
+            if queue:
+                slots[slots.index(slot)] = spawn()
+            else:
+                slots.remove(slot)
+
+        slots.extend(spawn() for _ in range(n_actors))
+        while queue or any(s.task is not None for s in slots):
+            for s in slots:
+                if s.ready and s.task is None and queue:
+                    s.task, s.task_started = queue.popleft(), time.monotonic()
+                    pending[s.handle.run.remote(s.task)] = s
+            done, _ = ray.wait(list(pending), num_returns=1)
+            slot = pending.pop(done[0])
+            if slot not in slots:  # a replaced actor's late answer
+                continue
+            try:
+                value = ray.get(done[0])
+            except dying as exc:
+                lost(slot, exc)
+                continue
+            if done[0] == slot.ready_ref:
+                version, _, error = value
+                if error is not None:
+                    raise error
+                if version != __version__:
+                    raise RunError(f"a Ray worker has navbench {version}, this machine {__version__}: install "
+                                   f"the same version on every machine")
+                slot.ready = True
+                continue
+            records, error = value
+            for rec in records:
+                finish(rec)
+            slot.task = None
+            if error is not None:
+                raise error
+    finally:
+        for s in slots:
+            _kill(ray, s.handle)
+        if started:
+            ray.shutdown()
