@@ -127,8 +127,8 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     out = Path(out) if out is not None else run_dir(task, split or episodes_path.name.split(".")[0], cfg.label,
                                                     runs_dir)
     if resolved.spec == "memory":
-        from navbench.episodes.io import load_dataset
-        prebuild_memories(cfg, select_episodes(load_dataset(episodes_path), cfg.limit, cfg.per_scene))
+        from navbench.eval.runner import run_dataset
+        prebuild_memories(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene))
     return run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
 

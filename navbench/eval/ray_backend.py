@@ -6,9 +6,9 @@
 
 Without ``--address`` a local Ray instance with ``--workers`` CPUs is started for the run. The driver
 (the machine running ``navbench run``) keeps the run directory: it hands tasks (lists of episode keys, in
-scene order) to one actor per CPU of the cluster and appends each task's records to ``episodes.jsonl`` as
-they come back, so ``--resume`` works as with the local backend, either way round: the records are the
-same.
+scene order) to one actor per CPU of the cluster; each actor sends every record through a Ray queue as
+its episode ends and the driver appends it to ``episodes.jsonl``, so ``--resume`` works as with the local
+backend, either way round: the records are the same.
 
 No shared file system is needed: the driver puts the episode file, the files of the scenes the run
 needs (the mesh and its same-name side files, and the nearest ``*.scene_dataset_config.json``), the
@@ -20,10 +20,10 @@ two actors ever build one, and the records equal a local run's, whose memory sta
 Every machine needs the same navbench (checked) and the agent's code; model directories
 (``--siglip2``...) and absolute ``scene_id`` paths must exist on every machine.
 
-An actor that dies (killed, out of memory, its machine lost) has the episodes of its task retried on a
-fresh actor up to ``retries`` times and then recorded as failed ("ray worker died (ActorDiedError)"). An
-agent call slower than ``step_timeout`` fails its episode when it returns; a call that never returns is
-not killed on this backend.
+An actor that dies (killed, out of memory, its machine lost) keeps the records it sent; the other
+episodes of its task are retried on a fresh actor up to ``retries`` times and then recorded as failed
+("ray worker died (ActorDiedError)"). An agent call slower than ``step_timeout`` fails its episode when
+it returns; a call that never returns is not killed on this backend.
 """
 
 from __future__ import annotations
@@ -49,6 +49,7 @@ Key = tuple[str, str]
 File = tuple[str, str, Any]  # (path under the actor's copy, sha1 of the bytes, ObjectRef of the bytes)
 
 EXTRA = "pip install navbench[ray]"
+_POLL_S = 0.2  # how often the driver takes the records that actors sent while their tasks run
 
 
 def require_ray():
@@ -228,11 +229,17 @@ class NavbenchWorker:
     def ready(self) -> tuple[str, int, BaseException | None]:
         return __version__, os.getpid(), self.error
 
-    def run(self, keys: list[Key]) -> tuple[list[dict[str, Any]], BaseException | None]:
+    def run(self, keys: list[Key], queue: Any) -> tuple[list[dict[str, Any]], BaseException | None]:
+        """Run ``keys``, putting each record into the driver's ``queue`` as its episode ends (so an actor
+        that dies mid-task loses only its episodes in flight); returns them all too."""
         records: list[dict[str, Any]] = []
+
+        def finish(rec: dict[str, Any]) -> None:
+            queue.put(rec)
+            records.append(rec)
         try:
             self._fetch(k[0] for k in keys)
-            R._run_keys(keys, records.append, self.clock)
+            R._run_keys(keys, finish, self.clock)
         except (EpisodeError, SceneError) as exc:  # bad input ends the run; name the user's file, not the copy
             return records, type(exc)(str(exc).replace(*self.episodes))
         except Exception as exc:  # a bug: ends the run
@@ -286,7 +293,7 @@ class _Slot:
 def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]],
             finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
             step_timeout: float | None = None, n_slots: int = 1) -> None:
-    """Run ``tasks`` on Ray actors, handing every record (run or failed) to ``finish`` as its task ends;
+    """Run ``tasks`` on Ray actors, handing every record (run or failed) to ``finish`` as its episode ends;
     the contract of :func:`navbench.eval.pool.run_pool`. ``n_slots`` is the batched agents' slot count,
     which the actors take from ``cfg``."""
     ray = require_ray()
@@ -297,6 +304,9 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
     started = not ray.is_initialized()
     if started:
         connect(ray, address, cfg.workers)
+    from ray.util.queue import Empty
+    from ray.util.queue import Queue as RayQueue
+
     dying = _death_errors(ray)
     by_key = {(e.scene_id, e.episode_id): e for e in load_dataset(cfg.episodes).episodes}
     slots: list[_Slot] = []
@@ -305,6 +315,23 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
         Actor = ray.remote(num_cpus=1, max_restarts=0)(NavbenchWorker)
         n_actors = max(1, min(int(ray.cluster_resources().get("CPU", 1)), len(tasks)))
         queue: deque[list[Key]] = deque(tasks)
+        records = RayQueue(actor_options={"num_cpus": 0})  # each finished record, as it ends, from any actor
+        finished: set[Key] = set()
+
+        def take(rec: dict[str, Any]) -> None:
+            key = (rec["scene_id"], rec["episode_id"])
+            if key not in finished:  # an episode a dead actor sent and its retry ran again counts once
+                finished.add(key)
+                finish(rec)
+
+        def drain() -> None:
+            while True:
+                try:
+                    rec = records.get_nowait()
+                except Empty:
+                    return
+                take(rec)
+
         attempts: dict[Key, int] = {}
         startup_deaths = 0
         pending: dict[Any, _Slot] = {}  # ObjectRef of a ready() or run() call -> its actor
@@ -324,13 +351,15 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
                 startup_deaths += 1
                 if startup_deaths > retries:
                     raise RunError(f"{cfg.episodes}: a Ray worker could not start ({reason})")
+            drain()  # records the actor sent before it died are kept
             rest: list[Key] = []
-            for key in slot.task or []:
+            for key in [k for k in slot.task or [] if k not in finished]:
                 attempts[key] = attempts.get(key, 0) + 1
                 if attempts[key] <= retries:
                     rest.append(key)
                     continue
                 ep = by_key[key]
+                finished.add(key)
                 finish(R.failed_record(R._base_record(ep, cfg), reason, R.start_distance(ep), None, 0,
                                        time.monotonic() - slot.task_started))
             if rest:
@@ -345,8 +374,11 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
             for s in slots:
                 if s.ready and s.task is None and queue:
                     s.task, s.task_started = queue.popleft(), time.monotonic()
-                    pending[s.handle.run.remote(s.task)] = s
-            done, _ = ray.wait(list(pending), num_returns=1)
+                    pending[s.handle.run.remote(s.task, records)] = s
+            done: list = []
+            while not done:
+                done, _ = ray.wait(list(pending), num_returns=1, timeout=_POLL_S)
+                drain()
             slot = pending.pop(done[0])
             if slot not in slots:  # a replaced actor's late answer
                 continue
@@ -364,9 +396,9 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
                                    f"the same version on every machine")
                 slot.ready = True
                 continue
-            records, error = value
-            for rec in records:
-                finish(rec)
+            sent, error = value
+            for rec in sent:  # normally all drained already; the queue's last puts may still be in transit
+                take(rec)
             slot.task = None
             if error is not None:
                 raise error

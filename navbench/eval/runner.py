@@ -134,6 +134,21 @@ def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int |
     return shard_of(episodes[:limit] if limit is not None else episodes, shard)
 
 
+_DATASET: dict[tuple, EpisodeDataset] = {}
+
+
+def run_dataset(path: str | Path) -> EpisodeDataset:
+    """The run's episode file, parsed once per process (the driver and an in-process worker share it);
+    read again when the file changed. Callers must not modify it."""
+    st = Path(path).stat()
+    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size)
+    if key not in _DATASET:
+        dataset = load_dataset(path)
+        _DATASET.clear()
+        _DATASET[key] = dataset
+    return _DATASET[key]
+
+
 def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) -> NavEnv:
     env_cls = ObjectNavEnv if cfg.task == "objectnav" else PointNavEnv
     env = env_cls(dataset, scene_dir=cfg.scene_dir, config=cfg.env_config(sensors))
@@ -416,7 +431,7 @@ def task_size(n: int, workers: int, envs_per_worker: int) -> int:
 def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) -> None:
     if single_thread:
         share_cores(1)
-    dataset = load_dataset(cfg.episodes)
+    dataset = run_dataset(cfg.episodes)
     agent = make_agent(cfg)
     sensors = tuple(getattr(agent, "sensors", ("rgb", "depth")))
     n_envs = agent.num_envs if isinstance(agent, BatchAgent) else 1
@@ -569,7 +584,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
     if not resume and not overwrite and (old or (out / "config.json").is_file()):
         raise RunError(f"{out} already holds a run ({len(old)} records): --resume to continue it, --overwrite to "
                        f"replace it, or another --out")
-    dataset = load_dataset(cfg.episodes)
+    dataset = run_dataset(cfg.episodes)
     if resume:
         _check_resume(out, cfg_json, bool(old))
         records = _repair(old, jsonl, dataset, cfg.episodes, notes)
@@ -605,17 +620,20 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
 
         size = task_size(len(todo), cfg.workers, cfg.envs_per_worker)
         tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
+        # No more env slots than a worker can fill (a one-episode run builds one env and one agent).
+        wcfg = dataclasses.replace(cfg, envs_per_worker=max(1, min(cfg.envs_per_worker, size)))
         if backend == "ray":
             from navbench.eval.ray_backend import run_ray
-            run_ray(cfg, make_agent, tasks, finish, address=address, retries=retries, step_timeout=step_timeout,
-                    n_slots=max(1, cfg.envs_per_worker))
+            run_ray(wcfg, make_agent, tasks, finish, address=address, retries=retries, step_timeout=step_timeout,
+                    n_slots=wcfg.envs_per_worker)
         # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
         elif (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
-            _worker_init(cfg, make_agent, single_thread=False)
+            wcfg.envs_per_worker = max(1, min(cfg.envs_per_worker, len(todo)))
+            _worker_init(wcfg, make_agent, single_thread=False)
             _run_keys(todo, finish, Clock(step_timeout))
         else:
             from navbench.eval.pool import run_pool
-            run_pool(cfg, make_agent, tasks, finish, workers=cfg.workers, n_slots=max(1, cfg.envs_per_worker),
+            run_pool(wcfg, make_agent, tasks, finish, workers=cfg.workers, n_slots=wcfg.envs_per_worker,
                      retries=retries, step_timeout=step_timeout)
         complete = True
     finally:

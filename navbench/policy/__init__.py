@@ -1,35 +1,23 @@
-"""The DD-PPO PointNav policy (habitat-baselines ``PointNavResNetPolicy`` layout) and its checkpoints."""
+"""The DD-PPO PointNav policy (habitat-baselines ``PointNavResNetPolicy`` layout) and its checkpoints.
 
-from navbench.policy.checkpoint import (
-    CheckpointData,
-    CheckpointError,
-    infer_net_config,
-    load_checkpoint,
-    read_checkpoint,
-    save_checkpoint,
-)
-from navbench.policy.net import (
-    POINTNAV_ACTIONS,
-    InferenceConfig,
-    PointNavAgentPolicy,
-    PointNavResNetPolicy,
-    PolicyNetConfig,
-    prepare_depth,
-)
-from navbench.policy.speed import measure_policy_speed
+The names below load on first use, so importing a submodule that needs no torch (the training
+configs the CLI's parser is built from) does not import torch.
+"""
 
-__all__ = [
-    "POINTNAV_ACTIONS",
-    "CheckpointData",
-    "CheckpointError",
-    "InferenceConfig",
-    "PointNavAgentPolicy",
-    "PointNavResNetPolicy",
-    "PolicyNetConfig",
-    "infer_net_config",
-    "load_checkpoint",
-    "measure_policy_speed",
-    "prepare_depth",
-    "read_checkpoint",
-    "save_checkpoint",
-]
+from importlib import import_module
+from typing import Any
+
+_HOME = {
+    "CheckpointData": "checkpoint", "CheckpointError": "checkpoint", "infer_net_config": "checkpoint",
+    "load_checkpoint": "checkpoint", "read_checkpoint": "checkpoint", "save_checkpoint": "checkpoint",
+    "POINTNAV_ACTIONS": "net", "InferenceConfig": "net", "PointNavAgentPolicy": "net",
+    "PointNavResNetPolicy": "net", "PolicyNetConfig": "net", "prepare_depth": "net",
+    "measure_policy_speed": "speed",
+}
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _HOME:
+        raise AttributeError(f"module 'navbench.policy' has no attribute {name!r}")
+    return getattr(import_module(f"navbench.policy.{_HOME[name]}"), name)

@@ -132,7 +132,12 @@ class PointNavNet(nn.Module):
     def __init__(self, cfg: PolicyNetConfig) -> None:
         super().__init__()
         # Index 0 is the "start" token used after a reset; action a is stored at a + 1.
-        self.prev_action_embedding = nn.Embedding(cfg.num_actions + 1, 32)
+        # Initialised by hand: Embedding's own init on the meta device (load_checkpoint builds there) goes
+        # through torch's Python reference ops, which import torch._dynamo (seconds at start-up).
+        weight = torch.empty(cfg.num_actions + 1, 32)
+        if weight.device.type != "meta":
+            nn.init.normal_(weight)
+        self.prev_action_embedding = nn.Embedding(cfg.num_actions + 1, 32, _weight=weight)
         self.tgt_embeding = nn.Linear(3, 32)  # sic: habitat's attribute name
         self.visual_encoder = ResNetEncoder(cfg)
         self.visual_fc = nn.Sequential(
