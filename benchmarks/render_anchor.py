@@ -17,7 +17,7 @@ machine, and less noisy than wall time on a shared one) and the ratios navbench 
     PYTHONPATH=$PWD python benchmarks/render_anchor.py                       # both scenes, both modes
     PYTHONPATH=$PWD python benchmarks/render_anchor.py --scenes dense --modes depth --rounds 5
     PYTHONPATH=$PWD python benchmarks/render_anchor.py --lp 0                # LP_NUM_THREADS=0 for both
-    git archive 37ef89d navbench | tar -x -C /tmp/nb-before                  # (mkdir it first) and
+    git archive REV navbench | tar -x -C /tmp/nb-before                      # (mkdir it first) and
     PYTHONPATH=$PWD python benchmarks/render_anchor.py --baseline /tmp/nb-before   # before vs after too
 
 ``--anchor DIR`` (or ``NAVBENCH_RENDER_ANCHOR``) names the anchor directory (default

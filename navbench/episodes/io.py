@@ -123,9 +123,11 @@ def _dict(v: Any, what: str) -> dict:
 
 
 def _vec(v: Any, n: int, what: str) -> list[float]:
-    # the common case first (tens of thousands of view points per file): a list of n finite floats
-    if type(v) is list and len(v) == n and all(type(x) is float for x in v) and all(map(math.isfinite, v)):
-        return list(v)
+    # the common case first (tens of thousands of view points per file): a list of n finite numbers
+    if type(v) is list and len(v) == n and all(type(x) is float or type(x) is int for x in v):
+        out = [float(x) for x in v]
+        if all(map(math.isfinite, out)):
+            return out
     if not isinstance(v, (list, tuple)) or any(isinstance(x, (str, bool)) for x in v):
         raise ValueError(f"{what} must be {n} finite numbers, got {v!r}"[:200])
     out = [float(x) for x in v]

@@ -294,8 +294,8 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
             finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
             step_timeout: float | None = None, n_slots: int = 1) -> None:
     """Run ``tasks`` on Ray actors, handing every record (run or failed) to ``finish`` as its episode ends;
-    the contract of :func:`navbench.eval.pool.run_pool`. ``n_slots`` is the batched agents' slot count,
-    which the actors take from ``cfg``."""
+    the contract of :func:`navbench.eval.pool.run_pool`. ``n_slots`` is the batched agents' slot count
+    (the actors take it from ``cfg``); their tasks are re-chunked for the cluster's CPUs."""
     ray = require_ray()
     if not tasks:
         return
@@ -313,7 +313,12 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
     try:
         shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for t in tasks for k in t])
         Actor = ray.remote(num_cpus=1, max_restarts=0)(NavbenchWorker)
-        n_actors = max(1, min(int(ray.cluster_resources().get("CPU", 1)), len(tasks)))
+        cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
+        if n_slots > 1:  # batched chunks sized for the cluster's actors, not for --workers
+            keys = [k for t in tasks for k in t]
+            size = R.task_size(len(keys), cpus, n_slots)
+            tasks = [keys[i:i + size] for i in range(0, len(keys), size)]
+        n_actors = min(cpus, len(tasks))
         queue: deque[list[Key]] = deque(tasks)
         records = RayQueue(actor_options={"num_cpus": 0})  # each finished record, as it ends, from any actor
         finished: set[Key] = set()
