@@ -12,7 +12,6 @@ give the same records (wall-clock fields aside). Run it on an otherwise idle mac
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import subprocess
@@ -21,16 +20,11 @@ import tempfile
 import time
 from pathlib import Path
 
+from navbench.eval.runner import comparable, read_records
+
 
 def records(out: Path) -> list[dict]:
-    """The run's records without wall-clock fields, sorted."""
-    rs = []
-    for line in (out / "episodes.jsonl").read_text().splitlines():
-        r = json.loads(line)
-        r.pop("elapsed_s", None)
-        r.get("log", {}).pop("query_ms", None)
-        rs.append(r)
-    return sorted(rs, key=lambda r: (r["scene_id"], r["episode_id"]))
+    return comparable(read_records(out / "episodes.jsonl"))
 
 
 def run(out: Path, limit: int | None, workers: int, envs: int | None) -> float:

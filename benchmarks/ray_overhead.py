@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import statistics
 import tempfile
 import time
@@ -24,18 +23,8 @@ from navbench.agents.plugins import resolve_agent
 from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
 from navbench.api import resolve_episodes
 from navbench.episodes.io import load_dataset
-from navbench.eval.runner import RunConfig, run, select_episodes
+from navbench.eval.runner import RunConfig, comparable, read_records, run, select_episodes
 from navbench.paths import SCENES_DIR
-
-
-def _records(path: Path) -> list[dict]:
-    out = []
-    for line in path.read_text().splitlines():
-        r = json.loads(line)
-        r.pop("elapsed_s")
-        r.get("log", {}).pop("query_ms", None)
-        out.append(r)
-    return sorted(out, key=lambda r: (r["scene_id"], r["episode_id"]))
 
 
 def main() -> None:
@@ -70,7 +59,8 @@ def main() -> None:
                       f"{t[args.small]:.1f} s for {args.small}: {per[backend][-1]:.3f} s per episode + "
                       f"{fixed[backend][-1]:.1f} s start-up ({args.workers} "
                       f"{'workers' if backend == 'local' else 'Ray CPUs'})", flush=True)
-            local, ray = (_records(Path(tmp) / f"{b}{i}_{args.episodes}" / "episodes.jsonl") for b in ("local", "ray"))
+            local, ray = (comparable(read_records(Path(tmp) / f"{b}{i}_{args.episodes}" / "episodes.jsonl"))
+                          for b in ("local", "ray"))
             print(f"round {i + 1} records equal: {local == ray}", flush=True)
     m = {b: statistics.median(v) for b, v in per.items()}
     f = {b: statistics.median(v) for b, v in fixed.items()}

@@ -453,6 +453,18 @@ def _run_keys(keys: list[tuple[str, str]], finish: Callable[[dict[str, Any]], No
 
 
 # -------------------------------------------------------------------------------------------- files
+def comparable(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Copies of ``records`` without their wall-clock fields (``elapsed_s``, ``log.query_ms``), sorted by
+    (scene, episode): what two runs of the same config must agree on however they were run."""
+    out = []
+    for r in records:
+        r = {k: v for k, v in r.items() if k != "elapsed_s"}
+        if isinstance(r.get("log"), dict):
+            r["log"] = {k: v for k, v in r["log"].items() if k != "query_ms"}
+        out.append(r)
+    return sorted(out, key=lambda r: (r["scene_id"], r["episode_id"]))
+
+
 def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> dict[str, Any]:
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the

@@ -6,7 +6,7 @@ import pytest
 from navbench.agents.lockstep import LockstepAgent
 from navbench.agents.registry import make_frontier, make_memory, prebuild_memories
 from navbench.episodes.io import load_dataset
-from navbench.eval.runner import RunConfig, read_records, run, select_episodes
+from navbench.eval.runner import RunConfig, comparable, read_records, run, select_episodes
 from navbench.paths import POLICIES_DIR, SCENES_DIR
 from navbench.policy.checkpoint import load_checkpoint
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy
@@ -105,17 +105,6 @@ def test_one_forward_pass_per_round_of_asks_and_per_slot_failures():
     assert agent.slot(2).steps == 2
 
 
-def _strip(records):
-    """Records without their wall-clock fields (elapsed_s, the localiser's query time)."""
-    out = []
-    for r in records:
-        r = {k: v for k, v in r.items() if k != "elapsed_s"}
-        if "log" in r:
-            r["log"] = {k: v for k, v in r["log"].items() if k != "query_ms"}
-        out.append(r)
-    return sorted(out, key=lambda r: r["episode_id"])
-
-
 @needs_checkpoint
 @pytest.mark.parametrize("agent,make", [("memory", make_memory), ("frontier", make_frontier)])
 def test_lockstep_records_equal_one_at_a_time(objectnav_file, tmp_path, agent, make):
@@ -128,6 +117,6 @@ def test_lockstep_records_equal_one_at_a_time(objectnav_file, tmp_path, agent, m
                         env={"max_steps": 80}, agent_options={"memory_root": str(tmp_path / "memory")})
         prebuild_memories(cfg, select_episodes(load_dataset(objectnav_file), None))
         run(cfg, make, tmp_path / f"n{n}")
-        records[n] = _strip(read_records(tmp_path / f"n{n}" / "episodes.jsonl"))
+        records[n] = comparable(read_records(tmp_path / f"n{n}" / "episodes.jsonl"))
     assert len(records[3]) == 6 and records[1] == records[3]
     assert all(r.get("log") and r.get("trace") for r in records[3])

@@ -20,20 +20,14 @@ from pathlib import Path
 import pytest
 
 from navbench.cli import main
+from navbench.eval.runner import comparable, read_records
 
 ROOT = Path(__file__).resolve().parents[2]
 SELECT = ["--split", "val_unseen", "--agent", "memory", "--per-scene", "5"]  # all four val_unseen houses
 
 
 def _records(path: Path) -> list[dict]:
-    """episodes.jsonl sorted by episode, without the wall-clock figures (elapsed_s, the memory query time)."""
-    out = []
-    for line in path.read_text().splitlines():
-        r = json.loads(line)
-        r.pop("elapsed_s")
-        r.get("log", {}).pop("query_ms", None)
-        out.append(r)
-    return sorted(out, key=lambda r: (r["scene_id"], r["episode_id"]))
+    return comparable(read_records(path))
 
 
 def _env() -> dict[str, str]:
@@ -224,7 +218,6 @@ def test_a_bad_episode_ends_a_ray_run_naming_the_users_file(tmp_path, pointnav_f
     third one ends the run with exit 2 naming the driver's episode file; the two in flight are kept."""
     pytest.importorskip("ray")
     from navbench.episodes.io import load_dataset, save_dataset
-    from navbench.eval.runner import read_records
 
     ds = load_dataset(pointnav_file)
     ds.episodes[2].start_position = [400.0, 0.0, 400.0]
