@@ -2,7 +2,7 @@
 shared cache, an actor killed mid-run costs nothing, an episode whose actor always dies is a failed
 record, and the flag errors are one line with exit 2.
 
-    pytest -m slow tests/eval/test_ray_backend.py    # the cluster tests (~2.5 min); the rest run by default
+    pytest tests/eval/test_ray_backend.py    # all of it, the two-node cluster included (~2.5 min)
 
 The cluster is two raylets on loopback (``ray.cluster_utils.Cluster``, as Ray's own tests start one),
 each with its own NAVBENCH_CACHE, as two machines would have: the actors get the files and the memories
@@ -76,7 +76,6 @@ def _ray_run(address: str, out: Path, *args: str) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-@pytest.mark.slow
 def test_ray_records_equal_the_local_backends(cluster, local_records, tmp_path):
     proc = _ray_run(cluster[0], tmp_path / "ray", "--limit", "20")
     stdout, stderr = proc.communicate(timeout=600)
@@ -98,7 +97,6 @@ def _actor_pids(cache: Path) -> list[int]:
     return pids
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").is_file(), reason="finds the actor's process in /proc")
 def test_killed_actor_loses_nothing_and_a_local_run_resumes_on_ray(cluster, local_records, tmp_path):
     out = tmp_path / "run"
