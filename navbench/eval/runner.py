@@ -325,11 +325,12 @@ def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig, clo
             trace.step(action, env)
             if terminated or truncated:
                 break
+        log = episode_log(agent)  # a remote agent's log is a request that can fail like a step
     except (EpisodeError, SceneError):
         raise
     except Exception as exc:
         return _fail(record, exc, d0, info, t0)
-    return _end(record, info, t0, episode_log(agent), trace)
+    return _end(record, info, t0, log, trace)
 
 
 def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[Episode], cfg: RunConfig,
@@ -398,6 +399,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
                     raise actions[i]
                 action = _action(env, actions[i])
                 obs[i], _, terminated, truncated, info = env.step(action)
+                log = episode_log(slot_agent(agent, i)) if terminated or truncated else {}
             except (EpisodeError, SceneError):
                 raise
             except Exception as exc:
@@ -408,7 +410,7 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
             record, t0, d0, _ = slots[i]
             slots[i] = (record, t0, d0, info)
             if terminated or truncated:
-                finish(_end(record, info, t0, episode_log(slot_agent(agent, i)), traces[i]))
+                finish(_end(record, info, t0, log, traces[i]))
                 start(i)
     if failed:
         raise failed[0]

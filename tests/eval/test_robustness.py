@@ -192,6 +192,33 @@ def test_batched_invalid_action_fails_only_its_slot(pointnav_file, tmp_path):
     assert all(r["success"] == 1.0 for i, r in recs.items() if i != bad)
 
 
+class _LogBreaks(OracleAgent):
+    """An oracle whose decision log cannot be fetched (a remote agent's server gone after the last step)."""
+
+    def episode_log(self):
+        raise ConnectionError("log broke")
+
+
+class _BatchLogBreaks(_BatchOfOracles):
+    def slot(self, i):
+        return _LogBreaks(self.agents[i].scene_dir, self.agents[i].success_distance) if i == 1 else self.agents[i]
+
+
+@pytest.mark.parametrize("envs", [1, 3])
+def test_an_episode_whose_log_fails_is_a_failed_record_not_a_lost_run(pointnav_file, tmp_path, envs):
+    """A failure after the last step (fetching the agent's episode log) fails that episode only."""
+    if envs == 1:
+        factory = lambda cfg: _LogBreaks(cfg.scene_dir, cfg.success_distance)  # noqa: E731
+    else:
+        factory = lambda cfg: _BatchLogBreaks(cfg, None)  # noqa: E731
+    run(_cfg(pointnav_file, envs_per_worker=envs), factory, tmp_path / "run")
+    recs = read_records(tmp_path / "run" / "episodes.jsonl")
+    failed = [r for r in recs if r.get("failed")]
+    assert len(recs) == 6 and len({r["episode_id"] for r in recs}) == 6
+    assert failed and all(r["failure_reason"] == "ConnectionError: log broke" for r in failed)
+    assert len(failed) == 6 if envs == 1 else 0 < len(failed) < 6  # batched: slot 1's episodes only
+
+
 # ---------------------------------------------------------------------------------------- shards
 def test_shards_are_disjoint_blocks_covering_every_episode_once():
     for n_eps in (0, 1, 5, 12, 13):
