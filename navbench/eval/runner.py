@@ -426,7 +426,7 @@ def task_size(n: int, workers: int, envs_per_worker: int) -> int:
     (the workers finish together rather than one running a last chunk alone)."""
     if envs_per_worker <= 1:
         return 1
-    per_worker = math.ceil(n / (workers * envs_per_worker * _CHUNK_PER_SLOT))
+    per_worker = max(1, math.ceil(n / (workers * envs_per_worker * _CHUNK_PER_SLOT)))  # chunks per worker
     return max(1, math.ceil(n / (workers * per_worker)))
 
 

@@ -323,6 +323,16 @@ def test_resume_repairs_a_truncated_line_and_a_duplicate(pointnav_file, tmp_path
     assert any("1 duplicated record(s) kept once" in n for n in notes)
 
 
+def test_resuming_a_finished_batched_run_runs_nothing_and_keeps_its_records(pointnav_file, tmp_path):
+    """Nothing left to run (no episodes, so no tasks to size) with several slots per worker is not an error."""
+    from navbench.agents.registry import make_pointnav
+    cfg = _cfg(pointnav_file, agent="pointnav", envs_per_worker=3, workers=2, env={"max_steps": 20})
+    run(cfg, make_pointnav, tmp_path / "run")
+    before = (tmp_path / "run" / "episodes.jsonl").read_text()
+    summary = run(cfg, make_pointnav, tmp_path / "run", resume=True)
+    assert summary["num_episodes"] == 6 and (tmp_path / "run" / "episodes.jsonl").read_text() == before
+
+
 def test_resume_refuses_a_record_of_an_episode_not_in_the_dataset(pointnav_file, tmp_path, capsys):
     out = tmp_path / "run"
     argv = ["run", "--episodes", str(pointnav_file), "--agent", "oracle", "--workers", "1", "-q", "--out", str(out)]
