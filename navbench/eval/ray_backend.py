@@ -175,9 +175,7 @@ def warm_scene(cfg: R.RunConfig) -> str:
     ``NavEnv.reset`` draws without one (gymnasium's seeded generator)."""
     from gymnasium.utils import seeding
 
-    from navbench.episodes.io import load_dataset
-
-    episodes = load_dataset(cfg.episodes).episodes
+    episodes = R.run_dataset(cfg.episodes).episodes
     rng, _ = seeding.np_random(cfg.seed)
     return episodes[int(rng.integers(len(episodes)))].scene_id
 
@@ -290,17 +288,15 @@ class _Slot:
         self.task_started = 0.0
 
 
-def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]],
+def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
             finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
-            step_timeout: float | None = None, n_slots: int = 1) -> None:
-    """Run ``tasks`` on Ray actors, handing every record (run or failed) to ``finish`` as its episode ends;
-    the contract of :func:`navbench.eval.pool.run_pool`. ``n_slots`` is the batched agents' slot count
-    (the actors take it from ``cfg``); their tasks are re-chunked for the cluster's CPUs."""
+            step_timeout: float | None = None) -> None:
+    """Run the episodes ``keys`` on Ray actors, handing every record (run or failed) to ``finish`` as its
+    episode ends; the contract of :func:`navbench.eval.pool.run_pool`, with tasks sized
+    (:func:`~navbench.eval.runner.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots."""
     ray = require_ray()
-    if not tasks:
+    if not keys:
         return
-    from navbench.episodes.io import load_dataset
-
     started = not ray.is_initialized()
     if started:
         connect(ray, address, cfg.workers)
@@ -308,16 +304,14 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, tasks: list[list[Key]]
     from ray.util.queue import Queue as RayQueue
 
     dying = _death_errors(ray)
-    by_key = {(e.scene_id, e.episode_id): e for e in load_dataset(cfg.episodes).episodes}
+    by_key = {(e.scene_id, e.episode_id): e for e in R.run_dataset(cfg.episodes).episodes}
     slots: list[_Slot] = []
     try:
-        shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for t in tasks for k in t])
+        shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for k in keys])
         Actor = ray.remote(num_cpus=1, max_restarts=0)(NavbenchWorker)
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        if n_slots > 1:  # batched chunks sized for the cluster's actors, not for --workers
-            keys = [k for t in tasks for k in t]
-            size = R.task_size(len(keys), cpus, n_slots)
-            tasks = [keys[i:i + size] for i in range(0, len(keys), size)]
+        size = R.task_size(len(keys), cpus, cfg.envs_per_worker)
+        tasks = [keys[i:i + size] for i in range(0, len(keys), size)]
         n_actors = min(cpus, len(tasks))
         queue: deque[list[Key]] = deque(tasks)
         records = RayQueue(actor_options={"num_cpus": 0})  # each finished record, as it ends, from any actor

@@ -633,22 +633,19 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
                 progress(rec, recorded[0], total)
 
         size = task_size(len(todo), cfg.workers, cfg.envs_per_worker)
-        tasks = [todo[i:i + size] for i in range(0, len(todo), size)]
         # No more env slots than a worker can fill (a one-episode run builds one env and one agent).
         wcfg = dataclasses.replace(cfg, envs_per_worker=max(1, min(cfg.envs_per_worker, size)))
         if backend == "ray":
             from navbench.eval.ray_backend import run_ray
-            run_ray(wcfg, make_agent, tasks, finish, address=address, retries=retries, step_timeout=step_timeout,
-                    n_slots=wcfg.envs_per_worker)
+            run_ray(wcfg, make_agent, todo, finish, address=address, retries=retries, step_timeout=step_timeout)
         # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
         elif (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
-            wcfg.envs_per_worker = max(1, min(cfg.envs_per_worker, len(todo)))
             _worker_init(wcfg, make_agent, single_thread=False)
             _run_keys(todo, finish, Clock(step_timeout))
         else:
             from navbench.eval.pool import run_pool
-            run_pool(wcfg, make_agent, tasks, finish, workers=cfg.workers, n_slots=wcfg.envs_per_worker,
-                     retries=retries, step_timeout=step_timeout)
+            run_pool(wcfg, make_agent, [todo[i:i + size] for i in range(0, len(todo), size)], finish,
+                     workers=cfg.workers, n_slots=wcfg.envs_per_worker, retries=retries, step_timeout=step_timeout)
         complete = True
     finally:
         fh.close()
