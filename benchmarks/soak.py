@@ -81,16 +81,13 @@ def worker(args: tuple) -> list[dict]:
     wid, episodes_file, indices, csv_dir, envs = args
     from navbench.agents.registry import AGENTS, agent_options
     from navbench.env.config import SUCCESS_DISTANCE
-    from navbench.eval.runner import RunConfig, make_env, run_episode, run_episodes_batched
-    from navbench.policy.workers import share_cores
+    from navbench.eval import runner
 
-    share_cores(1)  # as a `navbench run` worker
-    cfg = RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes_file),
-                    scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"], envs_per_worker=envs,
-                    agent_options=agent_options("memory"))
-    dataset = load_dataset(episodes_file)
-    agent = AGENTS["memory"](cfg)
-    envs_ = [make_env(cfg, dataset, tuple(getattr(agent, "sensors", ("rgb", "depth")))) for _ in range(envs)]
+    cfg = runner.RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes_file),
+                           scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"],
+                           envs_per_worker=envs, agent_options=agent_options("memory"))
+    runner._worker_init(cfg, AGENTS["memory"], single_thread=True)  # as a `navbench run` worker
+    episodes = runner._WORKER["dataset"].episodes
     rows: list[dict] = []
     t0 = time.perf_counter()
     path = Path(csv_dir) / f"worker{wid}.csv"
@@ -105,13 +102,8 @@ def worker(args: tuple) -> list[dict]:
             fh.flush()
             rows.append(row)
 
-        episodes = [dataset.episodes[i] for i in indices]
-        if envs > 1:
-            run_episodes_batched(envs_, agent, episodes, cfg, finish)
-        else:
-            for ep in episodes:
-                finish(run_episode(envs_[0], agent, ep, cfg))
-    for env in envs_:
+        runner._run_keys([(episodes[i].scene_id, episodes[i].episode_id) for i in indices], finish)
+    for env in runner._WORKER["envs"]:
         env.close()
     return rows
 
