@@ -208,7 +208,9 @@ def format_report(r: dict) -> str:
         "policy_frames_per_s_b8": "policy frames/s, batch 8",
         "peak_rss_mb": "peak RSS (MB)",
     }
-    for k, label in labels.items():
-        if k in r:
-            lines.append(f"{label:<44} {r[k]:>10.2f}")
-    return "\n".join(lines)
+    return "\n".join(lines + labelled_figures(r, labels, 44))
+
+
+def labelled_figures(r: dict, labels: dict[str, str], width: int) -> list[str]:
+    """One line per figure of ``r`` that ``labels`` names, in the labels' order: the label, then the value."""
+    return [f"{label:<{width}} {r[k]:>10.2f}" for k, label in labels.items() if k in r]

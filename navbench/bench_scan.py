@@ -493,6 +493,8 @@ def run_scan_bench(root: str | Path, seconds: float = 3.0, faces: int = 800_000,
 
 
 def format_scan_report(r: dict) -> str:
+    from navbench.bench import labelled_figures
+
     lines = [f"scan fixture: {r['scene']} ({r['scene_triangles']} triangles, texture {r['texture']}, "
              f"{r['objects']} objects, grid {r['grid_shape']})", f"cpu: {r['cpu']}",
              f"load average (1 min) at start / end: {r['load_avg_1min']} / {r['load_avg_1min_end']}"]
@@ -511,7 +513,4 @@ def format_scan_report(r: dict) -> str:
         "memory_build_cpu_s": "  the same, process CPU time (s)",
         "peak_rss_mb": "peak RSS (MB)",
     }
-    for k, label in labels.items():
-        if k in r:
-            lines.append(f"{label:<46} {r[k]:>10.2f}")
-    return "\n".join(lines)
+    return "\n".join(lines + labelled_figures(r, labels, 46))
