@@ -9,12 +9,11 @@ import pytest
 import navbench
 from navbench.agents.plugins import parse_option, plugin_label, resolve_agent
 from navbench.cli import main
-from navbench.eval.runner import read_records
+from navbench.eval.runner import comparable, read_records
 
 
 def _records(run_dir):
-    return sorted(({k: v for k, v in r.items() if k != "elapsed_s"} for r in read_records(run_dir / "episodes.jsonl")),
-                  key=lambda r: r["episode_id"])
+    return comparable(read_records(run_dir / "episodes.jsonl"))
 
 
 def _cli(*argv):

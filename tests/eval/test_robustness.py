@@ -21,7 +21,7 @@ from navbench.episodes.io import load_dataset
 from navbench.eval import rundir
 from navbench.eval.merge import merge
 from navbench.eval.progress import Progress
-from navbench.eval.runner import RunConfig, RunError, read_records, run, shard_of
+from navbench.eval.runner import RunConfig, RunError, comparable, read_records, run, shard_of
 from navbench.paths import SCENES_DIR
 
 
@@ -30,11 +30,6 @@ def _cfg(path, **kw):
                 success_distance=0.2)
     base.update(kw)
     return RunConfig(**base)
-
-
-def _strip(records):
-    return sorted(({k: v for k, v in r.items() if k != "elapsed_s"} for r in records),
-                  key=lambda r: (r["scene_id"], r["episode_id"]))
 
 
 def _ids(path):
@@ -240,8 +235,8 @@ def test_shards_merged_equal_the_unsharded_run(pointnav_file, tmp_path, capsys):
         run(_cfg(pointnav_file, shard=f"{i}/3"), _misbehaving, d)
         assert json.loads((d / "config.json").read_text())["shard"] == f"{i}/3"
     assert main(["merge", *map(str, dirs), "--out", str(tmp_path / "merged")]) == 0
-    assert _strip(read_records(tmp_path / "merged" / "episodes.jsonl")) == \
-        _strip(read_records(tmp_path / "full" / "episodes.jsonl"))
+    assert comparable(read_records(tmp_path / "merged" / "episodes.jsonl")) == \
+        comparable(read_records(tmp_path / "full" / "episodes.jsonl"))
     assert json.loads((tmp_path / "merged" / "summary.json").read_text()) == full
     assert json.loads((tmp_path / "merged" / "config.json").read_text()) == \
         json.loads((tmp_path / "full" / "config.json").read_text())

@@ -10,7 +10,7 @@ import pytest
 
 from navbench.cli import main, make_oracle
 from navbench.episodes.io import load_dataset, save_dataset
-from navbench.eval.runner import RunConfig, RunError, read_records, run
+from navbench.eval.runner import RunConfig, RunError, comparable, read_records, run
 from navbench.eval.table import render, runs_frame
 from navbench.paths import SCENES_DIR
 
@@ -20,11 +20,6 @@ def _cfg(path, task, **kw):
                 success_distance=0.2 if task == "pointnav" else 0.1)
     base.update(kw)
     return RunConfig(**base)
-
-
-def _strip(records):
-    return sorted(({k: v for k, v in r.items() if k != "elapsed_s"} for r in records),
-                  key=lambda r: r["episode_id"])
 
 
 def test_smoke_oracle_objectnav_end_to_end(objectnav_file, tmp_path):
@@ -42,7 +37,7 @@ def test_smoke_oracle_objectnav_end_to_end(objectnav_file, tmp_path):
 def test_same_seed_same_records_with_parallel_workers(pointnav_file, tmp_path):
     a = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3), _random, tmp_path / "a")
     b = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3, workers=2), _random, tmp_path / "b")
-    records = [_strip(read_records(tmp_path / d / "episodes.jsonl")) for d in ("a", "b")]
+    records = [comparable(read_records(tmp_path / d / "episodes.jsonl")) for d in ("a", "b")]
     assert records[0] == records[1]
     assert a == b
 
@@ -217,7 +212,7 @@ def test_batched_policy_records_equal_one_at_a_time(pointnav_file, tmp_path):
             out = tmp_path / f"b{n}_{sample}"
             run(_cfg(pointnav_file, "pointnav", agent="pointnav", envs_per_worker=n, env={"max_steps": 30},
                      agent_options={"sample_actions": True} if sample else {}), make_pointnav, out)
-            records[n, sample] = _strip(read_records(out / "episodes.jsonl"))
+            records[n, sample] = comparable(read_records(out / "episodes.jsonl"))
         assert len(records[3, sample]) == 6 and records[1, sample] == records[3, sample]
     assert json.loads((tmp_path / "b3_False" / "config.json").read_text())["envs_per_worker"] == 3
     assert records[1, True] != records[1, False]  # sampling reached the agent
