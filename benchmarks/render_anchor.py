@@ -50,7 +50,8 @@ def _navbench_worker(anchor: Path, scene: str, mode: str, reps: int) -> dict:
     import poses  # the anchor's
     from scipy.spatial.transform import Rotation
 
-    from navbench.render.renderer import CameraConfig, Renderer
+    from navbench.render.camera import CameraConfig
+    from navbench.render.renderer import Renderer
     from navbench.scene.asset import load_scene
 
     mats = poses.mats()

@@ -19,7 +19,7 @@ from navbench.env.config import MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import depth_metres
 from navbench.episodes.types import Episode
 from navbench.localize.geometry import project, world_to_camera
-from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
+from navbench.render.camera import CameraConfig, camera_pose, intrinsics
 from navbench.scene.pose import quat_from_yaw
 
 

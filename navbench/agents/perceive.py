@@ -28,7 +28,7 @@ from navbench.localize.geometry import GeometryConfig, backproject, keep_view
 from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality
 from navbench.localize.route import KeyframeRoutes
 from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
-from navbench.render.renderer import CameraConfig, camera_pose, intrinsics
+from navbench.render.camera import CameraConfig, camera_pose, intrinsics
 from navbench.scene.asset import load_scene
 from navbench.scene.pose import quat_from_yaw
 

@@ -19,7 +19,8 @@ from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import episode_metrics
 from navbench.paths import SCENES_DIR
-from navbench.render.renderer import CameraConfig, Renderer
+from navbench.render.camera import CameraConfig
+from navbench.render.renderer import Renderer
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, navgrid_for
 from navbench.scene.datasets import resolve_scene

@@ -4,7 +4,7 @@ Camera frame: looks along -z, +x right, +y up. Depth is the distance along the o
 Habitat depth sensor and our renderer return), so a pixel at continuous image coordinates (u, v) with
 depth d is the camera-frame point ((u - cx) d / fx, -(v - cy) d / fy, -d).
 
-Pixel convention (the renderer's :func:`navbench.render.renderer.intrinsics`, also
+Pixel convention (the renderer's :func:`navbench.render.camera.intrinsics`, also
 :mod:`navbench.memory.store`'s): pixel (column i, row j) has its centre at the integer coordinates
 (i, j), so the image spans [-0.5, W - 0.5] x [-0.5, H - 0.5] and a centred camera has
 cx = (W - 1) / 2, cy = (H - 1) / 2. :func:`project` returns continuous coordinates; ``rint`` gives
@@ -16,6 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from navbench.render.camera import unproject
 
 PIXEL_CENTRE = 0.0  # offset from a pixel index to its centre in continuous image coordinates (renderer: 0)
 
@@ -42,16 +44,12 @@ def _valid(depth: np.ndarray, mask: np.ndarray | None, min_depth: float, max_dep
 
 def backproject(depth: np.ndarray, mask: np.ndarray | None, K: np.ndarray, cam_to_world: np.ndarray,
                 min_depth: float = 0.1, max_depth: float = 20.0) -> np.ndarray:
-    """World points (N, 3) of the masked pixels with a depth in [min_depth, max_depth]; mask None = all."""
+    """World points (N, 3) of the masked pixels with a depth in [min_depth, max_depth]; mask None = all.
+    (:func:`navbench.render.camera.backproject_image` gives a world point per pixel of a whole image.)"""
     valid = _valid(depth, mask, min_depth, max_depth)
     rows, cols = np.nonzero(valid)
     z = np.asarray(depth, dtype=np.float64)[rows, cols]
-    K = np.asarray(K, dtype=np.float64)
-    x = (cols + PIXEL_CENTRE - K[0, 2]) * z / K[0, 0]
-    y = -(rows + PIXEL_CENTRE - K[1, 2]) * z / K[1, 1]
-    cam = np.stack([x, y, -z], axis=1)
-    T = np.asarray(cam_to_world, dtype=np.float64)
-    return cam @ T[:3, :3].T + T[:3, 3]
+    return unproject(cols + PIXEL_CENTRE, rows + PIXEL_CENTRE, z, K, cam_to_world)
 
 
 def project(points: np.ndarray, K: np.ndarray, world_to_cam: np.ndarray, width: int, height: int

@@ -38,7 +38,8 @@ from navbench.localize.describe import describe_with_room
 from navbench.localize.pipeline import Query
 from navbench.memory.prescan import PrescanConfig, plan_trajectory
 from navbench.paths import EPISODES_DIR, SCENES_DIR
-from navbench.render.renderer import CameraConfig, Renderer
+from navbench.render.camera import CameraConfig
+from navbench.render.renderer import Renderer
 from navbench.scene.asset import ObjectAnnotation, SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid

@@ -101,7 +101,7 @@ class PrescanConfig:
 
     @property
     def camera(self) -> "CameraConfig":  # noqa: F821 - see build_memory for the lazy import
-        from navbench.render.renderer import CameraConfig
+        from navbench.render.camera import CameraConfig
 
         return CameraConfig(self.width, self.height, self.hfov_deg)
 

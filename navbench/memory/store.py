@@ -10,7 +10,7 @@ Layout of a store directory::
 Poses are the *camera's* (not the agent's): position [x, y, z] and rotation [x, y, z, w] in Habitat's
 frame (y up, the camera looks along its local -z, +x right, +y up), plus the camera-to-world 4x4.
 
-Pixel convention (the renderer's, :func:`navbench.render.renderer.intrinsics`): pixel (u, v) has its
+Pixel convention (the renderer's, :func:`navbench.render.camera.intrinsics`): pixel (u, v) has its
 centre at the integer coordinates (u, v), so a W-pixel-wide image spans [-0.5, W - 0.5] and the
 principal point of a centred camera is ((W - 1) / 2, (H - 1) / 2). Resizing by (sx, sy) maps a
 continuous coordinate x to sx * (x + 0.5) - 0.5, so fx scales by sx and cx becomes
@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 
 from navbench.memory.keyframes import KeyframeSelector
-from navbench.render.renderer import camera_pose
+from navbench.render.camera import camera_pose
 
 STORE_VERSION = 1
 STORE_FILE = "keyframes.json"

@@ -40,7 +40,8 @@ from navbench.policy.checkpoint import save_checkpoint, save_train_state
 from navbench.policy.config import PretrainConfig
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.progress import log_row
-from navbench.render.renderer import CameraConfig, Renderer
+from navbench.render.camera import CameraConfig
+from navbench.render.renderer import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw

@@ -11,7 +11,7 @@ from navbench.agents.occupancy import FREE, OCCUPIED, OccupancyConfig, Occupancy
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import compass, gps
 from navbench.episodes.types import Episode
-from navbench.render.renderer import CameraConfig, intrinsics
+from navbench.render.camera import CameraConfig, intrinsics
 from navbench.scene.pose import heading_vector, quat_from_yaw
 
 ENV = EnvConfig(width=96, height=96)  # small images keep the tests fast; the geometry is the same

@@ -193,7 +193,7 @@ def test_goal_update_thresholds_far_and_near():
 
 def test_goal_out_of_view_is_only_replaced_by_a_nearer_point():
     from navbench.localize.geometry import project, world_to_camera
-    from navbench.render.renderer import camera_pose
+    from navbench.render.camera import camera_pose
     from navbench.scene.pose import quat_from_yaw
 
     # a floor-level patch 0.5-2.5 m ahead: its near edge (the initial goal) is below the field of view

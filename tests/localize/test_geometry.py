@@ -7,7 +7,7 @@ from scipy.spatial.transform import Rotation
 from navbench.localize import GeometryConfig, backproject, keep_view, median_masked_depth, project, world_to_camera
 from navbench.localize.geometry import voxel_downsample
 from navbench.memory import Intrinsics
-from navbench.render.renderer import camera_pose
+from navbench.render.camera import camera_pose
 
 INTR = Intrinsics.from_hfov(224, 224, 79.0)
 
@@ -98,7 +98,8 @@ def test_backprojected_render_of_a_tilted_wall_lands_on_the_wall_plane():
     """One pixel convention end to end: the renderer's depth + Intrinsics.from_hfov + backproject."""
     import trimesh
 
-    from navbench.render.renderer import CameraConfig, Renderer, intrinsics
+    from navbench.render.camera import CameraConfig, intrinsics
+    from navbench.render.renderer import Renderer
     from navbench.scene.asset import SceneAsset
 
     # A wall plane through (0, 1, -2.5), turned 30 deg about y, seen from the origin at height 1.

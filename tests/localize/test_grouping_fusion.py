@@ -15,7 +15,7 @@ from navbench.localize import (
     world_to_camera,
 )
 from navbench.memory import Intrinsics
-from navbench.render.renderer import camera_pose
+from navbench.render.camera import camera_pose
 
 INTR = Intrinsics.from_hfov(224, 224, 79.0)
 

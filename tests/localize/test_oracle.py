@@ -19,7 +19,8 @@ from navbench.localize.backends.oracle import (
 )
 from navbench.localize.describe import Description, describe_unique, describe_with_room, ground, parse
 from navbench.paths import SCENES_DIR
-from navbench.render.renderer import CameraConfig, Renderer
+from navbench.render.camera import CameraConfig
+from navbench.render.renderer import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.pose import quat_from_yaw, yaw_towards
 

@@ -15,7 +15,8 @@ from navbench.localize.backends.oracle import (
     centre_instance,
 )
 from navbench.localize.pipeline import Localizer, LocalizeError, LocalizerConfig, Perception, Query
-from navbench.render.renderer import CameraConfig, Renderer
+from navbench.render.camera import CameraConfig
+from navbench.render.renderer import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.pose import quat_from_yaw, yaw_towards
 

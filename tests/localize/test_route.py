@@ -8,7 +8,7 @@ import pytest
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.route import KeyframeRoutes
 from navbench.memory.store import Intrinsics
-from navbench.render.renderer import camera_pose
+from navbench.render.camera import camera_pose
 from navbench.scene.pose import quat_from_yaw
 
 EYE = 0.88

@@ -129,7 +129,7 @@ def test_direct_path_equals_pyrender_path_on_a_textured_scan(tmp_path, monkeypat
     or more): frames of the direct OSMesa path equal those of pyrender's own render(), which the
     renderer still uses on EGL, for every pass combination along an agent's walk."""
     from navbench.bench_scan import _walk, make_scan_fixture
-    from navbench.render import renderer as renderer_mod
+    from navbench.render.gl_direct import DirectDraw
     from navbench.scene.cache import load_scene_and_navgrid
 
     fx = make_scan_fixture(tmp_path, faces=30_000, texture_size=512, basis=False, episodes=1)
@@ -138,7 +138,7 @@ def test_direct_path_equals_pyrender_path_on_a_textured_scan(tmp_path, monkeypat
     assert asset.is_textured
     kw = dict(occlusion_culling=True, max_chunk_faces=4_000)
     with monkeypatch.context() as m:
-        m.setattr(renderer_mod._DirectDraw, "create", classmethod(lambda cls, *a: None))
+        m.setattr(DirectDraw, "create", classmethod(lambda cls, *a: None))
         reference = Renderer(asset, **kw)
     direct = Renderer(asset, **kw)
     assert reference._direct is None and direct._direct is not None and direct.num_chunks >= 8
@@ -162,7 +162,7 @@ def test_camera_rotation_equals_scipy_bit_for_bit():
     """camera_pose builds the rotation itself; the view matrix, so every pixel, depends on its last bits."""
     from scipy.spatial.transform import Rotation
 
-    from navbench.render.renderer import _quat_matrix
+    from navbench.render.camera import _quat_matrix
 
     rng = np.random.default_rng(0)
     qs = rng.normal(size=(20000, 4)) * rng.uniform(0.01, 100.0, size=(20000, 1))

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from navbench.render import CameraConfig, Renderer, RenderError, RenderOutput, backproject, intrinsics
-from navbench.render import renderer as renderer_mod
+from navbench.render import CameraConfig, Renderer, RenderError, RenderOutput, backproject_image, intrinsics
+from navbench.render import culling, gl_platform, pyrender_fixes
 from navbench.scene.asset import load_scene
 
 C = np.array([0.0, 1.0, 0.0])
@@ -147,7 +147,7 @@ def test_yaw_plus_90_looks_left(renderer, front):
 
 def test_backprojection_gives_world_points(renderer, front):
     cfg = renderer.camera
-    pts = backproject(front.depth, cfg, C, IDENTITY)
+    pts = backproject_image(front.depth, cfg, C, IDENTITY)
     np.testing.assert_allclose(pts[:100, :, 2], -WALL_DIST, atol=0.01)
     obj = pts[front.ids == 7]
     assert (obj >= OBJ7_MIN - 0.01).all() and (obj <= OBJ7_MAX + 0.01).all()
@@ -155,13 +155,13 @@ def test_backprojection_gives_world_points(renderer, front):
     # A turned and pitched camera checks the rotation convention end to end.
     rot = qmul(yaw(80.0), pitch(-20.0))
     out = renderer.render(C + [0.3, 0.0, 0.2], rot, rgb=False, depth=True, ids=True)
-    pts = backproject(out.depth, cfg, C + [0.3, 0.0, 0.2], rot)
+    pts = backproject_image(out.depth, cfg, C + [0.3, 0.0, 0.2], rot)
     left = pts[out.ids == LEFT_ID]
     assert len(left) > 100
     assert (left >= LEFT_MIN - 0.01).all() and (left <= LEFT_MAX + 0.01).all()
     floor = pts[(out.ids == -1) & (np.abs(pts[..., 1]) < 0.05)]
     assert len(floor) > 1000  # the floor in view backprojects onto y = 0
-    assert np.isnan(backproject(np.zeros((224, 224), np.float32), cfg, C, IDENTITY)).all()
+    assert np.isnan(backproject_image(np.zeros((224, 224), np.float32), cfg, C, IDENTITY)).all()
 
 
 def test_open_surfaces_render_from_both_sides(renderer):
@@ -216,13 +216,13 @@ def test_culling_never_removes_visible_geometry(room):
 
 def test_frustum_test_is_conservative():
     cfg = CameraConfig()
-    cam = renderer_mod.pyrender.PerspectiveCamera(yfov=cfg.yfov, znear=cfg.znear, zfar=cfg.zfar)
-    planes = renderer_mod.frustum_planes(cam.get_projection_matrix(224, 224))  # camera at origin, looking -z
+    cam = pyrender_fixes.pyrender.PerspectiveCamera(yfov=cfg.yfov, znear=cfg.znear, zfar=cfg.zfar)
+    planes = culling.frustum_planes(cam.get_projection_matrix(224, 224))  # camera at origin, looking -z
     lo = np.array(
         [[-0.1, -0.1, -2.1], [-0.1, -0.1, 1.0], [5.0, -0.1, -2.1], [-3.0, -3.0, -2.0], [-0.1, -0.1, -60.0]]
     )
     hi = lo + [[0.2, 0.2, 0.2], [0.2, 0.2, 0.2], [0.2, 0.2, 0.2], [6.0, 6.0, 0.1], [0.2, 0.2, 0.2]]
-    keep = renderer_mod.boxes_in_frustum(planes, lo, hi)
+    keep = culling.boxes_in_frustum(planes, lo, hi)
     # ahead: in; behind: out; far right at 2 m: out; a box enclosing the view axis: in; beyond zfar: out
     assert keep.tolist() == [True, False, False, True, False]
 
@@ -236,9 +236,9 @@ def test_shader_cache_stays_small(renderer):
         renderer.render(C, yaw(-10.0 * i), rgb=True, depth=True, ids=True)
         renderer.render(C, yaw(-10.0 * i), rgb=False, depth=True)
     assert renderer.num_shader_programs == n <= 4
-    patched = renderer_mod.pyrender.shader_program.ShaderProgramCache.get_program
-    renderer_mod._patch_shader_cache()  # idempotent
-    assert renderer_mod.pyrender.shader_program.ShaderProgramCache.get_program is patched
+    patched = pyrender_fixes.pyrender.shader_program.ShaderProgramCache.get_program
+    pyrender_fixes.patch_shader_cache()  # idempotent
+    assert pyrender_fixes.pyrender.shader_program.ShaderProgramCache.get_program is patched
 
 
 def test_intrinsics_convention():
@@ -252,7 +252,7 @@ def test_non_square_image_matches_intrinsics(room):
     with Renderer(room, cfg) as r:
         out = r.render(C, IDENTITY, ids=True)
     assert out.rgb.shape == (96, 160, 3)
-    pts = backproject(out.depth, cfg, C, IDENTITY)
+    pts = backproject_image(out.depth, cfg, C, IDENTITY)
     obj = pts[out.ids == 7]
     assert len(obj) > 20 and (obj >= OBJ7_MIN - 0.01).all() and (obj <= OBJ7_MAX + 0.01).all()
 
@@ -266,7 +266,7 @@ def test_bad_inputs_raise_value_errors(room, renderer):
         renderer.render(C, np.zeros(4))
     with pytest.raises(ValueError, match="position"):
         renderer.render(np.array([0.0, np.nan, 0.0]), IDENTITY)
-    other = "egl" if renderer_mod.bound_platform() == "osmesa" else "osmesa"
+    other = "egl" if gl_platform.bound_platform() == "osmesa" else "osmesa"
     with pytest.raises(ValueError, match="PYOPENGL_PLATFORM"):
         Renderer(room, platform=other)
     with pytest.raises(ValueError, match="platform"):
@@ -300,7 +300,7 @@ def test_import_sets_osmesa_and_creates_no_context():
         import OpenGL.platform
         assert os.environ["PYOPENGL_PLATFORM"] == "osmesa", os.environ["PYOPENGL_PLATFORM"]
         assert not OpenGL.platform.PLATFORM.GetCurrentContext()
-        assert navbench.render.renderer.bound_platform() == "osmesa"
+        assert navbench.render.gl_platform.bound_platform() == "osmesa"
         print("ok")
         """
     )
@@ -308,6 +308,34 @@ def test_import_sets_osmesa_and_creates_no_context():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+def test_exit_without_closing_the_env_is_quiet():
+    """A script that makes an env, resets it and exits without ``env.close()`` ends with nothing on
+    stderr: renderers still open are closed at exit while PyOpenGL can still import what it needs,
+    not during module teardown (where PyOpenGL's lazy imports fail and print their errors)."""
+    code = textwrap.dedent(
+        """
+        import os, sys
+        import gymnasium as gym
+        import navbench
+        from navbench.render.renderer import Renderer
+
+        close = Renderer.close
+
+        def checked_close(self):
+            if self._gl is not None and sys.meta_path is None:  # module teardown has begun
+                os.write(2, b"a renderer was closed during module teardown\\n")
+            close(self)
+
+        Renderer.close = checked_close
+        env = gym.make("navbench/ObjectNav-v0")
+        env.reset(seed=0)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr == ""
 
 
 @pytest.mark.skipif(ctypes.util.find_library("EGL") is None, reason="libEGL not installed")
