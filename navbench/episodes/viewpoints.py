@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from navbench.scene.asset import ObjectAnnotation, SceneAsset
+from navbench.scene.annotations import ObjectAnnotation
+from navbench.scene.asset import SceneAsset
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import quat_from_yaw
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from navbench.episodes.categories import SYNONYMS
-from navbench.scene.asset import ObjectAnnotation
+from navbench.scene.annotations import ObjectAnnotation
 from navbench.scene.categories import CATEGORIES, COLOURS, ROOM_TYPES
 
 NEAR_GAP = 0.75  # metres between AABBs (xz) for "next to"

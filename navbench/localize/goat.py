@@ -40,7 +40,8 @@ from navbench.memory.prescan import PrescanConfig, plan_trajectory
 from navbench.paths import EPISODES_DIR, SCENES_DIR
 from navbench.render.camera import CameraConfig
 from navbench.render.renderer import Renderer
-from navbench.scene.asset import ObjectAnnotation, SceneAsset
+from navbench.scene.annotations import ObjectAnnotation
+from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import quat_from_yaw, wrap_angle, yaw_from_quat, yaw_towards

@@ -60,7 +60,8 @@ from navbench.render.frame import MAX_INSTANCE_ID, RenderOutput, decode_ids
 from navbench.render.gl_direct import DirectDraw
 from navbench.render.gl_platform import PLATFORMS, bound_platform
 from navbench.render.pyrender_fixes import multisample_disabled
-from navbench.scene.asset import STRUCTURE_ID, SceneAsset
+from navbench.scene.annotations import STRUCTURE_ID
+from navbench.scene.asset import SceneAsset
 
 # Renderers not yet closed; _close_open_renderers closes them at interpreter exit.
 _OPEN: weakref.WeakSet[Renderer] = weakref.WeakSet()

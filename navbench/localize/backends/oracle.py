@@ -44,7 +44,7 @@ import numpy as np
 from navbench.localize.backends.base import BackendError
 from navbench.localize.describe import VOCABULARY, describe_unique, ground, parse
 from navbench.memory.index import l2_normalize
-from navbench.scene.asset import ObjectAnnotation
+from navbench.scene.annotations import ObjectAnnotation
 from navbench.scene.categories import COLOURS
 
 ORACLE_NAME = "oracle-v2"

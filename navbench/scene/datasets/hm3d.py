@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from navbench.scene.datasets import objects_from_faces, rooms_from_faces, transfer_face_labels
-from navbench.scene.datasets.categories import map_category
+from navbench.scene.annotations import objects_from_faces, rooms_from_faces, transfer_face_labels
+from navbench.scene.datasets.label_map import map_category
 from navbench.scene.errors import SceneError
+from navbench.scene.mesh_io import read_mesh
 
 HEADER = "HM3D Semantic Annotations"
 
@@ -66,8 +67,6 @@ def face_colours(mesh: trimesh.Trimesh, uv: np.ndarray | None, face_texture: np.
 
 def load(txt: Path, sem_mesh_path: Path, mesh: trimesh.Trimesh, frame: np.ndarray | None):
     """(face_ids, objects, rooms) for the render ``mesh`` from an HM3D semantic.txt/semantic.glb pair."""
-    from navbench.scene.asset import read_mesh
-
     records = read_semantic_txt(txt)
     if not sem_mesh_path.is_file():
         raise SceneError(f"{txt}: its semantic mesh is missing: {sem_mesh_path}")

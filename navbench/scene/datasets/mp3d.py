@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from navbench.scene.datasets import objects_from_faces, rooms_from_faces, transfer_face_labels
-from navbench.scene.datasets.categories import RAW_TO_CATEGORY, map_category, normalise
+from navbench.scene.annotations import objects_from_faces, rooms_from_faces, transfer_face_labels
+from navbench.scene.datasets.label_map import RAW_TO_CATEGORY, map_category, normalise
 from navbench.scene.errors import SceneError
 
 REGION_LABELS = {
