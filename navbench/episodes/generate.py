@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from navbench.episodes.categories import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, categories_table
+from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, categories_table
 from navbench.episodes.io import goals_key, save_dataset
 from navbench.episodes.types import AgentState, Episode, EpisodeDataset, NavigationGoal, ObjectGoal, ViewPoint
 from navbench.episodes.viewpoints import ViewPointConfig, ViewPointFinder

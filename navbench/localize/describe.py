@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from navbench.episodes.categories import SYNONYMS
+from navbench.episodes.split_vocabulary import SYNONYMS
 from navbench.scene.annotations import ObjectAnnotation
-from navbench.scene.categories import CATEGORIES, COLOURS, ROOM_TYPES
+from navbench.scene.procedural.furniture import CATEGORIES, COLOURS, ROOM_TYPES
 
 NEAR_GAP = 0.75  # metres between AABBs (xz) for "next to"
 VOCABULARY: tuple[str, ...] = tuple(CATEGORIES)  # every object category of the procedural scenes

@@ -45,7 +45,7 @@ from navbench.localize.backends.base import BackendError
 from navbench.localize.describe import VOCABULARY, describe_unique, ground, parse
 from navbench.memory.index import l2_normalize
 from navbench.scene.annotations import ObjectAnnotation
-from navbench.scene.categories import COLOURS
+from navbench.scene.procedural.furniture import COLOURS
 
 ORACLE_NAME = "oracle-v2"
 COLOUR_NAMES: tuple[str, ...] = tuple(COLOURS)

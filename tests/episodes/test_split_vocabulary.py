@@ -1,7 +1,7 @@
 """The ObjectNav category table: synonyms name their category and nothing else in the scenes."""
 
-from navbench.episodes.categories import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, canonical_category
-from navbench.scene.categories import CATEGORIES
+from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, canonical_category
+from navbench.scene.procedural.furniture import CATEGORIES
 
 
 def test_synonyms_resolve_to_their_category():
