@@ -1,4 +1,4 @@
-"""Write the scan-like HM3D fixture (navbench.bench_scan) and print its paths and build time.
+"""Write the scan-like HM3D fixture (navbench.bench.scan_fixture) and print its paths and build time.
 
     python benchmarks/scan_fixture.py --out /tmp/navbench-scan                  # ~800k triangles, 4096^2 atlas
     python benchmarks/scan_fixture.py --out /tmp/scan-small --faces 60000 --texture 1024 --no-basis
@@ -14,7 +14,7 @@ import argparse
 import json
 import time
 
-from navbench.bench_scan import make_scan_fixture
+from navbench.bench.scan_fixture import make_scan_fixture
 
 
 def main() -> None:

@@ -221,9 +221,9 @@ def cmd_localize(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from navbench.bench import BenchConfig, format_report, run_bench
+    from navbench.bench.speed import BenchConfig, format_report, run_bench
     if args.scan:
-        from navbench.bench_scan import format_scan_report, run_scan_bench
+        from navbench.bench.scan import format_scan_report, run_scan_bench
         result = run_scan_bench(args.scan, seconds=args.seconds)
         print(json.dumps(result) if args.json else format_scan_report(result))
         return 0

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from navbench.agents.registry import make_memory, make_oracle, prebuild_memories
-from navbench.bench_scan import _walk, make_scan_fixture
+from navbench.bench.scan import agent_walk
+from navbench.bench.scan_fixture import make_scan_fixture
 from navbench.env.config import EnvConfig
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
@@ -77,7 +78,7 @@ def test_memory_agent_runs_on_the_scan(scan, tmp_path):
 def test_occlusion_culling_changes_no_pixel_along_a_walk(scan):
     """Visibility sets skip chunks behind walls; every frame of a walk must equal the unculled one."""
     asset, grid = load_scene_and_navgrid(scan.scene_datasets / scan.scene_id)
-    poses = _walk(grid, 60, seed=3)
+    poses = agent_walk(grid, 60, seed=3)
     with Renderer(asset, occlusion_culling=True, max_chunk_faces=2_000) as culled, \
             Renderer(asset, occlusion_culling=False, max_chunk_faces=2_000) as full:
         assert culled.num_chunks >= 12

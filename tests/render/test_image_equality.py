@@ -128,7 +128,8 @@ def test_direct_path_equals_pyrender_path_on_a_textured_scan(tmp_path, monkeypat
     """A small textured scan (texture atlas, vertex-coloured parts, occlusion culling on, 8 chunks
     or more): frames of the direct OSMesa path equal those of pyrender's own render(), which the
     renderer still uses on EGL, for every pass combination along an agent's walk."""
-    from navbench.bench_scan import _walk, make_scan_fixture
+    from navbench.bench.scan import agent_walk
+    from navbench.bench.scan_fixture import make_scan_fixture
     from navbench.render.gl_direct import DirectDraw
     from navbench.scene.cache import load_scene_and_navgrid
 
@@ -143,7 +144,7 @@ def test_direct_path_equals_pyrender_path_on_a_textured_scan(tmp_path, monkeypat
     direct = Renderer(asset, **kw)
     assert reference._direct is None and direct._direct is not None and direct.num_chunks >= 8
     with reference, direct:
-        for p, q in _walk(grid, 40, seed=3)[::2]:
+        for p, q in agent_walk(grid, 40, seed=3)[::2]:
             for flags in ((True, True, True), (True, True, False), (False, True, False), (False, True, True),
                           (False, False, True)):
                 a, b = reference.render(p, q, *flags), direct.render(p, q, *flags)

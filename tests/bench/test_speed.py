@@ -1,6 +1,6 @@
 """``navbench bench`` names the CPU its figures were measured on."""
 
-from navbench.bench import cpu_description, format_report
+from navbench.bench.speed import cpu_description, format_report
 
 AVX2_EPYC = """processor\t: 0
 vendor_id\t: AuthenticAMD

@@ -1,4 +1,4 @@
-"""A scan-like HM3D fixture made from a bundled house, and the scan-scale speed figures measured on it.
+"""A scan-like HM3D fixture made from a bundled house, for the scan-scale speed figures and tests.
 
 :func:`make_scan_fixture` writes, under ``root``, what a user's HM3D v0.2 download and HM3D
 ObjectNav-v1 episodes look like::
@@ -13,7 +13,7 @@ ObjectNav-v1 episodes look like::
 The house is stacked into two storeys, subdivided to about ``faces`` triangles, every vertex moved
 by isotropic noise, walls holed above head height, one room's ceiling removed, thin poles added on
 the floor, and its colours moved into a texture atlas with per-texel detail a vertex colour cannot
-hold. ``benchmarks/scan_fixture.py`` and ``navbench bench --scan`` use it.
+hold. ``benchmarks/scan_fixture.py`` and ``navbench bench --scan`` (:mod:`navbench.bench.scan`) use it.
 """
 
 from __future__ import annotations
@@ -22,14 +22,13 @@ import gzip
 import io
 import json
 import math
-import struct
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from navbench.bench.glb_writer import write_glb
 from navbench.paths import SCENES_DIR
 
 SCENE_NAME = "nbScanHouse"
@@ -87,49 +86,6 @@ def _subdivide(v, f, target: int):
             break
         edge *= math.sqrt(len(nf) / target)
     return nv, nf, idx
-
-
-def _glb(path: Path, positions, faces, uv=None, image: bytes | None = None, mime: str = "image/jpeg",
-         colours=None, basisu: bool = False) -> None:
-    """A single-primitive GLB (uv in OpenGL convention, flipped to glTF's here)."""
-    arrays = [np.asarray(positions, np.float32), np.asarray(faces, np.uint32).reshape(-1)]
-    attrs = {"POSITION": 0}
-    acc = [{"bufferView": 0, "componentType": 5126, "count": len(positions), "type": "VEC3",
-            "min": arrays[0].min(0).tolist(), "max": arrays[0].max(0).tolist()},
-           {"bufferView": 1, "componentType": 5125, "count": int(arrays[1].size), "type": "SCALAR"}]
-    if uv is not None:
-        g = np.asarray(uv, np.float32).copy()
-        g[:, 1] = 1.0 - g[:, 1]
-        arrays.append(g)
-        attrs["TEXCOORD_0"] = len(acc)
-        acc.append({"bufferView": len(arrays) - 1, "componentType": 5126, "count": len(g), "type": "VEC2"})
-    if colours is not None:
-        arrays.append(np.asarray(colours, np.uint8)[:, :4])
-        attrs["COLOR_0"] = len(acc)
-        acc.append({"bufferView": len(arrays) - 1, "componentType": 5121, "normalized": True,
-                    "count": len(colours), "type": "VEC4"})
-    blobs = [a.tobytes() for a in arrays] + ([image] if image is not None else [])
-    views, blob = [], bytearray()
-    for b in blobs:
-        blob += b"\0" * (-len(blob) % 4)
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(b)})
-        blob += b
-    blob += b"\0" * (-len(blob) % 4)
-    prim = {"attributes": attrs, "indices": 1, "mode": 4}
-    gltf = {"asset": {"version": "2.0", "generator": "navbench scan fixture"}, "scene": 0,
-            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "scan"}], "meshes": [{"primitives": [prim]}],
-            "accessors": acc, "bufferViews": views, "buffers": [{"byteLength": len(blob)}]}
-    if image is not None:
-        prim["material"] = 0
-        gltf["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}}]
-        gltf["textures"] = [{"extensions": {"KHR_texture_basisu": {"source": 0}}} if basisu else {"source": 0}]
-        gltf["images"] = [{"bufferView": len(views) - 1, "mimeType": mime}]
-        if basisu:
-            gltf["extensionsUsed"] = gltf["extensionsRequired"] = ["KHR_texture_basisu"]
-    js = json.dumps(gltf, separators=(",", ":")).encode()
-    js += b" " * (-len(js) % 4)
-    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + bytes(blob)
-    path.write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
 
 
 def _atlas(v, f, face_colour, face_chart_key, size: int, rng):
@@ -284,7 +240,7 @@ def make_scan_fixture(root: str | Path, faces: int = 800_000, texture_size: int 
     jpeg = io.BytesIO()
     Image.fromarray(atlas).save(jpeg, format="JPEG", quality=92)
     glb = scene_dir / f"{SCENE_NAME}.glb"
-    _glb(glb, tex_v, tex_f, uv=tex_uv, image=jpeg.getvalue())
+    write_glb(glb, tex_v, tex_f, uv=tex_uv, image=jpeg.getvalue())
     basis_glb = None
     if basis:
         import alktx2
@@ -293,7 +249,7 @@ def make_scan_fixture(root: str | Path, faces: int = 800_000, texture_size: int 
         ktx2 = alktx2.encode_raw_rgba_to_ktx2(rgba.tobytes(), texture_size, texture_size, has_alpha=False,
                                               codec="etc1s", quality=90, effort=2)
         basis_glb = scene_dir / f"{SCENE_NAME}.basis.glb"
-        _glb(basis_glb, tex_v, tex_f, uv=tex_uv, image=ktx2, mime="image/ktx2", basisu=True)
+        write_glb(basis_glb, tex_v, tex_f, uv=tex_uv, image=ktx2, mime="image/ktx2", basisu=True)
 
     # semantic.glb: the same triangles, each object's vertices in its colour (split per object).
     skey = f.reshape(-1).astype(np.int64) * (int(sem.max()) + 1) + np.repeat(sem, 3)
@@ -301,7 +257,7 @@ def make_scan_fixture(root: str | Path, faces: int = 800_000, texture_size: int 
     sem_obj = np.repeat(sem, 3)[sfirst]
     rgb = np.array([colour_of[int(o)] for o in sem_obj], np.int64)
     scol = np.stack([(rgb >> 16) & 255, (rgb >> 8) & 255, rgb & 255, np.full_like(rgb, 255)], 1).astype(np.uint8)
-    _glb(scene_dir / f"{SCENE_NAME}.semantic.glb", v[f.reshape(-1)[sfirst]], sinv.reshape(-1, 3), colours=scol)
+    write_glb(scene_dir / f"{SCENE_NAME}.semantic.glb", v[f.reshape(-1)[sfirst]], sinv.reshape(-1, 3), colours=scol)
     lines = ["HM3D Semantic Annotations"]
     for oid in sorted(names):
         if oid in obj_region:
@@ -346,171 +302,3 @@ def _write_episodes(root: Path, mesh_path: Path, scene_datasets: Path, n: int, r
     path = split / f"{SPLIT}.json.gz"
     path.write_bytes(gzip.compress(json.dumps({"episodes": []}).encode(), mtime=0))
     return path
-
-
-# ------------------------------------------------------------------------------------------ bench
-def _walk(grid, n: int, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Camera poses of a random agent walk (0.25 m steps, 30 deg turns) at 0.88 m: how an episode moves."""
-    from navbench.scene.pose import heading_vector, quat_from_yaw
-
-    rng = np.random.default_rng(seed)
-    pos, yaw, out = grid.sample_navigable_point(rng), float(rng.uniform(0, 2 * np.pi)), []
-    while len(out) < n:
-        a = int(rng.integers(1, 4))
-        if a == 1:
-            pos, _ = grid.try_step(pos, pos + 0.25 * heading_vector(yaw))
-        else:
-            yaw += math.radians(30.0) * (1 if a == 2 else -1)
-        out.append((pos + np.array([0.0, 0.88, 0.0]), quat_from_yaw(yaw)))
-    return out
-
-
-def _plain_pyrender(glb: Path, poses, repeats: int) -> float:
-    """Frames/s of the plain pyrender path of ``shared/render-anchor`` (the scene merged into one node,
-    FLAT RGB-D, one OffscreenRenderer, shader-cache fix), on the same poses."""
-    import pyrender
-
-    import navbench.render.renderer  # noqa: F401  (binds OSMesa and applies the shader-cache fix)
-    from navbench.render.renderer import CameraConfig, camera_pose
-
-    loaded = trimesh.load(str(glb), force="scene", process=False)
-    merged = trimesh.util.concatenate([g for g in loaded.geometry.values()])
-    scene = pyrender.Scene(bg_color=[0, 0, 0, 0], ambient_light=[0.6, 0.6, 0.6])
-    scene.add(pyrender.Mesh.from_trimesh(merged, smooth=False))
-    cam = CameraConfig()
-    node = scene.add(pyrender.PerspectiveCamera(yfov=cam.yfov, znear=cam.znear, zfar=cam.zfar), pose=np.eye(4))
-    r = pyrender.OffscreenRenderer(cam.width, cam.height)
-    mats = [camera_pose(p, q) for p, q in poses]
-    for m in mats[:10]:
-        scene.set_pose(node, m)
-        r.render(scene, pyrender.RenderFlags.FLAT)
-    rates = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for m in mats:
-            scene.set_pose(node, m)
-            r.render(scene, pyrender.RenderFlags.FLAT)
-        rates.append(len(mats) / (time.perf_counter() - t0))
-    r.delete()
-    return float(np.median(rates))
-
-
-def _navbench_render(asset, poses, repeats: int) -> float:
-    from navbench.render.renderer import Renderer
-
-    rates = []
-    with Renderer(asset) as r:
-        for p, q in poses:  # first pass: warm-up, and the visibility sets of the cells the walk enters
-            r.render(p, q)
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            for p, q in poses:
-                r.render(p, q)
-            rates.append(len(poses) / (time.perf_counter() - t0))
-    return float(np.median(rates))
-
-
-def run_scan_bench(root: str | Path, seconds: float = 3.0, faces: int = 800_000,
-                   texture_size: int = 4096) -> dict:
-    """The scan-scale figures on the fixture under ``root`` (made there first if missing).
-
-    Keys: ``fixture_build_s`` (only when it was made), ``scene_load_grid_s`` (mesh, textures,
-    annotations and navigability grid, empty grid cache), ``scene_load_grid_cached_s`` (median of 3),
-    ``renderer_init_s``, ``rgbd_steps_per_s`` / ``rgbd_ids_steps_per_s`` (one process, env.step with
-    224x224 sensors), ``render_fps`` and ``plain_pyrender_fps`` (the same 300-pose walk, alternated, medians)
-    and their ratio ``render_vs_plain``, ``memory_build_s`` (pre-scan memory with the oracle encoder).
-    ``*_cpu_s`` give the process CPU time beside two wall times: on a shared machine it shows how
-    much of a slow wall time was waiting for a core. ``load_avg_1min`` is read at the start and end.
-    """
-    import dataclasses
-    import os
-    import resource
-    import tempfile
-
-    from navbench.bench import cpu_description, env_steps_per_s
-    from navbench.env.config import EnvConfig
-    from navbench.localize.backends.oracle import NoiseProfile
-    from navbench.localize.benchmark import PERCEPTION, ModelDirs
-    from navbench.memory.prescan import PrescanConfig, build_memory
-    from navbench.render.renderer import Renderer
-    from navbench.scene.asset import load_scene
-    from navbench.scene.cache import load_scene_and_navgrid
-
-    root = Path(root)
-    out: dict = {"cpu": cpu_description(), "load_avg_1min": round(os.getloadavg()[0], 2)}
-    scene_dir = root / "scene_datasets" / "hm3d" / SPLIT / SCENE_DIR_NAME
-    glb = scene_dir / f"{SCENE_NAME}.glb"
-    if not glb.is_file():
-        t0 = time.perf_counter()
-        make_scan_fixture(root, faces=faces, texture_size=texture_size)
-        out["fixture_build_s"] = time.perf_counter() - t0
-    scene = scene_dir / f"{SCENE_NAME}.basis.glb"
-    scene = scene if scene.is_file() else glb
-    old_cache = os.environ.get("NAVBENCH_CACHE")
-    with tempfile.TemporaryDirectory() as tmp:
-        os.environ["NAVBENCH_CACHE"] = tmp
-        try:
-            t0, c0 = time.perf_counter(), time.process_time()
-            asset, grid = load_scene_and_navgrid(scene)
-            out["scene_load_grid_s"] = time.perf_counter() - t0
-            out["scene_load_grid_cpu_s"] = time.process_time() - c0
-            cached = []
-            for _ in range(3):
-                t0 = time.perf_counter()
-                load_scene_and_navgrid(scene)
-                cached.append(time.perf_counter() - t0)
-            out["scene_load_grid_cached_s"] = float(np.median(cached))
-            out.update(scene=str(scene), scene_triangles=int(len(asset.mesh.faces)),
-                       texture=f"{asset.textures[0].shape[1]}x{asset.textures[0].shape[0]}" if asset.textures else "none",
-                       objects=len(asset.objects), grid_shape="x".join(map(str, grid.navigable.shape)))
-            t0 = time.perf_counter()
-            Renderer(asset).close()
-            out["renderer_init_s"] = time.perf_counter() - t0
-            rgbd = EnvConfig(rgb=True, depth=True)
-            out["rgbd_steps_per_s"] = env_steps_per_s(scene, rgbd, seconds)
-            out["rgbd_ids_steps_per_s"] = env_steps_per_s(scene, dataclasses.replace(rgbd, semantic=True), seconds)
-            poses = _walk(grid, 300)
-            ours, plain = [], []
-            for _ in range(3):  # alternate the two paths: the machine's load drifts
-                ours.append(_navbench_render(asset, poses, 1))
-                plain.append(_plain_pyrender(glb, poses, 1))
-            out["render_fps"], out["plain_pyrender_fps"] = float(np.median(ours)), float(np.median(plain))
-            out["render_vs_plain"] = out["render_fps"] / out["plain_pyrender_fps"]
-            encoder = PERCEPTION["oracle"](load_scene(scene), NoiseProfile(), ModelDirs()).encoder
-            t0, c0 = time.perf_counter(), time.process_time()
-            st = build_memory(scene, Path(tmp) / "memory", PrescanConfig(), encoder)
-            out["memory_build_s"] = time.perf_counter() - t0
-            out["memory_build_cpu_s"] = time.process_time() - c0  # llvmpipe's threads included
-            out["memory_keyframes"] = st.keyframes
-        finally:
-            if old_cache is None:
-                os.environ.pop("NAVBENCH_CACHE", None)
-            else:
-                os.environ["NAVBENCH_CACHE"] = old_cache
-    out["load_avg_1min_end"] = round(os.getloadavg()[0], 2)
-    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return {k: round(v, 3) if isinstance(v, float) else v for k, v in out.items()}
-
-
-def format_scan_report(r: dict) -> str:
-    from navbench.bench import labelled_figures
-
-    lines = [f"scan fixture: {r['scene']} ({r['scene_triangles']} triangles, texture {r['texture']}, "
-             f"{r['objects']} objects, grid {r['grid_shape']})", f"cpu: {r['cpu']}",
-             f"load average (1 min) at start / end: {r['load_avg_1min']} / {r['load_avg_1min_end']}"]
-    labels = {
-        "fixture_build_s": "fixture build (s)",
-        "scene_load_grid_s": "scene load + navigability grid, no cache (s)",
-        "scene_load_grid_cpu_s": "  the same, process CPU time (s)",
-        "scene_load_grid_cached_s": "scene load + navigability grid, cached (s)",
-        "renderer_init_s": "renderer construction (s)",
-        "rgbd_steps_per_s": "env steps/s, RGB-D 224x224",
-        "rgbd_ids_steps_per_s": "env steps/s, RGB-D + instance ids",
-        "render_fps": "RGB-D frames/s, navbench renderer (walk)",
-        "plain_pyrender_fps": "RGB-D frames/s, plain pyrender (same walk)",
-        "render_vs_plain": "navbench / plain pyrender (x)",
-        "memory_build_s": "memory build, oracle encoder (s)",
-        "memory_build_cpu_s": "  the same, process CPU time (s)",
-        "peak_rss_mb": "peak RSS (MB)",
-    }
-    return "\n".join(lines + labelled_figures(r, labels, 46))
