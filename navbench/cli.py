@@ -38,7 +38,7 @@ from navbench.paths import EPISODES_DIR, SCENES_DIR
 
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
-    from navbench.eval.progress import Progress
+    from navbench.eval.run_progress import Progress
     from navbench.eval.runner import RunConfig, parse_shard, run, run_dataset, select_episodes
     from navbench.eval.table import summary_markdown
 

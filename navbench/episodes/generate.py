@@ -26,7 +26,7 @@ from navbench.episodes.io import goals_key, save_dataset
 from navbench.episodes.types import AgentState, Episode, EpisodeDataset, NavigationGoal, ObjectGoal, ViewPoint
 from navbench.episodes.viewpoints import ViewPointConfig, ViewPointFinder
 from navbench.paths import EPISODES_DIR, SCENES_DIR
-from navbench.progress import progress
+from navbench.loop_progress import progress
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.pose import quat_from_yaw
 

@@ -35,7 +35,7 @@ from navbench.localize.goat import GOAT_DIR, load_goat_split, split_path
 from navbench.localize.pipeline import QUERY_TYPES, Localizer, LocalizerConfig, Perception
 from navbench.memory.prescan import PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
-from navbench.progress import progress
+from navbench.loop_progress import progress
 from navbench.scene.asset import SceneAsset, load_scene
 
 SUCCESS_RADIUS = 1.5  # metres, xz plane

@@ -38,7 +38,7 @@ from navbench.memory.index import EmbeddingIndex
 from navbench.memory.keyframes import select_keyframes
 from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig, read_versioned_json
 from navbench.paths import cache_dir
-from navbench.progress import progress
+from navbench.loop_progress import progress
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, scene_digest
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, GreedyFollower

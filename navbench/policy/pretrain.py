@@ -39,13 +39,13 @@ from navbench.paths import SCENES_DIR
 from navbench.policy.checkpoint import save_checkpoint, save_train_state
 from navbench.policy.config import PretrainConfig
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
-from navbench.policy.progress import log_row
+from navbench.policy.csv_log import log_row
 from navbench.render.camera import CameraConfig
 from navbench.render.renderer import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
-from navbench.progress import progress
+from navbench.loop_progress import progress
 
 
 # ------------------------------------------------------------------------------------------- targets

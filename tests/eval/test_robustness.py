@@ -20,7 +20,7 @@ from navbench.cli import main
 from navbench.episodes.io import load_dataset
 from navbench.eval import rundir
 from navbench.eval.merge import merge
-from navbench.eval.progress import Progress
+from navbench.eval.run_progress import Progress
 from navbench.eval.runner import RunConfig, RunError, comparable, read_records, run, shard_of
 from navbench.paths import SCENES_DIR
 

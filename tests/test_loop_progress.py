@@ -1,6 +1,6 @@
 """The shared progress helper: items pass through; off a terminal, one plain line per 10 %."""
 
-from navbench.progress import progress
+from navbench.loop_progress import progress
 
 
 def test_plain_lines_off_a_terminal(capsys, monkeypatch):

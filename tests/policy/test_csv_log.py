@@ -2,7 +2,7 @@
 
 import csv
 
-from navbench.policy.progress import log_row
+from navbench.policy.csv_log import log_row
 
 
 def test_rows_append_under_the_first_header_and_echo_as_key_value(tmp_path):
