@@ -148,7 +148,7 @@ def warn_failed(summary: dict[str, Any], out: Path) -> None:
         first = summary["failed_episodes"][0]
         warnings.warn(f"{summary['num_failed']} of {summary['num_episodes']} episode(s) failed (listed in "
                       f"{out}/summary.json); first, episode {first['episode_id']}: {first['failure_reason']}",
-                      RuntimeWarning, stacklevel=3)
+                      RuntimeWarning, stacklevel=4)  # the caller of navbench.evaluate
 
 
 class _Bound:
