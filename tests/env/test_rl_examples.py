@@ -1,4 +1,5 @@
-"""The RL-library examples train for a few hundred steps without a warning docs/rl.md does not explain."""
+"""The RL examples (SB3, TorchRL, CleanRL-style) train for a few hundred steps without a warning docs/rl.md
+does not explain."""
 
 import importlib.util
 import warnings
@@ -46,3 +47,13 @@ def test_torchrl_example_trains_and_reads_success_from_info():
         rates = ex.main(["--frames", "400", "--batch", "200", "--max-steps", "100"])
     assert _unexplained(caught) == []
     assert len(rates) == 2 and all(0 <= r <= 1 for r in rates)  # NaN (no episode ended) fails too
+
+
+@pytest.mark.slow
+def test_cleanrl_style_example_trains_on_a_vector_env():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rates = _example("train_cleanrl").main(["--total-timesteps", "512", "--num-envs", "2", "--num-steps", "128",
+                                                "--max-steps", "100"])
+    assert _unexplained(caught) == []
+    assert len(rates) == 2 and all(0 <= r <= 1 for r in rates)
