@@ -30,6 +30,7 @@ import json
 import math
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -447,7 +448,10 @@ def _worker_close() -> None:
     its session on the server)."""
     close = getattr(_WORKER.get("agent"), "close", None)
     if callable(close):
-        close()
+        try:
+            close()
+        except Exception as exc:  # the records are written; a failing close() is reported, not raised
+            warnings.warn(f"agent close() raised {failure_reason(exc)}", RuntimeWarning, stacklevel=2)
 
 
 def _run_keys(keys: list[tuple[str, str]], finish: Callable[[dict[str, Any]], None], clock: Clock | None = None,

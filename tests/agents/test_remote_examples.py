@@ -3,6 +3,7 @@
 ends its session with ``/close``."""
 
 import importlib.util
+import json
 import shutil
 import subprocess
 import sys
@@ -102,6 +103,37 @@ def test_check_agent_flags_a_server_that_breaks_the_protocol(capsys):
     assert "FAIL  unknown endpoint -> error: HTTP 404 without a JSON {\"error\": str} body" in out, out
     assert "FAIL  unknown session -> error: answered 200" in out, out
     assert "check(s) failed" in out.splitlines()[-1]
+
+
+def test_check_agent_warns_of_the_nagle_stall_of_a_server_without_tcp_nodelay():
+    ex = _example_module()
+
+    class Naive(ex.Handler):
+        """http.server's defaults: Nagle on, headers and body in two writes."""
+        sessions: dict = {}
+
+        def setup(self):
+            super(ex.Handler, self).setup()
+
+        def answer(self, status, payload):
+            body = json.dumps(payload).encode()
+            self.send_response(status)
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Naive)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        checks = check_server(f"http://127.0.0.1:{server.server_address[1]}", steps=20, log=lambda line: None)
+    finally:
+        server.shutdown()
+        server.server_close()
+    latency = next(c for c in checks if c.name.startswith("latency"))
+    assert not latency.ok and latency.warning and "TCP_NODELAY" in latency.detail, latency.line()
+    assert all(c.ok for c in checks if c is not latency)  # slow, yet it follows the protocol
 
 
 def test_check_agent_of_nothing_listening_is_one_line_and_exit_2(capsys):
