@@ -5,8 +5,9 @@ It renders one real observation of the task's env (the sensors ``/info`` lists, 
 shapes), then checks ``/info``; ``/reset`` and ``/act`` for two interleaved sessions; the answers'
 Content-Type, Content-Length and keep-alive; ``/log`` when ``/info`` offers it; that errors (an unknown
 endpoint, a malformed body, an unknown session) are non-200 answers carrying ``{"error": "one line"}``;
-that ``/close`` frees a session; and the time per ``/act`` round trip over ``steps`` steps, with a hint
-when it looks like Nagle's algorithm meeting delayed ACKs (~40 ms a step). Each check is one line.
+that ``/close`` frees a session; and the time per ``/act`` round trip over ``steps`` steps. Slow steps are
+told apart by timing ``GET /info``, which does no work: as slow, it is Nagle's algorithm meeting delayed
+ACKs (~40 ms a step); fast, it is the agent's own time. Each check is one line.
 """
 
 from __future__ import annotations
@@ -96,6 +97,18 @@ class _Client:
             self.conn = None
 
 
+SPLITS = {"pointnav": "val", "objectnav": "val_seen"}  # the bundled split whose first episode is sent
+
+
+def run_config(task: str) -> dict[str, Any]:
+    """The ``config`` of ``/reset`` as navbench's client sends it for the task's bundled split."""
+    from navbench.env.config import SUCCESS_DISTANCE
+    from navbench.paths import SCENES_DIR, split_file
+    success_distance = SUCCESS_DISTANCE["ovon" if task == "objectnav" else task]  # navbench's bundled splits
+    return {"task": task, "split": SPLITS[task], "episodes": str(split_file(task, SPLITS[task])),
+            "scene_dir": str(SCENES_DIR), "success_distance": success_distance, "seed": 0, "env": {}}
+
+
 def sample_observation(task: str, sensors: tuple[str, ...]) -> tuple[dict[str, np.ndarray], Any]:
     """One observation as the task's env gives it to an agent reading ``sensors`` (the first episode of the
     bundled validation split, rendered), and that episode."""
@@ -104,10 +117,10 @@ def sample_observation(task: str, sensors: tuple[str, ...]) -> tuple[dict[str, n
     cfg = EnvConfig(rgb="rgb" in sensors, depth="depth" in sensors, semantic="semantic" in sensors)
     if task == "objectnav":
         from navbench.env.objectnav import ObjectNavEnv
-        env: Any = ObjectNavEnv(split_file("objectnav", "val_seen"), config=cfg)
+        env: Any = ObjectNavEnv(split_file(task, SPLITS[task]), config=cfg)
     else:
         from navbench.env.pointnav import PointNavEnv
-        env = PointNavEnv(split_file("pointnav", "val"), config=cfg)
+        env = PointNavEnv(split_file(task, SPLITS[task]), config=cfg)
     try:
         episode = env.dataset.episodes[0]
         obs, _ = env.reset(seed=0, options={"episode": episode})
@@ -191,7 +204,7 @@ def check_server(url: str, task: str = "pointnav", steps: int = 200, timeout: fl
     sensors_t = tuple(sensors)
     obs, episode = sample_observation(task, sensors_t)
     shapes = ", ".join(f"{k} {np.dtype(v.dtype).str}{list(v.shape)}" for k, v in obs.items())
-    config = {"task": task, "split": "val" if task == "pointnav" else "val_seen", "seed": 0, "env": {}}
+    config = run_config(task)
     wire_episode = episode_to_wire(episode)
 
     # ---- two sessions, interleaved
@@ -243,9 +256,13 @@ def check_server(url: str, task: str = "pointnav", steps: int = 200, timeout: fl
         med, p95 = statistics.median(times), sorted(times)[int(0.95 * (len(times) - 1))]
         hint = ""
         if med > SLOW_STEP_MS:
-            hint = (f"median {med:.1f} ms per step (p95 {p95:.1f}) is slow"
-                    + ("; ~40 ms is Nagle's algorithm meeting delayed ACKs: set TCP_NODELAY on the server's "
-                       "sockets and write each answer's headers and body in one send" if 30 <= med <= 250 else ""))
+            # The stall also holds back /info, which does no work: then it is the connection, not the agent.
+            info_ms = [a.seconds * 1000 for a in (call("GET /info", "GET", "/info") for _ in range(5)) if a]
+            stalled = bool(info_ms) and statistics.median(info_ms) > SLOW_STEP_MS
+            hint = (f"median {med:.1f} ms per step (p95 {p95:.1f}) is slow; "
+                    + ("GET /info is as slow: ~40 ms is Nagle's algorithm meeting delayed ACKs: set TCP_NODELAY "
+                       "on the server's sockets and write each answer's headers and body in one send" if stalled
+                       else "GET /info is fast, so the time is the agent's own"))
         report(f"latency over {len(times)} steps", hint, warning=True,
                detail=f"median {med:.2f} ms, p95 {p95:.2f} ms per /act round trip (this client's encoding "
                       f"included; {client.connections} connection(s))")

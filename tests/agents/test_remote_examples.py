@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import threading
+import time
 from http.server import ThreadingHTTPServer
 from pathlib import Path
 
@@ -134,6 +135,30 @@ def test_check_agent_warns_of_the_nagle_stall_of_a_server_without_tcp_nodelay():
     latency = next(c for c in checks if c.name.startswith("latency"))
     assert not latency.ok and latency.warning and "TCP_NODELAY" in latency.detail, latency.line()
     assert all(c.ok for c in checks if c is not latency)  # slow, yet it follows the protocol
+
+
+def test_check_agent_tells_a_slow_agent_from_a_stalled_connection():
+    ex = _example_module()
+
+    class Thinking(ex.Handler):
+        """Fast connection (TCP_NODELAY), slow agent: 40 ms per /act."""
+        sessions: dict = {}
+
+        def do_POST(self):
+            if self.path == "/act":
+                time.sleep(0.04)
+            super().do_POST()
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Thinking)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        checks = check_server(f"http://127.0.0.1:{server.server_address[1]}", steps=10, log=lambda line: None)
+    finally:
+        server.shutdown()
+        server.server_close()
+    latency = next(c for c in checks if c.name.startswith("latency"))
+    assert latency.warning and "the time is the agent's own" in latency.detail, latency.line()
 
 
 def test_check_agent_of_nothing_listening_is_one_line_and_exit_2(capsys):
