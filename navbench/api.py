@@ -10,6 +10,7 @@ and returns the summary. See examples/evaluate_agent.py.
 from __future__ import annotations
 
 import inspect
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -56,7 +57,8 @@ class _Instance:
         self.agent = agent
 
     def __call__(self, cfg: Any) -> Any:
-        return self.agent
+        from navbench.agents.habitat_compat import adapt
+        return adapt(self.agent)
 
 
 def _spec_of(obj: Any) -> str:
@@ -86,8 +88,11 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     in ``__main__`` runs but cannot be rerun from config.json alone. Agents with ``act_batch`` step
     ``envs_per_worker`` episodes at once (default: the agent's ``num_envs``, else 1; 8 for the pointnav,
     memory and frontier agents). ``resume``, ``overwrite``, ``retries``, ``step_timeout`` and ``fail_fast`` are
-    ``navbench run``'s options of the same names.
+    ``navbench run``'s options of the same names. When episodes fail, a RuntimeWarning names the first
+    reason (with ``fail_fast`` the first failure raises). Agents written for Habitat's ``habitat.Agent``
+    (``reset()``, ``act`` returning an id, a name or ``{"action": ...}``) run unchanged.
     """
+    from navbench.agents.habitat_compat import check_agent
     from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
     from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
     from navbench.eval.runner import RunConfig, run, select_episodes
@@ -108,6 +113,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
         if options:
             raise ValueError("options apply to an agent class or factory, not to an agent instance")
         spec = _spec_of(type(agent))
+        check_agent(spec, agent)
         resolved = ResolvedAgent(spec, _Instance(agent), {}, plugin_label(spec, {}, seed), False)
         envs_per_worker = envs_per_worker or getattr(agent, "num_envs", None)
     else:
@@ -129,8 +135,20 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     if resolved.spec == "memory":
         from navbench.eval.runner import run_dataset
         prebuild_memories(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene))
-    return run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
-               retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
+    summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
+                  retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
+    warn_failed(summary, out)
+    return summary
+
+
+def warn_failed(summary: dict[str, Any], out: Path) -> None:
+    """A RuntimeWarning when episodes failed (their agent raised, returned an invalid action...), naming
+    the first reason: a summary of failures is otherwise easy to read as a weak agent's scores."""
+    if summary.get("num_failed"):
+        first = summary["failed_episodes"][0]
+        warnings.warn(f"{summary['num_failed']} of {summary['num_episodes']} episode(s) failed (listed in "
+                      f"{out}/summary.json); first, episode {first['episode_id']}: {first['failure_reason']}",
+                      RuntimeWarning, stacklevel=4)  # the caller of navbench.evaluate
 
 
 class _Bound:

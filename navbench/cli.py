@@ -6,6 +6,7 @@
     navbench run --agent package.module:Name|http://HOST:PORT|NAME [--agent-opt KEY=VALUE ...] ...
     navbench agents
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
+    navbench check-agent http://HOST:PORT [--task pointnav|objectnav] [--steps 200]
     navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
@@ -148,6 +149,19 @@ def cmd_serve_agent(args) -> int:
     finally:
         server.server_close()
     return 0
+
+
+def cmd_check_agent(args) -> int:
+    """Each check's line; exit 1 if any check failed (warnings do not), 2 if the server cannot be reached."""
+    from navbench.agents.check_remote import check_server
+    if args.steps < 1:
+        raise ValueError(f"--steps {args.steps}: expected at least 1")
+    checks = check_server(args.url, task=args.task, steps=args.steps, timeout=args.timeout)
+    failed = [c for c in checks if not c.ok and not c.warning]
+    warned = [c for c in checks if not c.ok and c.warning]
+    print(f"{args.url}: " + (f"{len(failed)} check(s) failed" if failed else "follows the protocol")
+          + (f", {len(warned)} warning(s)" if warned else ""))
+    return 1 if failed else 0
 
 
 def cmd_table(args) -> int:
@@ -409,6 +423,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="task of the agent built at start to answer /info (each client's run says its own)")
     sa.add_argument("--scene-dir", help="where this machine keeps the scenes, if not where the client does")
     sa.set_defaults(func=cmd_serve_agent)
+
+    ca = sub.add_parser("check-agent", help="exercise a remote agent server against the protocol "
+                                            "(docs/remote_agent.md); exit 1 if it breaks it")
+    ca.add_argument("url", help="http://HOST:PORT")
+    ca.add_argument("--task", default="pointnav", choices=("pointnav", "objectnav"),
+                    help="the env whose observations are sent")
+    ca.add_argument("--steps", type=int, default=200, help="/act round trips timed (default 200)")
+    ca.add_argument("--timeout", type=_positive, default=10.0, help="seconds per request (default 10)")
+    ca.set_defaults(func=cmd_check_agent)
 
     b = sub.add_parser("bench", help="simulator, geodesic and policy speed")
     b.add_argument("--json", action="store_true")

@@ -1,4 +1,6 @@
-"""The agent protocol (Habitat's): ``reset(episode)`` once per episode, then ``act(observations)`` per step.
+"""navbench's agent protocol: ``reset(episode)`` once per episode, then ``act(observations)`` -> action id
+per step. Agents written for Habitat's ``habitat.Agent`` (``reset()`` without the episode, ``act`` returning
+an id, an action name or ``{"action": ...}``) run unchanged through :mod:`navbench.agents.habitat_compat`.
 
 An agent may also expose ``sensors`` (which rendered observations it needs, so the evaluator can skip
 rendering the rest) and ``episode_log()`` (decisions to record in ``episodes.jsonl``).

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
 
+from navbench.agents import habitat_compat
+
 ENTRY_POINT_GROUP = "navbench.agents"
 _IMPORT_PATH = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 
@@ -82,7 +84,9 @@ def load_target(spec: str) -> Any:
 
 
 def check_options(spec: str, target: Any, options: dict[str, Any]) -> None:
-    """Refuse options ``target`` does not take, in one line naming the agent and what it takes."""
+    """Refuse options ``target`` does not take, in one line naming the agent and what it takes, and an
+    agent whose ``reset``/``act`` cannot be called (:func:`habitat_compat.check_agent`)."""
+    habitat_compat.check_agent(spec, target)
     try:
         sig = inspect.signature(target)
     except (TypeError, ValueError):  # builtins/extension types: let the call itself complain
@@ -98,14 +102,17 @@ def check_options(spec: str, target: Any, options: dict[str, Any]) -> None:
         raise ValueError(f"agent {spec!r} takes no option {', '.join(map(repr, unknown))} "
                          f"(it takes: {', '.join(takes) or 'none'})")
     missing = [p.name for p in params if p.default is p.empty and p.kind is not p.VAR_POSITIONAL
-               and p.name not in options]
+               and p.name not in options and p.name not in habitat_compat.RUN_ARGUMENTS]
     if missing:
         raise ValueError(f"agent {spec!r} needs option(s) {', '.join(missing)} (--agent-opt NAME=VALUE)")
 
 
 def build(target: Any, cfg: Any, options: dict[str, Any]) -> Any:
-    """An agent from a plug-in class (``Name(**options)``) or factory (``f(cfg, **options)``)."""
-    return target(**options) if inspect.isclass(target) else target(cfg, **options)
+    """An agent from a plug-in class (``Name(**options)``) or factory (``f(cfg, **options)``), speaking
+    navbench's protocol whether it was written for navbench's or Habitat's (:mod:`habitat_compat`)."""
+    options = {**habitat_compat.run_arguments(target, cfg, options), **options}
+    agent = target(**options) if inspect.isclass(target) else target(cfg, **options)
+    return habitat_compat.adapt(agent)
 
 
 @dataclass

@@ -120,6 +120,7 @@ class RemoteAgent:
         self._connect = lambda: conn_cls(parts.hostname, parts.port, timeout=self.timeout)
         self._conn: http.client.HTTPConnection | None = None
         self.session = uuid.uuid4().hex
+        self._session_open = False  # a /reset was answered: the server holds an agent for this session
         self.config = _config_to_wire(cfg)
         self.info = self._request("GET", "/info")
         if self.info.get("protocol") != PROTOCOL:
@@ -138,7 +139,7 @@ class RemoteAgent:
             resp = self._conn.getresponse()
             data = resp.read()
         except (OSError, http.client.HTTPException) as exc:
-            self.close()
+            self._disconnect()
             reason = "timed out" if isinstance(exc, (socket.timeout, TimeoutError)) else \
                 (exc.strerror or str(exc) or type(exc).__name__) if isinstance(exc, OSError) else \
                 (str(exc) or type(exc).__name__)
@@ -159,6 +160,7 @@ class RemoteAgent:
     def reset(self, episode: Episode) -> None:
         self._post_json("/reset", {"session": self.session, "episode": episode_to_wire(episode),
                                    "config": self.config})
+        self._session_open = True
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
         answer = self._request("POST", "/act", encode_arrays(observations, {"session": self.session}), ARRAYS_TYPE)
@@ -172,7 +174,19 @@ class RemoteAgent:
             return {}
         return self._post_json("/log", {"session": self.session}).get("log") or {}
 
+    # ---- the end of a session: the server frees its agent
     def close(self) -> None:
+        """End the session (``POST /close``, so the server frees this client's agent; a server that is gone
+        is not an error here) and close the connection. Called once the client's last episode is done."""
+        if self._session_open:
+            self._session_open = False
+            try:
+                self._post_json("/close", {"session": self.session})
+            except RemoteAgentError:
+                pass
+        self._disconnect()
+
+    def _disconnect(self) -> None:
         if self._conn is not None:
             self._conn.close()
             self._conn = None

@@ -77,6 +77,8 @@ def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
             conn.send(("done", None))
     except (BrokenPipeError, EOFError, KeyboardInterrupt):  # the driver is gone or stopping
         return
+    finally:
+        R._worker_close()
 
 
 class _Worker:

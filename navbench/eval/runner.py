@@ -30,6 +30,7 @@ import json
 import math
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -442,6 +443,17 @@ def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) 
                    by_key={(e.scene_id, e.episode_id): e for e in dataset.episodes})
 
 
+def _worker_close() -> None:
+    """This process's agent's ``close()``, if it has one, once its episodes are done (a remote agent ends
+    its session on the server)."""
+    close = getattr(_WORKER.get("agent"), "close", None)
+    if callable(close):
+        try:
+            close()
+        except Exception as exc:  # the records are written; a failing close() is reported, not raised
+            warnings.warn(f"agent close() raised {failure_reason(exc)}", RuntimeWarning, stacklevel=2)
+
+
 def _run_keys(keys: list[tuple[str, str]], finish: Callable[[dict[str, Any]], None], clock: Clock | None = None,
               tracker: Tracker = _NO_TRACKER) -> None:
     """Run episodes with this process's agent and envs, handing each record to ``finish`` as it ends."""
@@ -641,7 +653,10 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
         # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
         elif (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
             _worker_init(wcfg, make_agent, single_thread=False)
-            _run_keys(todo, finish, Clock(step_timeout))
+            try:
+                _run_keys(todo, finish, Clock(step_timeout))
+            finally:
+                _worker_close()
         else:
             from navbench.eval.pool import run_pool
             run_pool(wcfg, make_agent, [todo[i:i + size] for i in range(0, len(todo), size)], finish,

@@ -71,7 +71,7 @@ def test_plugin_factory_pickles_as_its_spec_and_builds_from_it(agent_dir):
     assert isinstance(factory, PluginFactory)
     clone = pickle.loads(pickle.dumps(factory))
     agent = clone(type("Cfg", (), {"task": "pointnav"})())
-    assert type(agent).__name__ == "WalkAgent" and agent.stop_after == 4
+    assert type(agent.agent).__name__ == "WalkAgent" and agent.stop_after == 4  # inside habitat_compat's adapter
 
 
 @pytest.mark.slow  # spawns two workers that import navbench and the plug-in
