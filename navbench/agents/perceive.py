@@ -3,7 +3,10 @@
 Both use the same backend stack (:data:`navbench.localize.benchmark.PERCEPTION`: ``oracle`` over the
 renderer's instance ids, or the real SigLIP2 + Qwen2.5-VL + SAM 3 models from local directories), so
 the two agents are compared with identical perception. The query is the episode's goal text exactly
-as the split names it (a synonym or an unseen category name), never a hidden category id.
+as the split names it (a synonym or an unseen category name), never a hidden category id. Oracle
+perception is told which instances that text names from the episode's own goals
+(:func:`~navbench.localize.backends.oracle.teach`), so an open-vocabulary name is grounded as the
+dataset grounds it; real models ignore this.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
 from navbench.env.sensors import depth_metres
 from navbench.episodes.types import Episode
-from navbench.localize.backends.oracle import noise_profile
+from navbench.localize.backends.oracle import noise_profile, teach
 from navbench.localize.benchmark import PERCEPTION, ModelDirs
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import GeometryConfig, backproject, keep_view
@@ -76,6 +79,11 @@ def _memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
     return _shared(("memory", scene_path, cfg), lambda: scene_memory(scene_path, cfg))
 
 
+def _teach_goals(stack: Perception, episode: Episode) -> None:
+    if episode.object_category:
+        teach(stack, episode.object_category, [g.position for g in episode.goals])
+
+
 class SceneLocalizer:
     """``episode -> goal candidates`` over the episode scene's cached keyframe memory."""
 
@@ -93,6 +101,7 @@ class SceneLocalizer:
                 self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
             self.routes = KeyframeRoutes(self.memory.store, self.memory.config.camera_height)
             self._path = path
+        _teach_goals(_stack(path, self.cfg), episode)
         t0 = time.perf_counter()
         candidates = self._localizer.localize(Query("object", text=episode.object_category))
         st = self.memory.stats
@@ -134,6 +143,7 @@ class LiveDetector:
         if path != self._path:
             self.segmenter = _stack(path, self.cfg).segmenter
             self._path = path
+        _teach_goals(_stack(path, self.cfg), episode)
         self.query = episode.object_category or ""
 
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray:
