@@ -54,6 +54,7 @@ from PIL import Image
 SCAN, SCAN_DIR = "abcDEFghiJK", "val/00800-abcDEFghiJK"
 HM3D_SCENE_ID = f"hm3d/{SCAN_DIR}/{SCAN}.basis.glb"
 HSSD_SCENE_ID = "hssd/scenes/room.scene_instance.json"
+HM3D_CONFIG = "./data/scene_datasets/hm3d/hm3d_annotated_basis.scene_dataset_config.json"
 # (semantic id, HEX, raw name, region, part of room()): HM3D names the same raw name's instances 0, 1, ...
 HM3D_ROWS = [(1, "1F77B4", "floor", 0, 0), (2, "FF7F0E", "wall", 0, 1), (3, "2CA02C", "armchair", 0, 2),
              (4, "D62728", "tv", 1, 3)]
@@ -102,7 +103,7 @@ def glb(path: Path, positions, faces, colours=None, uv=None, image: bytes | None
     in that extension only, as gltf2basis.py writes it; the image is bundled unaligned, as gltf2glb.py does."""
     pos = np.asarray(positions, np.float32)
     idx = np.asarray(faces, np.uint32).reshape(-1)
-    chunks, views, accessors, attrs = [], [], [], {}
+    views, accessors, attrs = [], [], {}
     blob = b""
 
     def add(data: bytes, align: bool = True) -> int:
@@ -181,7 +182,9 @@ def basis_file(rgb: np.ndarray) -> bytes | None:
     if scheme != 0:
         raise RuntimeError("alktx2 wrote a supercompressed KTX2; plain UASTC blocks expected")
     blocks = ktx2[offset:offset + length]
-    u24 = lambda v: v.to_bytes(3, "little")  # noqa: E731
+    def u24(v: int) -> bytes:
+        return v.to_bytes(3, "little")
+
     desc = u24(0) + bytes([0, 0]) + struct.pack("<HHHHII", w, h, -(-w // 4), -(-h // 4), 100, len(blocks))
     desc += struct.pack("<H", _crc16(blocks))
     data = desc + blocks
@@ -274,7 +277,7 @@ def write_ovon(path: Path) -> Path:
     for k, (cat, _, _) in enumerate(OVON_GOALS * 2):
         pos, rot = starts[k % 2]
         episodes.append({"episode_id": str(k), "scene_id": HM3D_SCENE_ID,
-                         "scene_dataset_config": "./data/scene_datasets/hm3d/hm3d_annotated_basis.scene_dataset_config.json",
+                         "scene_dataset_config": HM3D_CONFIG,
                          "additional_obj_config_paths": [], "start_position": pos, "start_rotation": rot,
                          "info": {"geodesic_distance": 3.0, "euclidean_distance": 2.5}, "goals": [],
                          "start_room": None, "shortest_paths": None, "object_category": cat,

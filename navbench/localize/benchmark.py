@@ -28,18 +28,24 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.localize.backends.base import BackendError
 from navbench.localize.backends.oracle import (
     NoiseProfile,
     OracleCaptioner,
-    teach,
     OracleDepthNoise,
     OracleEncoder,
     OracleReranker,
     OracleSegmenter,
     noise_profile,
+    teach,
 )
 from navbench.localize.goat import GOAT_DIR, load_goat_split, split_path
-from navbench.localize.pipeline import QUERY_TYPES, Localizer, LocalizerConfig, Perception
+from navbench.localize.pipeline import (
+    QUERY_TYPES,
+    Localizer,
+    LocalizerConfig,
+    Perception,
+)
 from navbench.memory.prescan import PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
 from navbench.progress import progress
@@ -115,7 +121,7 @@ def _teach_subtask(stack: Perception, sub, query) -> None:
             return
         try:
             text = stack.captioner.describe(query.image_ids)
-        except Exception:  # the localiser reports the same failure for this query
+        except BackendError:  # the localiser reports the same failure for this query
             return
     teach(stack, text, sub.gt_positions)
 

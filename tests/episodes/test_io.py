@@ -126,6 +126,9 @@ def test_missing_file(tmp_path):
         load_dataset(tmp_path / "nope.json.gz")
 
 
+HM3D_CONFIG = "./data/scene_datasets/hm3d/hm3d_annotated_basis.scene_dataset_config.json"
+
+
 def ovon_style() -> dict:
     """An HM3D-OVON file as naokiyokoyama/ovon's objectnav_generator.py writes one: goal object_ids are
     habitat-sim object names (HM3DSemanticScene.cpp: "{raw name}_{index in that name's rows}"), view
@@ -138,7 +141,7 @@ def ovon_style() -> dict:
         "episodes": [{"episode_id": "0", "scene_id": sid, "start_position": [0, 0.1, 0],
                       "start_rotation": [0, 0, 0, 1], "info": {"geodesic_distance": 4.0, "euclidean_distance": 3.0},
                       "goals": [], "start_room": None, "shortest_paths": None, "object_category": "couch",
-                      "scene_dataset_config": "./data/scene_datasets/hm3d/hm3d_annotated_basis.scene_dataset_config.json",
+                      "scene_dataset_config": HM3D_CONFIG,
                       "additional_obj_config_paths": [], "children_object_categories": []}],
         "goals_by_category": {"TEEsavR23oF.basis.glb_couch": [
             {"object_category": "couch", "object_id": "couch_0", "position": [3.0, 0.5, -1.0], "view_points": [vp]},

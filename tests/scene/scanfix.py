@@ -72,7 +72,9 @@ def ktx2_to_basis(ktx2: bytes, y_flipped: bool = False) -> bytes:
     offset, length = struct.unpack_from("<QQ", ktx2, 80)
     blocks = ktx2[offset:offset + length]
     header_size, slice_size = 77, 23
-    u24 = lambda v: v.to_bytes(3, "little")  # noqa: E731
+    def u24(v: int) -> bytes:
+        return v.to_bytes(3, "little")
+
     desc = (u24(0) + bytes([0, 0]) + struct.pack("<HHHHII", w, h, -(-w // 4), -(-h // 4),
                                                  header_size + slice_size, len(blocks))
             + struct.pack("<H", _crc16(blocks)))

@@ -209,8 +209,9 @@ def _compose(path: Path, parts, records, SceneAsset, ObjectAnnotation):
     objects = {}
     for k, category in records.items():
         pts = mesh.vertices[np.unique(mesh.faces[face_ids == k])]
-        objects[k] = ObjectAnnotation(k, category, "", "", (128, 128, 128),
-                                      tuple(float(v) for v in pts.min(axis=0)), tuple(float(v) for v in pts.max(axis=0)))
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        objects[k] = ObjectAnnotation(k, category, "", "", (128, 128, 128), tuple(float(v) for v in lo),
+                                      tuple(float(v) for v in hi))
     scene_id = path.name[: -len(SUFFIX)]
     stage = parts[0][0].vertices
     rooms = [RoomAnnotation("stage", tuple(float(v) for v in stage.min(axis=0)),
