@@ -127,3 +127,11 @@ def test_scene_instance_with_an_unknown_template_is_refused_naming_it(files, tmp
             load_scene(bad)
     finally:
         bad.unlink()
+
+
+def test_a_bare_scene_handle_resolves_to_its_scene_instance(files):
+    from navbench.scene.datasets import resolve_scene
+
+    assert resolve_scene("room", files["scene_datasets"]) == files["hssd_scene"]
+    with pytest.raises(SceneError, match=r"nosuch: scene file not found .*nosuch\.scene_instance\.json"):
+        resolve_scene("nosuch", files["scene_datasets"])
