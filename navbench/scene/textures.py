@@ -15,7 +15,7 @@ Both are transcoded to RGBA8 with the ``opengl-basisu`` package (Binomial's basi
 ``.basis`` file flagged Y-flipped (``cBASISHeaderFlagYFlipped``, basis_universal
 ``transcoder/basisu_file_headers.h``) has its rows back in glTF order after decoding: magnum's
 ``BasisImageConverter`` (``y_flip=true`` by default) stores the image bottom row first and sets the
-flag. A texture whose only source is an extension navbench cannot decode is refused, naming the file
+flag; for KTX2 it writes ``KTXorientation`` ``ru`` instead (KTX 2.0 spec, section 5.2), read the same way. A texture whose only source is an extension navbench cannot decode is refused, naming the file
 and the extension. In the GLB that trimesh parses, each decoded image is replaced by a
 1x1 PNG whose text chunk names the decoded image (:data:`DECODED`), which :func:`texture_image`
 swaps back in, so the large image is neither re-encoded nor copied through trimesh.
@@ -93,9 +93,27 @@ def decode_basis(blob: bytes, where: str, extension: str = BASISU) -> np.ndarray
         rgba = np.asarray(texture.transcode(opengl_basisu.Target.RGBA8).data, dtype=np.uint8)
     except (ValueError, IndexError) as exc:  # BasisuError is a ValueError
         raise SceneError(f"{where}: cannot decode {extension} texture ({type(exc).__name__}: {exc})") from None
-    if getattr(texture, "y_flipped", False):
+    if getattr(texture, "y_flipped", False) or _ktx2_orientation(blob)[1:2] == "u":
         rgba = rgba[::-1]
     return np.ascontiguousarray(rgba.reshape(texture.height, texture.width, 4))
+
+
+def _ktx2_orientation(blob: bytes) -> str:
+    """The ``KTXorientation`` value of a KTX2 file (``"rd"``: rows top down, ``"ru"``: bottom up), "" if
+    absent. KTX 2.0 spec: the key/value data's offset and length are the header's bytes 56-63; each entry
+    is a u32 length, ``key NUL value``, padded to 4 bytes."""
+    if blob[:12] != _KTX2_MAGIC or len(blob) < 80:
+        return ""
+    offset, length = struct.unpack_from("<II", blob, 56)
+    pos, end = offset, min(offset + length, len(blob))
+    while pos + 4 <= end:
+        (n,) = struct.unpack_from("<I", blob, pos)
+        entry = blob[pos + 4:pos + 4 + n]
+        key, _, value = entry.partition(b"\0")
+        if key == b"KTXorientation":
+            return value.rstrip(b"\0").decode("ascii", "replace")
+        pos += 4 + n + (-n % 4)
+    return ""
 
 
 def _image_bytes(header: dict, binary: bytes, img: dict, index: int, path: Path) -> bytes:

@@ -88,6 +88,30 @@ def ktx2_to_basis(ktx2: bytes, y_flipped: bool = False) -> bytes:
     return head + data
 
 
+def ktx2_with_orientation(ktx2: bytes, orientation: str) -> bytes:
+    """The KTX2 file with its key/value data replaced by ``KTXorientation`` = ``orientation`` (KTX 2.0 spec:
+    index at bytes 48-79, key/value data = u32 length + ``key NUL value NUL`` padded to 4, level index at
+    80 with absolute offsets; level data aligned to 16 bytes for UASTC)."""
+    dfd_off, dfd_len, kvd_off, kvd_len = struct.unpack_from("<IIII", ktx2, 48)
+    (levels,) = struct.unpack_from("<I", ktx2, 40)
+    entry = b"KTXorientation\0" + orientation.encode() + b"\0"
+    kvd = struct.pack("<I", len(entry)) + entry + b"\0" * (-len(entry) % 4)
+    head = bytearray(ktx2[:80 + 24 * levels])
+    body = bytearray(ktx2[dfd_off:dfd_off + dfd_len])
+    new_kvd_off = len(head) + len(body)
+    body += kvd
+    body += b"\0" * (-(len(head) + len(body)) % 16)
+    struct.pack_into("<II", head, 56, new_kvd_off, len(kvd))
+    struct.pack_into("<QQ", head, 64, 0, 0)
+    data = bytearray()
+    for i in range(levels):
+        off, length, raw = struct.unpack_from("<QQQ", ktx2, 80 + 24 * i)
+        new_off = len(head) + len(body) + len(data)
+        data += ktx2[off:off + length] + b"\0" * (-length % 16)
+        struct.pack_into("<QQQ", head, 80 + 24 * i, new_off, length, raw)
+    return bytes(head + body + data)
+
+
 def write_glb(path: Path, image_bytes: bytes, mime: str, basisu: bool = False, extension: str | None = None,
               declare: bool = True) -> Path:
     """A one-quad GLB whose material's baseColorTexture is the given image.

@@ -261,3 +261,11 @@ def test_cli_exits_2_naming_file_and_extension_for_an_undecodable_basis_scene(tm
                            str(tmp_path / "mem")], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2, proc.stderr
     assert "bad.basis.glb" in proc.stderr and "GOOGLE_texture_basis" in proc.stderr
+
+
+@pytest.mark.parametrize("orientation, stored", [("ru", "bottom row first"), ("rd", "top row first")])
+def test_ktx2_orientation_is_honoured(tmp_path, orientation, stored):
+    alktx2 = pytest.importorskip("alktx2")
+    img = F.checkerboard()[::-1] if orientation == "ru" else F.checkerboard()
+    ktx2 = F.ktx2_with_orientation(_uastc(alktx2, img), orientation)
+    _check_checker(F.write_glb(tmp_path / f"{orientation}.glb", ktx2, "image/ktx2", basisu=True), 224, tol=4)
