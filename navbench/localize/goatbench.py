@@ -14,7 +14,8 @@ goal list of its category (the ``{scene}_{category}`` key, else the list whose f
 category), extended by those of the first goal's ``children_object_categories``:
 
 * ``object``: every goal of the category is an answer; the query is the category name.
-* ``description``: the goal whose ``object_id`` is the task's; the query is its ``lang_desc``.
+* ``description``: the goal whose ``object_id`` is the task's; the query is its ``lang_desc`` (subtasks
+  whose description is longer than 55 words are dropped, as the reader drops them).
 * ``image``: that goal; the query image is rendered from ``image_goals[task[3]]`` as habitat-lab's
   ``InstanceImageGoalSensor`` renders it (habitat-lab ``habitat/tasks/nav/instance_image_nav_task.py``,
   ``InstanceImageParameters``): a pinhole camera at world ``position`` with rotation ``[x, y, z, w]``,
@@ -37,6 +38,7 @@ import numpy as np
 from navbench.localize.goat import GoatSplitError
 from navbench.localize.pipeline import Query
 
+MAX_DESCRIPTION_WORDS = 55  # goat_dataset.py's from_json keeps descriptions of at most 55 words
 TYPES = {"object": "object", "description": "language", "image": "image"}  # GOAT-Bench -> navbench query type
 
 
@@ -145,6 +147,8 @@ def _subtasks(doc: dict, out: list[GoatBenchSubtask], seen: set[tuple]) -> None:
                 query = str(chosen[0].get("lang_desc") or "") if kind == "description" else None
                 if kind == "description" and not query.strip():
                     raise ValueError(f"episode {ep.get('episode_id')}: goal {inst!r} has no lang_desc")
+                if kind == "description" and len(query.split(" ")) > MAX_DESCRIPTION_WORDS:
+                    continue  # the reader drops these subtasks
             image_goal = None
             if kind == "image":
                 if not isinstance(image_index, int) or isinstance(image_index, bool):

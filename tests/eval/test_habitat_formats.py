@@ -135,3 +135,27 @@ def test_a_bare_scene_handle_resolves_to_its_scene_instance(files):
     assert resolve_scene("room", files["scene_datasets"]) == files["hssd_scene"]
     with pytest.raises(SceneError, match=r"nosuch: scene file not found .*nosuch\.scene_instance\.json"):
         resolve_scene("nosuch", files["scene_datasets"])
+
+
+def test_goat_bench_descriptions_over_55_words_are_dropped_as_the_reader_drops_them(files, tmp_path):
+    import gzip
+
+    from navbench.localize.goatbench import load_goatbench
+
+    doc = json.loads(gzip.decompress(files["goat_bench"].read_bytes()))
+    base = Path(H.HM3D_SCENE_ID).name
+    doc["goals"][f"{base}_tv"][0]["lang_desc"] = " ".join(["word"] * 56)
+    path = tmp_path / "long.json"
+    path.write_text(json.dumps(doc))
+    assert [s.type for s in load_goatbench(path)] == ["object", "image", "object", "language"]
+
+
+def test_invisible_scene_instance_is_left_out(files):
+    doc = json.loads(files["hssd_scene"].read_text())
+    doc["object_instances"][1]["is_instance_visible"] = False
+    path = files["hssd_scene"].with_name("hidden.scene_instance.json")
+    path.write_text(json.dumps(doc))
+    try:
+        assert set(load_scene(path).objects) == {0}
+    finally:
+        path.unlink()

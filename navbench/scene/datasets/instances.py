@@ -21,11 +21,12 @@ habitat-sim's (``src/esp/metadata/managers/SceneInstanceAttributesManager.cpp``,
   instance whose origin is ``asset_local`` (its own, or the scene's when it gives none) is placed by its
   asset's own origin; otherwise (``COM``) ``translation`` is where its centre of mass goes: the config's
   ``COM``, else its bounding-box centre (``src/esp/physics/RigidObject.cpp``, ``finalizeObject``).
+* An instance with ``"is_instance_visible": false`` is left out.
 * ``motion_type`` does not move anything here: every instance is placed where the file puts it (a
   DYNAMIC object is where physics would start it).
 * Semantics, per instance: an object whose config has a ``semantic_id`` > 0 becomes instance
   ``k`` (its index in ``object_instances``), named by the dataset's semantic lexicon (a
-  ``*semantic_lexicon*.json`` ``{"classes": [{"name", "id"}]}`` under the root) or ``semantic_{id}``
+  ``*semantic_lexicon*.json`` ``{"classes": [{"name", "id"}]}`` in the root or a folder of it) or ``semantic_{id}``
   without one. The stage is structure (instance id -1). Articulated objects are not composed.
 * Rooms: a scene instance names none, so the stage's bounding box is one room (``stage``), which
   the memory pre-scan tours like any other.
@@ -108,7 +109,7 @@ def _rotation_wxyz(q, where: Path) -> np.ndarray:
 
 
 def _lexicon(root: Path) -> dict[int, str]:
-    for f in sorted(root.rglob("*semantic_lexicon*.json")):
+    for f in sorted(root.glob("*semantic_lexicon*.json")) + sorted(root.glob("*/*semantic_lexicon*.json")):
         data = _read(f, "semantic lexicon")
         try:
             return {int(c["id"]): str(c["name"]) for c in data.get("classes", [])}
@@ -160,6 +161,8 @@ def load(path: Path):
     for k, inst in enumerate(instances):
         if not isinstance(inst, dict) or not isinstance(inst.get("template_name"), str):
             raise SceneError(f"{path}: object instance {k} has no 'template_name'")
+        if inst.get("is_instance_visible") is False:
+            continue  # habitat-sim draws nothing for it
         cfg_path = _template(root, inst["template_name"], ".object_config.json", path)
         cfg = _read(cfg_path, "object config")
         mesh, uv, ft, tex = _load_part(cfg_path, cfg)
