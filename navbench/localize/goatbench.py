@@ -31,7 +31,6 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -74,15 +73,6 @@ class GoatBenchSubtask:
         with Renderer(asset, CameraConfig(width=g.width, height=g.height, hfov_deg=g.hfov_deg)) as r:
             out = r.render(np.asarray(g.position), np.asarray(g.rotation), rgb=True, depth=False, ids=True)
         return Query("image", image=out.rgb, image_ids=out.ids)
-
-
-def is_goatbench(data: Any) -> bool:
-    """Whether parsed JSON is a GOAT-Bench episode file (episodes with ``tasks``, or an empty split file
-    beside a ``content/`` folder is decided by its content files)."""
-    if not isinstance(data, dict) or not isinstance(data.get("episodes"), list):
-        return False
-    eps = data["episodes"]
-    return bool(eps) and isinstance(eps[0], dict) and "tasks" in eps[0]
 
 
 def load_goatbench(path: str | Path) -> list[GoatBenchSubtask]:
