@@ -28,12 +28,16 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
                      ) -> tuple[str, str | None, Path, float]:
     """(task, split, episode file, default success distance) of a bundled split or a user's file. The
     task defaults to the file's, or for a split to ObjectNav unless the split is PointNav's only; the
-    split to the task's validation split (val_unseen without a task)."""
+    split to the task's validation split (val_unseen without a task). A user's ObjectNav file in
+    HM3D-OVON's format (:func:`navbench.episodes.io.is_ovon`) defaults to OVON's success distance."""
     if episodes:
         episodes = Path(episodes)
-        if task is None:
-            from navbench.episodes.io import load_dataset
-            task = load_dataset(episodes).task
+        if task in (None, "objectnav"):
+            from navbench.episodes.io import is_ovon, load_dataset
+            dataset = load_dataset(episodes)
+            task = task or dataset.task
+            if task == "objectnav" and is_ovon(dataset):
+                return task, split, episodes, SUCCESS_DISTANCE["ovon"]
         return task, split, episodes, SUCCESS_DISTANCE[task]
     split = split or ("val" if task == "pointnav" else "val_unseen")
     if task is None:

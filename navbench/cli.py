@@ -225,7 +225,7 @@ def cmd_localize(args) -> int:
         on_query = QueryViews(Path(args.out) / "viz")
     s = run_localize(split=args.split, perception=args.perception, noise=args.noise, fusion=not args.no_fusion,
                      rerank=args.rerank != "none", k=args.k, out=args.out, limit=args.limit, models=models,
-                     on_query=on_query)
+                     on_query=on_query, episodes=args.episodes, scene_dir=args.scene_dir)
     rows = " | ".join(f"{t} {100 * v:.1f}" for t, v in s["sr_by_type"].items())
     print(f"SR@{s['k']} ({s['perception']}, noise={s['noise']}, fusion={s['fusion']}, rerank={s['rerank']}): "
           f"{100 * s['sr']:.1f} avg | {rows}")
@@ -395,6 +395,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     lo = sub.add_parser("localize", help="GOAT-style localisation benchmark (SR@K)")
     lo.add_argument("--split", default="goat_val")
+    lo.add_argument("--episodes", help="a GOAT-Bench episode file (.json or .json.gz) instead of --split")
+    lo.add_argument("--scene-dir", help="where --episodes' scene_ids resolve (a Habitat scene_datasets/ root)")
     lo.add_argument("--perception", default="oracle")
     lo.add_argument("--noise", default="none")
     lo.add_argument("--no-fusion", action="store_true")

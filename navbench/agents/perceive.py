@@ -3,7 +3,10 @@
 Both use the same backend stack (:data:`navbench.localize.benchmark.PERCEPTION`: ``oracle`` over the
 renderer's instance ids, or the real SigLIP2 + Qwen2.5-VL + SAM 3 models from local directories), so
 the two agents are compared with identical perception. The query is the episode's goal text exactly
-as the split names it (a synonym or an unseen category name), never a hidden category id.
+as the split names it (a synonym or an unseen category name), never a hidden category id. Outside the
+bundled houses (annotated in navbench's own vocabulary), oracle perception is told which instances
+that text names from the episode's own goals (:func:`~navbench.localize.backends.oracle.teach`), so an
+open-vocabulary name is grounded as the dataset grounds it; real models ignore this.
 """
 
 from __future__ import annotations
@@ -21,13 +24,15 @@ from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
 from navbench.env.sensors import depth_metres
 from navbench.episodes.types import Episode
-from navbench.localize.backends.oracle import noise_profile
+from navbench.localize.backends.oracle import noise_profile, teach
 from navbench.localize.benchmark import PERCEPTION, ModelDirs
+from navbench.localize.describe import parse
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import GeometryConfig, backproject, keep_view
 from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality
 from navbench.localize.route import KeyframeRoutes
 from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
+from navbench.paths import SCENES_DIR
 from navbench.render.camera import CameraConfig, camera_pose, intrinsics
 from navbench.scene.asset import load_scene
 from navbench.scene.pose import quat_from_yaw
@@ -76,6 +81,17 @@ def _memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
     return _shared(("memory", scene_path, cfg), lambda: scene_memory(scene_path, cfg))
 
 
+def _teach_goals(stack: Perception, episode: Episode, scene_path: Path) -> None:
+    """The episode's goals say which instances its goal name means, except in the bundled houses, which
+    are annotated in navbench's own vocabulary: there that vocabulary grounds every name it knows."""
+    name = episode.object_category
+    if not name:
+        return
+    bundled = SCENES_DIR.resolve() in Path(scene_path).resolve().parents
+    if not bundled or parse(name) is None:
+        teach(stack, name, [g.position for g in episode.goals])
+
+
 class SceneLocalizer:
     """``episode -> goal candidates`` over the episode scene's cached keyframe memory."""
 
@@ -93,6 +109,7 @@ class SceneLocalizer:
                 self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
             self.routes = KeyframeRoutes(self.memory.store, self.memory.config.camera_height)
             self._path = path
+        _teach_goals(_stack(path, self.cfg), episode, path)
         t0 = time.perf_counter()
         candidates = self._localizer.localize(Query("object", text=episode.object_category))
         st = self.memory.stats
@@ -134,6 +151,7 @@ class LiveDetector:
         if path != self._path:
             self.segmenter = _stack(path, self.cfg).segmenter
             self._path = path
+        _teach_goals(_stack(path, self.cfg), episode, path)
         self.query = episode.object_category or ""
 
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray:

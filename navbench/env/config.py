@@ -12,7 +12,8 @@ if TYPE_CHECKING:
 STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
 ACTION_NAMES = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
 
-# Success distances by task as Habitat's configs set them; OVON-style splits use 0.25 m.
+# Success distances by task as Habitat's configs set them; HM3D-OVON uses 0.25 m (naokiyokoyama/ovon
+# config/experiments/*.yaml, habitat.task.measurements.success.success_distance).
 SUCCESS_DISTANCE = {"pointnav": 0.2, "objectnav": 0.1, "ovon": 0.25}
 
 

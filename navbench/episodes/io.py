@@ -8,6 +8,12 @@ Layout, as Habitat has it:
   and ``category_to_scene_annotation_category_id``. Episode goals are filled from the table at load.
 - A split file whose ``episodes`` is empty may keep its episodes in ``content/{scene}.json(.gz)``
   beside it; those are loaded too.
+- HM3D-OVON (OVON-v1): ObjectNav-v1's layout, with goal ``object_id``s written as habitat-sim object
+  names (``"couch_0"``: ``{raw category}_{index among that category's rows}``, habitat-sim
+  ``src/esp/scene/HM3DSemanticScene.cpp``; written by naokiyokoyama/ovon
+  ``ovon/dataset/objectnav_generator.py``). As OVON's reader (``ovon/dataset/ovon_dataset.py``) does,
+  the number after the last ``_`` becomes the integer ``object_id``; the name is kept as
+  ``object_name`` and written back unchanged. :func:`is_ovon` tells such files apart.
 
 Quaternions are [x, y, z, w]; floats are written rounded to 5 decimals; episode ids are kept as given.
 """
@@ -192,17 +198,48 @@ def _object_goal(g: dict) -> ObjectGoal:
         vps.append(ViewPoint(AgentState(_vec(state["position"], 3, "view point position"),
                                         _vec(state.get("rotation", [0, 0, 0, 1]), 4, "view point rotation")),
                              _number(vp.get("iou", 0.0), "view point iou")))
+    extra = {k: v for k, v in g.items() if k not in _OBJECT_GOAL_KEYS}
+    raw_id = g.get("object_id", -1)
+    name = str(g.get("object_name", ""))
+    if isinstance(raw_id, str):
+        object_id = ovon_object_index(raw_id)
+        extra["object_id"] = raw_id  # written back as it was read
+        name = name or raw_id
+    else:
+        object_id = int(_number(raw_id, "object_id"))
     return ObjectGoal(
         position=_vec(g["position"], 3, "goal position"),
-        object_id=int(_number(g.get("object_id", -1), "object_id")),
+        object_id=object_id,
         object_category=str(g.get("object_category", "")),
         radius=_radius(g.get("radius")),
-        object_name=str(g.get("object_name", "")),
+        object_name=name,
         room_id=g.get("room_id"),
         room_name=g.get("room_name"),
         view_points=vps,
-        extra={k: v for k, v in g.items() if k not in _OBJECT_GOAL_KEYS},
+        extra=extra,
     )
+
+
+def ovon_object_index(object_id: str) -> int:
+    """The integer OVON's reader takes from a habitat-sim object name: the number after the last ``_``
+    (``"couch_0"`` -> 0; naokiyokoyama/ovon ``ovon/dataset/ovon_dataset.py``); ValueError otherwise."""
+    head, sep, tail = object_id.rpartition("_")
+    if not sep or not head or not tail.isdigit():
+        raise ValueError(f"object_id must be an integer or a habitat-sim object name 'name_N', got {object_id!r}"[:200])
+    return int(tail)
+
+
+def is_ovon(dataset: EpisodeDataset) -> bool:
+    """Whether a dataset is in HM3D-OVON's format, read from what OVON's generator writes and
+    ObjectNav-v1's never does: goal ``object_id``s as object names, or ``children_object_categories``
+    on goals (naokiyokoyama/ovon ``ovon/dataset/objectnav_generator.py``, ``_make_goal``) or episodes
+    (``ovon/dataset/ovon_dataset.py``, ``OVONEpisode``)."""
+    goals = [g for gs in dataset.goals_by_category.values() for g in gs]
+    goals += [g for ep in dataset.episodes for g in ep.goals]
+    if any(isinstance(g, ObjectGoal) and (isinstance(g.extra.get("object_id"), str)
+                                          or "children_object_categories" in g.extra) for g in goals):
+        return True
+    return any("children_object_categories" in ep.extra for ep in dataset.episodes)
 
 
 def _number(v: Any, what: str) -> float:

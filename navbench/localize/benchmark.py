@@ -9,6 +9,12 @@ scene from the scene's annotations (the oracle needs them), a :class:`NoiseProfi
 directories (:class:`ModelDirs`; real models are never downloaded).
 
     navbench localize --split goat_val --perception oracle --noise none [--no-fusion] --out DIR
+    navbench localize --episodes val_seen.json.gz --scene-dir data/scene_datasets   # a GOAT-Bench file
+
+A GOAT-Bench episode file (:mod:`navbench.localize.goatbench`) is scored the same way; there oracle
+perception is told each query's instances from the file's own goals
+(:func:`~navbench.localize.backends.oracle.teach`), since its categories and descriptions are open
+vocabulary.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.localize.backends.base import BackendError
 from navbench.localize.backends.oracle import (
     NoiseProfile,
     OracleCaptioner,
@@ -30,9 +37,15 @@ from navbench.localize.backends.oracle import (
     OracleReranker,
     OracleSegmenter,
     noise_profile,
+    teach,
 )
 from navbench.localize.goat import GOAT_DIR, load_goat_split, split_path
-from navbench.localize.pipeline import QUERY_TYPES, Localizer, LocalizerConfig, Perception
+from navbench.localize.pipeline import (
+    QUERY_TYPES,
+    Localizer,
+    LocalizerConfig,
+    Perception,
+)
 from navbench.memory.prescan import PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
 from navbench.loop_progress import progress
@@ -99,27 +112,53 @@ def sr_by_type(records: Sequence[dict]) -> tuple[float, dict[str, float]]:
     return (float(np.mean(list(by_type.values()))) if by_type else 0.0), by_type
 
 
+def _teach_subtask(stack: Perception, sub, query) -> None:
+    """Oracle backends learn which instances a GOAT-Bench query names, from the subtask's own goals (an
+    image query: the text the captioner will give for it)."""
+    text = query.text
+    if query.type == "image":
+        if not isinstance(stack.captioner, OracleCaptioner):
+            return
+        try:
+            text = stack.captioner.describe(query.image_ids)
+        except BackendError:  # the localiser reports the same failure for this query
+            return
+    teach(stack, text, sub.gt_positions)
+
+
 def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str = "none", fusion: bool = True,
                  rerank: bool = True, k: int = 5, out: str | Path | None = None, limit: int | None = None,
                  memory_root: str | Path | None = None, models: ModelDirs = ModelDirs(),
                  prescan: PrescanConfig = BENCHMARK_PRESCAN, split_root: str | Path | None = None,
                  scenes_dir: str | Path = SCENES_DIR, localizer_config: LocalizerConfig = LocalizerConfig(),
-                 on_query: Callable[..., None] | None = None) -> dict:
+                 on_query: Callable[..., None] | None = None, episodes: str | Path | None = None,
+                 scene_dir: str | Path | None = None) -> dict:
     """Localise every subtask of ``split`` (the first ``limit`` only, if given) and return the summary.
 
     Memories are built (or reused) per scene under ``memory_root`` (default the user cache). With
     ``out``, writes ``predictions.jsonl`` and ``summary.json`` there. ``fusion`` and ``rerank``
     override the fields of ``localizer_config``. ``on_query(localizer, query, candidates, record, scene_path)``
-    is called after each query (e.g. to draw it); it must not change anything.
+    is called after each query (e.g. to draw it); it must not change anything. With ``episodes`` (a
+    GOAT-Bench file), its subtasks are localised instead of ``split``'s, in scenes resolved under
+    ``scene_dir`` as Habitat resolves ``scene_id``s.
     """
     if perception not in PERCEPTION:
         raise ValueError(f"unknown perception {perception!r} (choose from {', '.join(PERCEPTION)})")
     profile = noise_profile(noise)
-    root = GOAT_DIR if split_root is None else Path(split_root)
-    split_dir = split_path(split, root).parent
-    subtasks = load_goat_split(split, root)[:limit]
     config = dataclasses.replace(localizer_config, rerank=rerank, fusion=fusion)
     scenes_dir = Path(scenes_dir)
+    goatbench = episodes is not None
+    if goatbench:
+        from navbench.localize.goatbench import load_goatbench
+        from navbench.scene.datasets import resolve_scene
+
+        subtasks = load_goatbench(episodes)[:limit]
+        split, split_dir = Path(episodes).name, None
+        scene_root = Path(scene_dir) if scene_dir is not None else scenes_dir
+    else:
+        root = GOAT_DIR if split_root is None else Path(split_root)
+        split_dir = split_path(split, root).parent
+        subtasks = load_goat_split(split, root)[:limit]
 
     records: list[dict] = []
     build_s: dict[str, float] = {}
@@ -128,7 +167,7 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
     latencies: list[float] = []
     cpu_times: list[float] = []  # process CPU time: less disturbed than wall time on a shared machine
     for scene_id in dict.fromkeys(s.scene_id for s in subtasks):  # first-seen order
-        scene_path = scenes_dir / scene_id
+        scene_path = resolve_scene(scene_id, scene_root) if goatbench else scenes_dir / scene_id
         asset = load_scene(scene_path)
         stack = PERCEPTION[perception](asset, profile, models)
         memory = load_or_build_memory(scene_path, memory_root, prescan, stack.encoder)
@@ -138,7 +177,9 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
         localizer = Localizer.from_perception(memory, stack, config)
         mine = [s for s in subtasks if s.scene_id == scene_id]
         for sub in progress(mine, len(mine), f"localize {Path(scene_id).name.split('.')[0]}"):
-            query = sub.to_query(split_dir)
+            query = sub.to_query(asset) if goatbench else sub.to_query(split_dir)
+            if goatbench:
+                _teach_subtask(stack, sub, query)
             start, cpu = time.perf_counter(), time.process_time()
             candidates = localizer.localize(query)
             latencies.append(time.perf_counter() - start)
@@ -146,7 +187,7 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
             centres = [c.centre.tolist() for c in candidates[:k]]
             records.append({
                 "id": sub.id, "scene_id": scene_id, "type": sub.type,
-                "query": sub.query if sub.type != "image" else sub.image,
+                "query": sub.query if sub.type != "image" else getattr(sub, "image", None),
                 "prompt": localizer.last_trace.prompt,
                 "top_k": [[round(v, 4) for v in c] for c in centres],
                 "gt_positions": sub.gt_positions.round(4).tolist(),

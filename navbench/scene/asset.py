@@ -79,6 +79,10 @@ def load_scene(path: str | Path) -> SceneAsset:
     path = Path(path)
     if not path.is_file():
         raise SceneError(f"{path}: scene file not found")
+    from navbench.scene.datasets import instances
+
+    if instances.is_scene_instance(path):  # a stage plus object instances (HSSD, ReplicaCAD)
+        return instances.load(path)
     stage = datasets.stage_attributes(path)
     mesh, face_ids, uv, face_texture, textures = read_mesh(path)
     frame = datasets.frame_rotation(stage)

@@ -1,9 +1,22 @@
 """Base-colour textures of scan meshes: checks, Basis Universal decoding, and the per-part texture table.
 
 glTF images are checked before trimesh parses the file, because trimesh drops an image it cannot
-decode without a word and the scene would then render grey. Basis Universal images
-(``KHR_texture_basisu``: KTX2 or ``.basis`` payloads, as in HM3D's ``*.basis.glb``) are transcoded
-to RGBA8 with the ``opengl-basisu`` package; in the GLB that trimesh parses, each is replaced by a
+decode without a word and the scene would then render grey or white. Basis Universal images are
+read in both forms Habitat meets:
+
+* ``GOOGLE_texture_basis``: ``.basis`` files with ``mimeType`` ``image/x-basis``, the texture's
+  ``source`` moved into the extension; this is what habitat-sim's ``tools/create_basis_compressed_glbs.py``
+  writes for the ``*.basis.glb`` releases (through magnum-plugins'
+  ``src/MagnumPlugins/GltfImporter/Test/gltf2basis.py`` and ``gltf2glb.py --bundle-images``, which
+  declare no ``extensionsUsed``);
+* ``KHR_texture_basisu``: the Khronos extension, KTX2 (or ``.basis``) payloads.
+
+Both are transcoded to RGBA8 with the ``opengl-basisu`` package (Binomial's basis_universal). A
+``.basis`` file flagged Y-flipped (``cBASISHeaderFlagYFlipped``, basis_universal
+``transcoder/basisu_file_headers.h``) has its rows back in glTF order after decoding: magnum's
+``BasisImageConverter`` (``y_flip=true`` by default) stores the image bottom row first and sets the
+flag; for KTX2 it writes ``KTXorientation`` ``ru`` instead (KTX 2.0 spec, section 5.2), read the same way. A texture whose only source is an extension navbench cannot decode is refused, naming the file
+and the extension. In the GLB that trimesh parses, each decoded image is replaced by a
 1x1 PNG whose text chunk names the decoded image (:data:`DECODED`), which :func:`texture_image`
 swaps back in, so the large image is neither re-encoded nor copied through trimesh.
 """
@@ -20,6 +33,8 @@ import numpy as np
 from navbench.scene.errors import SceneError
 
 BASISU = "KHR_texture_basisu"
+GOOGLE_BASIS = "GOOGLE_texture_basis"
+BASIS_EXTENSIONS = (BASISU, GOOGLE_BASIS)
 _BASIS_MIMES = ("image/ktx2", "image/x-basis", "image/basis")
 _KTX2_MAGIC = b"\xabKTX 20\xbb\r\n\x1a\n"
 _BASIS_MAGIC = b"sB"
@@ -65,21 +80,40 @@ def _view_bytes(header: dict, binary: bytes, index: int, path: Path) -> bytes:
         raise SceneError(f"{path}: image refers to a missing bufferView {index}") from None
 
 
-def decode_basis(blob: bytes, where: str) -> np.ndarray:
-    """(H, W, 4) uint8 RGBA of the top mip level of a KTX2/Basis Universal image, row 0 at the top."""
+def decode_basis(blob: bytes, where: str, extension: str = BASISU) -> np.ndarray:
+    """(H, W, 4) uint8 RGBA of the top mip level of a KTX2/Basis Universal image, row 0 at the top;
+    ``extension`` (the glTF extension that referenced it) is named in every error."""
     try:
         import opengl_basisu
     except ImportError:
-        raise SceneError(f"{where}: uses {BASISU} (Basis Universal) textures, which need the opengl-basisu "
+        raise SceneError(f"{where}: uses {extension} (Basis Universal) textures, which need the opengl-basisu "
                          f"package (pip install opengl-basisu)") from None
     try:
         texture = opengl_basisu.open(bytes(blob))
         rgba = np.asarray(texture.transcode(opengl_basisu.Target.RGBA8).data, dtype=np.uint8)
     except (ValueError, IndexError) as exc:  # BasisuError is a ValueError
-        raise SceneError(f"{where}: cannot decode {BASISU} texture ({type(exc).__name__}: {exc})") from None
-    if getattr(texture, "y_flipped", False):
+        raise SceneError(f"{where}: cannot decode {extension} texture ({type(exc).__name__}: {exc})") from None
+    if getattr(texture, "y_flipped", False) or _ktx2_orientation(blob)[1:2] == "u":
         rgba = rgba[::-1]
     return np.ascontiguousarray(rgba.reshape(texture.height, texture.width, 4))
+
+
+def _ktx2_orientation(blob: bytes) -> str:
+    """The ``KTXorientation`` value of a KTX2 file (``"rd"``: rows top down, ``"ru"``: bottom up), "" if
+    absent. KTX 2.0 spec: the key/value data's offset and length are the header's bytes 56-63; each entry
+    is a u32 length, ``key NUL value``, padded to 4 bytes."""
+    if blob[:12] != _KTX2_MAGIC or len(blob) < 80:
+        return ""
+    offset, length = struct.unpack_from("<II", blob, 56)
+    pos, end = offset, min(offset + length, len(blob))
+    while pos + 4 <= end:
+        (n,) = struct.unpack_from("<I", blob, pos)
+        entry = blob[pos + 4:pos + 4 + n]
+        key, _, value = entry.partition(b"\0")
+        if key == b"KTXorientation":
+            return value.rstrip(b"\0").decode("ascii", "replace")
+        pos += 4 + n + (-n % 4)
+    return ""
 
 
 def _image_bytes(header: dict, binary: bytes, img: dict, index: int, path: Path) -> bytes:
@@ -106,6 +140,30 @@ def _is_basis(img: dict, blob: bytes) -> bool:
     return img.get("mimeType", "") in _BASIS_MIMES or blob[:12] == _KTX2_MAGIC or blob[:2] == _BASIS_MAGIC
 
 
+def _texture_source(tex: dict, t: int, path: Path) -> tuple[object, str | None]:
+    """(image index or None, the Basis extension it came through or None) of glTF texture ``t``.
+
+    A texture's image is its Basis extension's ``source`` (either extension), else its own ``source``
+    (the glTF 2.0 fallback). A texture with neither but another extension carrying a ``source``
+    (``EXT_texture_webp``, ``MSFT_texture_dds``, ...) is refused: trimesh would drop it and the
+    surface would render white.
+    """
+    extensions = tex.get("extensions") or {}
+    if not isinstance(extensions, dict):
+        raise SceneError(f"{path}: texture {t} has a malformed 'extensions' entry")
+    for name in BASIS_EXTENSIONS:
+        ext = extensions.get(name)
+        if isinstance(ext, dict) and "source" in ext:
+            return ext["source"], name
+    if "source" in tex:
+        return tex["source"], None
+    others = sorted(k for k, v in extensions.items() if isinstance(v, dict) and "source" in v)
+    if others:
+        raise SceneError(f"{path}: texture {t} uses the {others[0]} extension, which navbench cannot decode "
+                         f"(readable: PNG/JPEG images, {' and '.join(BASIS_EXTENSIONS)})")
+    return None, None
+
+
 def prepare_glb(path: Path) -> bytes | None:
     """The GLB's bytes with Basis textures decoded, or None when the file can be read as it is.
 
@@ -124,20 +182,22 @@ def prepare_glb(path: Path) -> bytes | None:
     external: dict[int, bytes] = {}
     new_binary = bytearray(binary)
     for t, tex in enumerate(textures):
-        ext = (tex.get("extensions") or {}).get(BASISU)
-        index = ext.get("source") if isinstance(ext, dict) and "source" in ext else tex.get("source")
+        index, extension = _texture_source(tex, t, path)
         if index is None:
             continue
-        if not isinstance(index, int) or not 0 <= index < len(images):
+        if not isinstance(index, int) or isinstance(index, bool) or not 0 <= index < len(images):
             raise SceneError(f"{path}: texture {t} refers to a missing image {index}")
         img = images[index]
         blob = _image_bytes(header, binary, img, index, path)
         if _is_basis(img, blob):
             if index not in replaced:
                 token = f"{path}#{index}"
-                DECODED[token] = decode_basis(blob, f"{path}: image {index}")
+                named = extension or (GOOGLE_BASIS if img.get("mimeType") == "image/x-basis" else BASISU)
+                DECODED[token] = decode_basis(blob, f"{path}: image {index}", named)
                 replaced[index] = _placeholder(token)
             tex["source"] = index
+            for name in BASIS_EXTENSIONS:
+                (tex.get("extensions") or {}).pop(name, None)
         else:
             try:
                 Image.open(io.BytesIO(blob)).verify()
@@ -152,7 +212,7 @@ def prepare_glb(path: Path) -> bytes | None:
     if not buffers:
         buffers.append({"byteLength": 0})
     elif "uri" in buffers[0]:
-        raise SceneError(f"{path}: {BASISU} textures in a GLB whose first buffer is an external file are "
+        raise SceneError(f"{path}: Basis Universal textures in a GLB whose first buffer is an external file are "
                          f"not supported; embed the buffer")
     for index, blob in external.items():
         new_binary += b"\0" * (-len(new_binary) % 4)
@@ -170,7 +230,7 @@ def prepare_glb(path: Path) -> bytes | None:
     header["buffers"][0]["byteLength"] = len(new_binary)
     for key in ("extensionsUsed", "extensionsRequired"):
         if key in header:
-            header[key] = [e for e in header[key] if e != BASISU]
+            header[key] = [e for e in header[key] if e not in BASIS_EXTENSIONS]
     return write_glb(header, bytes(new_binary))
 
 
@@ -190,10 +250,12 @@ def check_gltf_images(path: Path) -> None:
         header = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise SceneError(f"{path}: corrupt glTF JSON ({exc})") from None
-    for tex in header.get("textures", []):
-        if BASISU in (tex.get("extensions") or {}):
-            raise SceneError(f"{path}: {BASISU} textures are read from .glb files only; pack this "
-                             f"glTF into a .glb")
+    for t, tex in enumerate(header.get("textures", [])):
+        for name in BASIS_EXTENSIONS:
+            if name in (tex.get("extensions") or {}):
+                raise SceneError(f"{path}: {name} textures are read from .glb files only; pack this "
+                                 f"glTF into a .glb")
+        _texture_source(tex, t, path)
     for i, img in enumerate(header.get("images", [])):
         uri = img.get("uri", "")
         if uri and not uri.startswith("data:") and not (path.parent / uri).is_file():

@@ -124,3 +124,73 @@ def test_category_without_goals_is_an_error(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(EpisodeError, match="file not found"):
         load_dataset(tmp_path / "nope.json.gz")
+
+
+HM3D_CONFIG = "./data/scene_datasets/hm3d/hm3d_annotated_basis.scene_dataset_config.json"
+
+
+def ovon_style() -> dict:
+    """An HM3D-OVON file as naokiyokoyama/ovon's objectnav_generator.py writes one: goal object_ids are
+    habitat-sim object names (HM3DSemanticScene.cpp: "{raw name}_{index in that name's rows}"), view
+    points carry a radius, episodes carry children_object_categories (the goals' copy is deleted
+    before writing) and the ObjectNav-v1 category tables are empty."""
+    sid = "hm3d/val/00800-TEEsavR23oF/TEEsavR23oF.basis.glb"
+    vp = {"agent_state": {"position": [2.5, 0.1, -1.0], "rotation": [0, 0.7071, 0, 0.7071]}, "iou": 0.0,
+          "radius": 0.5}
+    return {
+        "episodes": [{"episode_id": "0", "scene_id": sid, "start_position": [0, 0.1, 0],
+                      "start_rotation": [0, 0, 0, 1], "info": {"geodesic_distance": 4.0, "euclidean_distance": 3.0},
+                      "goals": [], "start_room": None, "shortest_paths": None, "object_category": "couch",
+                      "scene_dataset_config": HM3D_CONFIG,
+                      "additional_obj_config_paths": [], "children_object_categories": []}],
+        "goals_by_category": {"TEEsavR23oF.basis.glb_couch": [
+            {"object_category": "couch", "object_id": "couch_0", "position": [3.0, 0.5, -1.0], "view_points": [vp]},
+            {"object_category": "couch", "object_id": "couch_12", "position": [1.0, 0.5, 2.0], "view_points": [vp]}]},
+        "category_to_task_category_id": {}, "category_to_scene_annotation_category_id": {},
+    }
+
+
+def test_ovon_string_object_ids_load_as_ovons_reader_reads_them_and_write_back_unchanged(tmp_path):
+    from navbench.episodes.io import is_ovon
+
+    path = tmp_path / "val_unseen.json.gz"
+    path.write_bytes(gzip.compress(json.dumps(ovon_style()).encode()))
+    ds = load_dataset(path)
+    goals = ds.episodes[0].goals
+    assert [g.object_id for g in goals] == [0, 12]  # the number after the last "_"
+    assert [g.object_name for g in goals] == ["couch_0", "couch_12"]
+    assert is_ovon(ds)
+    out = tmp_path / "again.json"
+    save_dataset(ds, out)
+    written = json.loads(out.read_text())["goals_by_category"]["TEEsavR23oF.basis.glb_couch"]
+    assert [g["object_id"] for g in written] == ["couch_0", "couch_12"]
+    assert is_ovon(load_dataset(out))
+
+
+def test_objectnav_v1_is_not_taken_for_ovon(tmp_path):
+    from navbench.episodes.io import is_ovon
+
+    path = tmp_path / "val.json"
+    path.write_text(json.dumps(HM3D_STYLE))
+    assert not is_ovon(load_dataset(path))
+
+
+@pytest.mark.parametrize("bad", ["couch", "couch_", "_3", "couch_x1"])
+def test_object_id_string_without_an_index_is_refused_naming_the_file(tmp_path, bad):
+    data = ovon_style()
+    data["goals_by_category"]["TEEsavR23oF.basis.glb_couch"][0]["object_id"] = bad
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(EpisodeError, match=r"bad\.json: .*object_id"):
+        load_dataset(path)
+
+
+def test_success_distance_defaults_to_ovons_for_an_ovon_file_and_habitats_for_objectnav_v1(tmp_path):
+    from navbench.api import resolve_episodes
+
+    ovon, v1 = tmp_path / "ovon.json", tmp_path / "v1.json"
+    ovon.write_text(json.dumps(ovon_style()))
+    v1.write_text(json.dumps(HM3D_STYLE))
+    assert resolve_episodes(None, None, ovon) == ("objectnav", None, ovon, 0.25)
+    assert resolve_episodes("objectnav", None, ovon)[3] == 0.25
+    assert resolve_episodes(None, None, v1)[3] == 0.1

@@ -163,3 +163,36 @@ def test_noise_is_seeded_and_deterministic_per_query_and_view(scene):
     valid = depth > 0
     rel = d1[valid] / depth[valid] - 1.0
     assert 0.03 < rel.std() < 0.07 and np.all(d1[~valid] == 0)
+
+
+def _ann(oid, category, lo, hi):
+    from navbench.scene.asset import ObjectAnnotation
+    return ObjectAnnotation(oid, category, "", "", (0, 0, 0), tuple(lo), tuple(hi))
+
+
+def test_open_vocabulary_goal_is_grounded_from_the_goals_positions():
+    from navbench.localize.backends.oracle import teach
+    from navbench.localize.pipeline import Perception
+
+    objects = {1: _ann(1, "tv_monitor", (0, 1, 0), (1, 2, 0.2)), 2: _ann(2, "tv_monitor", (4, 1, 0), (5, 2, 0.2)),
+               3: _ann(3, "chest_of_drawers", (2, 0, 2), (3, 1, 3))}
+    enc, rr, seg = OracleEncoder(objects), OracleReranker(objects), OracleSegmenter(objects)
+    with pytest.raises(Exception, match="names no known object category"):
+        enc.encode_text(["flat screen"])
+    stack = Perception(enc, rr, seg)
+    # A goal at instance 2's AABB centre: only that tv is the answer, whatever the name.
+    assert teach(stack, "flat screen", [[4.5, 1.5, 0.1]]) == (2,)
+    ids = np.full((20, 20), -1)
+    ids[:, :10] = 1
+    ids2 = np.full((20, 20), -1)
+    ids2[:, :10] = 2
+    assert rr.score(ids2, "flat screen")[0] and not rr.score(ids, "flat screen")[0]
+    assert (seg.segment(ids2, "flat screen")[0] == (ids2 == 2)).all()
+    # The encoder ranks views of the taught instances' category first; a scan's own category has a slot.
+    text = enc.encode_text(["flat screen", "chest of drawers"])
+    chest = np.full((20, 20), -1)
+    chest[5:15, 5:15] = 3
+    img = enc.encode_images([ids2, chest])
+    assert np.argmax(img @ text[0]) == 0 and np.argmax(img @ text[1]) == 1
+    assert enc.dim == OracleEncoder({1: objects[1]}).dim + 1 and enc.name != OracleEncoder({1: objects[1]}).name
+    assert teach(stack, "nothing there", [[50, 50, 50]]) == ()

@@ -45,8 +45,85 @@ QUAD_UV_GLTF = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # glTF: v
 QUAD_IDX = np.array([0, 1, 2, 0, 2, 3], np.uint32)
 
 
-def write_glb(path: Path, image_bytes: bytes, mime: str, basisu: bool = False) -> Path:
-    """A one-quad GLB whose material's baseColorTexture is the given image."""
+def _crc16(data: bytes) -> int:
+    """basis_universal's CRC-16 (``basist::crc16`` in ``transcoder/basisu_transcoder.cpp``, initial value 0)."""
+    crc = 0xFFFF
+    for b in data:
+        q = (b ^ (crc >> 8)) & 0xFFFF
+        k = ((q >> 4) ^ q) & 0xFFFF
+        crc = ((crc << 8) ^ k ^ (k << 5) ^ (k << 12)) & 0xFFFF
+    return ~crc & 0xFFFF
+
+
+def ktx2_to_basis(ktx2: bytes, y_flipped: bool = False) -> bytes:
+    """A ``.basis`` file holding the top level of a UASTC KTX2 file without supercompression.
+
+    Layout from basis_universal ``transcoder/basisu_file_headers.h``: the 77-byte packed
+    ``basis_file_header`` (signature ``sB``, version 0x13, header CRC-16 over the bytes after that
+    field, data size and CRC-16 over everything after the header, 1 slice, 1 image, tex format 1 =
+    UASTC 4x4, flags 2 = ``cBASISHeaderFlagYFlipped``, tex type 0 = 2D, slice descriptions at byte 77),
+    then one 23-byte ``basis_slice_desc`` and the slice's UASTC blocks. The KTX2 header (Khronos KTX 2.0
+    spec, section 3) gives the size at bytes 20-27, the supercompression scheme at 44 and level 0's
+    byte offset and length at 80-95.
+    """
+    w, h = struct.unpack_from("<II", ktx2, 20)
+    (scheme,) = struct.unpack_from("<I", ktx2, 44)
+    assert scheme == 0, "supercompressed KTX2 has no plain UASTC blocks to copy"
+    offset, length = struct.unpack_from("<QQ", ktx2, 80)
+    blocks = ktx2[offset:offset + length]
+    header_size, slice_size = 77, 23
+    def u24(v: int) -> bytes:
+        return v.to_bytes(3, "little")
+
+    desc = (u24(0) + bytes([0, 0]) + struct.pack("<HHHHII", w, h, -(-w // 4), -(-h // 4),
+                                                 header_size + slice_size, len(blocks))
+            + struct.pack("<H", _crc16(blocks)))
+    data = desc + blocks
+    rest = (struct.pack("<IH", len(data), _crc16(data)) + u24(1) + u24(1) + bytes([1])
+            + struct.pack("<H", 2 if y_flipped else 0) + bytes([0]) + u24(0) + struct.pack("<III", 0, 0, 0)
+            + struct.pack("<HI", 0, 0) + u24(0) + struct.pack("<HI", 0, 0) + u24(0)
+            + struct.pack("<IIIII", 0, 0, header_size, 0, 0))
+    head = struct.pack("<HHHH", 0x4273, 0x13, header_size, _crc16(rest)) + rest
+    assert len(head) == header_size and len(desc) == slice_size
+    return head + data
+
+
+def ktx2_with_orientation(ktx2: bytes, orientation: str) -> bytes:
+    """The KTX2 file with its key/value data replaced by ``KTXorientation`` = ``orientation`` (KTX 2.0 spec:
+    index at bytes 48-79, key/value data = u32 length + ``key NUL value NUL`` padded to 4, level index at
+    80 with absolute offsets; level data aligned to 16 bytes for UASTC)."""
+    dfd_off, dfd_len, kvd_off, kvd_len = struct.unpack_from("<IIII", ktx2, 48)
+    (levels,) = struct.unpack_from("<I", ktx2, 40)
+    entry = b"KTXorientation\0" + orientation.encode() + b"\0"
+    kvd = struct.pack("<I", len(entry)) + entry + b"\0" * (-len(entry) % 4)
+    head = bytearray(ktx2[:80 + 24 * levels])
+    body = bytearray(ktx2[dfd_off:dfd_off + dfd_len])
+    new_kvd_off = len(head) + len(body)
+    body += kvd
+    body += b"\0" * (-(len(head) + len(body)) % 16)
+    struct.pack_into("<II", head, 56, new_kvd_off, len(kvd))
+    struct.pack_into("<QQ", head, 64, 0, 0)
+    data = bytearray()
+    for i in range(levels):
+        off, length, raw = struct.unpack_from("<QQQ", ktx2, 80 + 24 * i)
+        new_off = len(head) + len(body) + len(data)
+        data += ktx2[off:off + length] + b"\0" * (-length % 16)
+        struct.pack_into("<QQQ", head, 80 + 24 * i, new_off, length, raw)
+    return bytes(head + body + data)
+
+
+def write_glb(path: Path, image_bytes: bytes, mime: str, basisu: bool = False, extension: str | None = None,
+              declare: bool = True) -> Path:
+    """A one-quad GLB whose material's baseColorTexture is the given image.
+
+    ``basisu`` (or ``extension="KHR_texture_basisu"``) references the image through the Khronos
+    extension; ``extension="GOOGLE_texture_basis"`` writes the texture as magnum-plugins'
+    ``GltfImporter/Test/gltf2basis.py`` does (the ``source`` moved into the extension, the image's
+    ``mimeType`` ``image/x-basis``) and then as ``gltf2glb.py --bundle-images`` packs it (the image in
+    a bufferView with a ``name``; no ``extensionsUsed`` is declared by that tool, so ``declare=False``
+    reproduces it exactly)."""
+    if basisu:
+        extension = "KHR_texture_basisu"
     chunks = [QUAD_POS.tobytes(), QUAD_UV_GLTF.tobytes(), QUAD_IDX.tobytes(), image_bytes]
     views, blob = [], b""
     for c in chunks:
@@ -54,12 +131,12 @@ def write_glb(path: Path, image_bytes: bytes, mime: str, basisu: bool = False) -
         views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(c)})
         blob += c
     blob += b"\0" * (-len(blob) % 4)
-    texture = {"extensions": {"KHR_texture_basisu": {"source": 0}}} if basisu else {"source": 0}
+    texture = {"extensions": {extension: {"source": 0}}} if extension else {"source": 0}
     gltf = {
         "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "quad"}],
         "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
         "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}}],
-        "textures": [texture], "images": [{"bufferView": 3, "mimeType": mime}],
+        "textures": [texture], "images": [{"bufferView": 3, "mimeType": mime, "name": "checker"}],
         "buffers": [{"byteLength": len(blob)}], "bufferViews": views[:3] + [views[3]],
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
@@ -68,8 +145,8 @@ def write_glb(path: Path, image_bytes: bytes, mime: str, basisu: bool = False) -
             {"bufferView": 2, "componentType": 5125, "count": 6, "type": "SCALAR"},
         ],
     }
-    if basisu:
-        gltf["extensionsUsed"] = gltf["extensionsRequired"] = ["KHR_texture_basisu"]
+    if extension and declare:
+        gltf["extensionsUsed"] = gltf["extensionsRequired"] = [extension]
     js = json.dumps(gltf).encode()
     js += b" " * (-len(js) % 4)
     body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob

@@ -213,3 +213,59 @@ def test_stairs_between_storeys_are_not_navigable():
     for k in range(1, 18):
         assert not ground.is_navigable([3.75 - 0.3 * k, 0.0, -3.0])
     assert ground.is_navigable([0.0, 0.0, 2.0])
+
+
+def _uastc(alktx2, rgb: np.ndarray) -> bytes:
+    rgba = np.dstack([rgb, np.full(rgb.shape[:2], 255, np.uint8)])
+    return alktx2.encode_raw_rgba_to_ktx2(np.ascontiguousarray(rgba).tobytes(), rgb.shape[1], rgb.shape[0],
+                                          has_alpha=False, codec="uastc", quality=90)
+
+
+def test_google_texture_basis_as_habitats_tool_writes_it_renders_the_checker(tmp_path):
+    """habitat-sim's create_basis_compressed_glbs.py: magnum's BasisImageConverter stores the image bottom
+    row first and sets the Y-flipped flag; gltf2basis.py moves the source into GOOGLE_texture_basis."""
+    alktx2 = pytest.importorskip("alktx2")
+    basis = F.ktx2_to_basis(_uastc(alktx2, F.checkerboard()[::-1]), y_flipped=True)
+    path = F.write_glb(tmp_path / "quad.basis.glb", basis, "image/x-basis", extension="GOOGLE_texture_basis",
+                       declare=False)
+    _check_checker(path, 224, tol=4)
+
+
+def test_basis_file_without_the_flip_flag_keeps_its_row_order(tmp_path):
+    alktx2 = pytest.importorskip("alktx2")
+    basis = F.ktx2_to_basis(_uastc(alktx2, F.checkerboard()), y_flipped=False)
+    _check_checker(F.write_glb(tmp_path / "q.basis.glb", basis, "image/x-basis", extension="GOOGLE_texture_basis"),
+                   224, tol=4)
+    _check_checker(F.write_glb(tmp_path / "k.basis.glb", basis, "image/x-basis", basisu=True), 224, tol=4)
+
+
+def test_undecodable_google_basis_names_file_and_extension(tmp_path):
+    path = F.write_glb(tmp_path / "bad.basis.glb", b"sB" + b"\0" * 90, "image/x-basis",
+                       extension="GOOGLE_texture_basis", declare=False)
+    with pytest.raises(SceneError, match=r"bad\.basis\.glb: image 0: cannot decode GOOGLE_texture_basis"):
+        load_scene(path)
+
+
+def test_texture_only_in_an_unreadable_extension_is_refused_not_rendered_white(tmp_path):
+    path = F.write_glb(tmp_path / "dds.glb", b"DDS " + b"\0" * 124, "image/vnd-ms.dds", extension="MSFT_texture_dds")
+    with pytest.raises(SceneError, match=r"dds\.glb: texture 0 uses the MSFT_texture_dds extension"):
+        load_scene(path)
+
+
+def test_cli_exits_2_naming_file_and_extension_for_an_undecodable_basis_scene(tmp_path):
+    import subprocess
+
+    path = F.write_glb(tmp_path / "bad.basis.glb", b"sB" + b"\0" * 90, "image/x-basis",
+                       extension="GOOGLE_texture_basis")
+    proc = subprocess.run([sys.executable, "-m", "navbench.cli", "memory", "build", "--scene", str(path), "--out",
+                           str(tmp_path / "mem")], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2, proc.stderr
+    assert "bad.basis.glb" in proc.stderr and "GOOGLE_texture_basis" in proc.stderr
+
+
+@pytest.mark.parametrize("orientation, stored", [("ru", "bottom row first"), ("rd", "top row first")])
+def test_ktx2_orientation_is_honoured(tmp_path, orientation, stored):
+    alktx2 = pytest.importorskip("alktx2")
+    img = F.checkerboard()[::-1] if orientation == "ru" else F.checkerboard()
+    ktx2 = F.ktx2_with_orientation(_uastc(alktx2, img), orientation)
+    _check_checker(F.write_glb(tmp_path / f"{orientation}.glb", ktx2, "image/ktx2", basisu=True), 224, tol=4)

@@ -21,7 +21,13 @@ RGB), so retrieval, re-ranking, grouping and fusion all run their real code path
   image with :func:`~navbench.localize.describe.describe_unique`, which the others then ground.
 
 Grounding is :func:`navbench.localize.describe.ground`: category, colour, room and "next to" words
-matched against the annotations - perfect grounding, not a lookup of the generated answer.
+matched against the annotations - perfect grounding, not a lookup of the generated answer. A goal
+name outside that vocabulary (an open-vocabulary HM3D-OVON name such as "tv", a GOAT-Bench
+description) is grounded from the task's own goals instead: :func:`teach` gives every backend of a
+stack the instances the episode's goals name (by goal position, see :func:`instances_at`), and those
+take precedence over the fixed vocabulary for that query. Categories of a scan that the vocabulary
+lacks get encoder slots of their own after the fixed ones (the encoder's ``name`` then says so, so a
+memory built without them is not reused).
 
 :class:`NoiseProfile` degrades the oracle like real perception: masks dilated/eroded (bleeding onto
 the background, or shrunk), multiplicative depth noise, views without the target reported as a
@@ -128,15 +134,53 @@ def centre_instance(ids: np.ndarray, window: float = 0.2) -> int | None:
     return int(ids[rows[k], cols[k]])
 
 
+def instances_at(objects: Mapping[int, ObjectAnnotation], positions: Sequence[Sequence[float]],
+                 margin: float = 0.25) -> tuple[int, ...]:
+    """Ids of the annotated instances that goal ``positions`` name: for each position (an object's
+    AABB centre, as Habitat's ObjectNav/OVON/GOAT generators write goals), the instance whose AABB,
+    grown by ``margin`` metres, contains it, nearest centre first; positions inside none name nothing."""
+    out: list[int] = []
+    for p in positions:
+        p = np.asarray(p, dtype=np.float64).reshape(3)
+        best, best_d = None, np.inf
+        for o in objects.values():
+            if np.all(p >= np.asarray(o.aabb_min) - margin) and np.all(p <= np.asarray(o.aabb_max) + margin):
+                d = float(np.linalg.norm(o.center - p))
+                if d < best_d:
+                    best, best_d = o.id, d
+        if best is not None and best not in out:
+            out.append(best)
+    return tuple(sorted(out))
+
+
+def teach(perception, query: str, positions: Sequence[Sequence[float]]) -> tuple[int, ...]:
+    """Tell each oracle backend of ``perception`` (a :class:`~navbench.localize.pipeline.Perception`)
+    which instances ``query`` names: those at the goal ``positions``. Real backends are left alone.
+    Returns the instance ids (empty when no goal lies on an annotated instance)."""
+    ids: tuple[int, ...] = ()
+    for backend in (perception.encoder, perception.reranker, perception.segmenter):
+        if hasattr(backend, "teach"):
+            ids = instances_at(backend.objects, positions)
+            if ids:
+                backend.teach(query, ids)
+    return ids
+
+
 class _Grounding:
-    """Query text -> instance ids, cached (queries repeat across the views of one localisation)."""
+    """Query text -> instance ids, cached (queries repeat across the views of one localisation);
+    targets taught by :func:`teach` come first."""
 
     def __init__(self, objects: Mapping[int, ObjectAnnotation]) -> None:
         self.objects = dict(objects)
+        self.taught: dict[str, np.ndarray] = {}
         self._ground = lru_cache(maxsize=1024)(lambda q: np.asarray(ground(q, self.objects), dtype=np.int64))
 
+    def teach(self, query: str, ids: Sequence[int]) -> None:
+        self.taught[query] = np.asarray(sorted(ids), dtype=np.int64)
+
     def targets(self, query: str) -> np.ndarray:
-        return self._ground(query)
+        taught = self.taught.get(query)
+        return taught if taught is not None else self._ground(query)
 
 
 class OracleEncoder:
@@ -146,7 +190,11 @@ class OracleEncoder:
     modality = "instance_ids"
 
     def __init__(self, objects: Mapping[int, ObjectAnnotation]) -> None:
+        self.objects = dict(objects)
         max_id = max([o.id for o in objects.values()], default=0)
+        # Categories outside the vocabulary (a scan's own names) get slots after the fixed ones.
+        self.extra_categories = sorted({o.category for o in objects.values() if o.category not in VOCABULARY})
+        self._extra = {c: N_SLOTS + k for k, c in enumerate(self.extra_categories)}
         # Lookup tables: id + 1 -> category slot and -> (category, colour) slot (index 0 is id -1).
         self._cat = np.full(max_id + 2, STRUCTURE_SLOT, dtype=np.int64)
         self._cc = np.full(max_id + 2, STRUCTURE_SLOT, dtype=np.int64)
@@ -155,7 +203,24 @@ class OracleEncoder:
                 self._cat[o.id + 1] = category_slot(o.category)
                 if o.colour in COLOUR_NAMES:
                     self._cc[o.id + 1] = colour_slot(o.category, o.colour)
-        self.dim = N_SLOTS
+            else:
+                self._cat[o.id + 1] = self._cc[o.id + 1] = self._extra[o.category]
+        self.dim = N_SLOTS + len(self.extra_categories)
+        if self.extra_categories:
+            names = zlib.crc32("\n".join(self.extra_categories).encode())
+            self.name = f"{ORACLE_NAME}+{len(self.extra_categories)}-{names:08x}"
+        self._taught: dict[str, list[int]] = {}
+
+    def teach(self, query: str, ids: Sequence[int]) -> None:
+        """Embed ``query`` as the categories of instances ``ids`` (see :func:`teach`)."""
+        self._taught[query] = [int(self._cat[i + 1]) for i in ids if 0 <= i + 1 < len(self._cat)]
+
+    def _slot_of_name(self, text: str) -> int | None:
+        name = " ".join(text.lower().replace("_", " ").split())
+        for c, slot in self._extra.items():
+            if c.replace("_", " ") == name:
+                return slot
+        return None
 
     def encode_images(self, images: Sequence[np.ndarray]) -> np.ndarray:
         if len(images) == 0:
@@ -179,7 +244,12 @@ class OracleEncoder:
         for row, text in enumerate(texts):
             desc = parse(text)
             if desc is None:
-                raise BackendError(f"oracle encoder: query {text!r} names no known object category")
+                slots = self._taught.get(text) or [s for s in [self._slot_of_name(text)] if s is not None]
+                if not slots:
+                    raise BackendError(f"oracle encoder: query {text!r} names no known object category "
+                                       f"and no taught goal instance")
+                out[row, sorted(set(slots))] = 1.0
+                continue
             out[row, category_slot(desc.category)] = 1.0
             if desc.colour is not None:
                 out[row, colour_slot(desc.category, desc.colour)] = 1.0
@@ -194,6 +264,8 @@ class OracleReranker:
     def __init__(self, objects: Mapping[int, ObjectAnnotation], noise: NoiseProfile = NoiseProfile(),
                  min_fraction: float = 0.002, full_fraction: float = 0.2) -> None:
         self._grounding = _Grounding(objects)
+        self.objects = self._grounding.objects
+        self.teach = self._grounding.teach
         self.noise = noise
         self.min_fraction = min_fraction  # "yes" from this share of the image (~100 px at 224 x 224)
         self.full_fraction = full_fraction  # visibility 1.0 from this share
@@ -231,6 +303,8 @@ class OracleSegmenter:
     def __init__(self, objects: Mapping[int, ObjectAnnotation], noise: NoiseProfile = NoiseProfile(),
                  min_fraction: float = 0.002) -> None:
         self._grounding = _Grounding(objects)
+        self.objects = self._grounding.objects
+        self.teach = self._grounding.teach
         self.noise = noise
         self.min_fraction = min_fraction
 

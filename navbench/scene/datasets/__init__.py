@@ -10,7 +10,8 @@ Layouts read (as downloaded, unchanged)::
 
 Episode files name scenes relative to ``scene_datasets/`` (``hm3d/val/00800-.../X.basis.glb``),
 sometimes with a ``data/scene_datasets/`` prefix; :func:`resolve_scene` accepts either and also a
-``--scene-dir`` pointing at the dataset's own folder.
+``--scene-dir`` pointing at the dataset's own folder. A bare handle (``102344049``) names a scene
+instance, ``scenes*/{handle}.scene_instance.json`` in a dataset (:mod:`.instances`).
 """
 
 from __future__ import annotations
@@ -59,6 +60,13 @@ def resolve_scene(scene_id: str, scene_dir: Path) -> Path:
         for cand in tried:
             if cand.is_file():
                 return cand
+        if "/" not in scene_id and "." not in scene_id:  # a scene instance named by its handle (HSSD)
+            name = scene_id + ".scene_instance.json"
+            for pattern in (f"scenes*/{name}", f"*/scenes*/{name}", f"*/*/scenes*/{name}"):
+                found = sorted(scene_dir.glob(pattern))
+                if found:
+                    return found[0]
+            tried.append(scene_dir / "**" / "scenes*" / name)
     more = f" (also looked for: {', '.join(str(t) for t in tried[1:])})" if len(tried) > 1 else ""
     raise SceneError(f"{tried[0]}: scene file not found{more}")
 

@@ -1,0 +1,161 @@
+"""Files written the way Habitat's tools write them (benchmarks/habitat_formats.py, made from the upstream
+sources): a GOOGLE_texture_basis scan, HM3D-OVON episodes with string object ids, GOAT-Bench episodes and
+an HSSD-style scene instance load, render their textures and score 100% with oracle perception."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navbench.eval.runner import RunConfig, read_records, run
+from navbench.scene.asset import SceneError, load_scene
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _formats():
+    spec = importlib.util.spec_from_file_location("habitat_formats", ROOT / "benchmarks" / "habitat_formats.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+H = _formats()
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    return H.write_all(tmp_path_factory.mktemp("habitat_formats"))
+
+
+def _run(files, episodes: str, agent: str, out: Path, limit: int | None = None):
+    from navbench.agents.registry import make_memory, make_oracle, prebuild_memories
+    from navbench.api import resolve_episodes
+    from navbench.eval.runner import run_dataset, select_episodes
+
+    task, _, path, sd = resolve_episodes(None, None, files[episodes])
+    cfg = RunConfig(task=task, split=None, agent=agent, episodes=str(path), scene_dir=str(files["scene_datasets"]),
+                    success_distance=sd, limit=limit)
+    if agent == "memory":
+        prebuild_memories(cfg, select_episodes(run_dataset(path), cfg.limit, cfg.per_scene))
+    summary = run(cfg, make_memory if agent == "memory" else make_oracle, out)
+    return summary, read_records(out / "episodes.jsonl"), json.loads((out / "config.json").read_text())
+
+
+def test_google_basis_scan_decodes_to_its_atlas_in_row_order(files):
+    if H.basis_file(np.zeros((4, 4, 3), np.uint8)) is None:
+        pytest.skip("alktx2 (the UASTC encoder the fixture needs) is not installed")
+    asset = load_scene(files["hm3d_scene"])
+    assert asset.is_textured
+    decoded = asset.textures[0][..., :3].astype(int)
+    err = np.abs(decoded - H.atlas().astype(int))
+    assert err.mean() < 3.0 and np.percentile(err, 99) < 20  # a flipped atlas would be off by ~50 levels
+    assert {o.category for o in asset.objects.values()} == {"chair", "tv_monitor"}
+
+
+def test_ovon_file_runs_at_ovons_success_distance_with_oracle_sr_100(files, tmp_path):
+    summary, records, config = _run(files, "ovon", "oracle", tmp_path / "oracle")
+    assert config["success_distance"] == 0.25
+    assert len(records) == 4 and all(r["success"] == 1.0 for r in records)
+
+
+def test_memory_agent_finds_an_open_vocabulary_ovon_goal_with_oracle_perception(files, tmp_path):
+    # Episode 1 asks for "tv", which navbench's fixed label map does not know; the oracle learns its
+    # instance from the episode's goals.
+    summary, records, _ = _run(files, "ovon", "memory", tmp_path / "memory", limit=2)
+    assert [r["object_category"] for r in records] == ["armchair", "tv"]
+    assert all(r["success"] == 1.0 for r in records), [r.get("log") for r in records]
+
+
+def test_goat_bench_file_localises_every_subtask_type_at_sr5_100(files, tmp_path):
+    from navbench.localize.benchmark import run_localize
+    from navbench.localize.goatbench import load_goatbench
+
+    subtasks = load_goatbench(files["goat_bench"])
+    assert [s.type for s in subtasks] == ["object", "language", "image", "object", "language"]
+    assert subtasks[2].image_goal.height == 224 and subtasks[1].query.startswith("The television")
+    s = run_localize(episodes=files["goat_bench"], scene_dir=files["scene_datasets"], out=tmp_path / "loc",
+                     memory_root=tmp_path / "mem")
+    assert s["sr_by_type"] == {"object": 1.0, "image": 1.0, "language": 1.0}
+    assert s["n_by_type"] == {"object": 2, "image": 1, "language": 2}
+
+
+def test_malformed_goat_bench_file_exits_2_naming_it(files, tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"episodes": [{"scene_id": "x.glb", "tasks": [["chair", "smell", "c_0"]]}],
+                               "goals": {}}))
+    proc = subprocess.run([sys.executable, "-m", "navbench.cli", "localize", "--episodes", str(bad), "--scene-dir",
+                           str(files["scene_datasets"])], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and "bad.json" in proc.stderr and "smell" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_scene_instance_composes_stage_and_objects_as_habitat_sim_places_them(files):
+    asset = load_scene(files["hssd_scene"])
+    chair, cabinet = asset.objects[0], asset.objects[1]
+    assert (chair.category, cabinet.category) == ("chair", "cabinet")  # semantic ids named by the lexicon
+    # The chair: a 0.5 x 0.9 x 0.5 box with its origin at its base centre, turned 45 degrees about y
+    # ([w, x, y, z] = [cos 22.5, 0, sin 22.5, 0]), asset-local origin at (1, 0, -1).
+    r = 0.25 * np.sqrt(2)
+    np.testing.assert_allclose(chair.aabb_min, [1 - r, 0, -1 - r], atol=1e-4)
+    np.testing.assert_allclose(chair.aabb_max, [1 + r, 0.9, -1 + r], atol=1e-4)
+    # The cabinet: a 1 x 0.5 x 0.4 box, scaled 1.2 and then 1.5 in z, its centre (COM) at (-1.5, 0.3, 1).
+    np.testing.assert_allclose(cabinet.aabb_min, [-2.1, 0.0, 1 - 0.36], atol=1e-4)
+    np.testing.assert_allclose(cabinet.aabb_max, [-0.9, 0.6, 1 + 0.36], atol=1e-4)
+    assert set(np.unique(asset.face_ids)) == {-1, 0, 1}
+
+
+def test_scene_instance_objectnav_scores_oracle_sr_100(files, tmp_path):
+    summary, records, config = _run(files, "objectnav_hssd", "oracle", tmp_path / "hssd")
+    assert config["success_distance"] == 0.1 and len(records) == 2
+    assert all(r["success"] == 1.0 for r in records)
+
+
+def test_scene_instance_with_an_unknown_template_is_refused_naming_it(files, tmp_path):
+    doc = json.loads(files["hssd_scene"].read_text())
+    doc["object_instances"][0]["template_name"] = "no_such_object"
+    bad = files["hssd_scene"].with_name("bad.scene_instance.json")
+    bad.write_text(json.dumps(doc))
+    try:
+        with pytest.raises(SceneError, match=r"bad\.scene_instance\.json: template 'no_such_object'"):
+            load_scene(bad)
+    finally:
+        bad.unlink()
+
+
+def test_a_bare_scene_handle_resolves_to_its_scene_instance(files):
+    from navbench.scene.datasets import resolve_scene
+
+    assert resolve_scene("room", files["scene_datasets"]) == files["hssd_scene"]
+    with pytest.raises(SceneError, match=r"nosuch: scene file not found .*nosuch\.scene_instance\.json"):
+        resolve_scene("nosuch", files["scene_datasets"])
+
+
+def test_goat_bench_descriptions_over_55_words_are_dropped_as_the_reader_drops_them(files, tmp_path):
+    import gzip
+
+    from navbench.localize.goatbench import load_goatbench
+
+    doc = json.loads(gzip.decompress(files["goat_bench"].read_bytes()))
+    base = Path(H.HM3D_SCENE_ID).name
+    doc["goals"][f"{base}_tv"][0]["lang_desc"] = " ".join(["word"] * 56)
+    path = tmp_path / "long.json"
+    path.write_text(json.dumps(doc))
+    assert [s.type for s in load_goatbench(path)] == ["object", "image", "object", "language"]
+
+
+def test_invisible_scene_instance_is_left_out(files):
+    doc = json.loads(files["hssd_scene"].read_text())
+    doc["object_instances"][1]["is_instance_visible"] = False
+    path = files["hssd_scene"].with_name("hidden.scene_instance.json")
+    path.write_text(json.dumps(doc))
+    try:
+        assert set(load_scene(path).objects) == {0}
+    finally:
+        path.unlink()
