@@ -125,8 +125,8 @@ def run_identity(run_dir: str | Path) -> dict[str, Any]:
         if ident["decoding"] == "sample" and o.get("temperature", 1.0) != 1.0:
             ident["decoding"] = f"sample T={o['temperature']:g}"
     if agent in ("memory", "frontier"):
-        noise = o.get("noise", "none")
-        ident["perception"] = o.get("perception", "oracle") + ("" if noise == "none" else f", noise {noise}")
+        noise = o.get("noise") or "none"
+        ident["perception"] = (o.get("perception") or "oracle") + ("" if noise == "none" else f", noise {noise}")
     return ident
 
 

@@ -162,6 +162,11 @@ def read_checkpoint(path: str | Path) -> CheckpointData:
     return CheckpointData(state_dict=state_dict, config=config)
 
 
+def _ranked(t: Any, rank: int) -> torch.Tensor | None:
+    """``t`` when it is a tensor of at least ``rank`` dimensions, else None."""
+    return t if isinstance(t, torch.Tensor) and t.dim() >= rank else None
+
+
 def infer_net_config(state_dict: Mapping[str, torch.Tensor]) -> PolicyNetConfig:
     """The architecture a state_dict was saved from, as far as the shapes tell.
 
@@ -170,9 +175,10 @@ def infer_net_config(state_dict: Mapping[str, torch.Tensor]) -> PolicyNetConfig:
     stays 224x224 (a checkpoint for another size then fails on ``net.visual_fc.1.weight``).
     """
     defaults = PolicyNetConfig()
-    critic = state_dict.get("critic.fc.weight")
-    actor = state_dict.get("action_distribution.linear.weight")
-    conv1 = state_dict.get("net.visual_encoder.backbone.conv1.0.weight")
+    # a tensor of the wrong rank tells nothing: the default stands and the shape check names the tensor
+    critic = _ranked(state_dict.get("critic.fc.weight"), 2)
+    actor = _ranked(state_dict.get("action_distribution.linear.weight"), 2)
+    conv1 = _ranked(state_dict.get("net.visual_encoder.backbone.conv1.0.weight"), 1)
     layers = sum(1 for k in state_dict if k.startswith("net.state_encoder.rnn.weight_ih_l"))
     base = int(conv1.shape[0]) if conv1 is not None else defaults.base_planes
     return PolicyNetConfig(
