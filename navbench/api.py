@@ -90,7 +90,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     """
     from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
     from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
-    from navbench.eval.runner import RunConfig, run, select_episodes
+    from navbench.eval.runner import RunConfig, run
 
     options = dict(options or {})
     if isinstance(agent, str):
@@ -128,7 +128,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
                                                     runs_dir)
     if resolved.spec == "memory":
         from navbench.eval.runner import run_dataset
-        prebuild_memories(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene))
+        prebuild_memories(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene).episodes)
     return run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
 

@@ -10,6 +10,7 @@ that drive with the PointNav policy, the seed, and the perception of agents that
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 from typing import Any
@@ -91,7 +92,8 @@ def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
     # a bundled split is read where this checkout keeps it (config.json holds the writer's path)
     bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
     episodes = bundled if bundled is not None and bundled.is_file() else Path(cfg.get("episodes") or "")
-    keep = {(e.scene_id, e.episode_id) for e in load_dataset(episodes).episodes[:first]}
+    head = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), first))).episodes
+    keep = {(e.scene_id, e.episode_id) for e in head}
     recs = [r for r in read_records(run_dir / "episodes.jsonl") if (r["scene_id"], r["episode_id"]) in keep]
     if len(recs) < len(keep):
         raise TableError(f"{run_dir}: has {len(recs)} of the first {first} episodes of {episodes.name}")
