@@ -147,6 +147,23 @@ def child(directory: str | Path, name: str) -> Path:
     return path
 
 
+def own_dir(path: str | Path) -> Path:
+    """``path`` as a real directory (created when missing): ValueError if it is a symlink, which could
+    send what is written there anywhere."""
+    path = Path(path)
+    if path.is_symlink():
+        raise ValueError(f"{path}: is a symlink; refusing to write through it (remove it to go on)")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def unlink_if_symlink(path: Path) -> Path:
+    """Remove ``path`` if it is a symlink (a writer would follow it); the path is then written afresh."""
+    if path.is_symlink():
+        path.unlink()
+    return path
+
+
 # ------------------------------------------------------------------------------------------ writes
 def write_private(path: str | Path, data: bytes | str, fsync: bool = True) -> None:
     """Replace ``path`` by ``data`` whole, through a temporary file created new (``O_EXCL``, never
