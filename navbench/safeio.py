@@ -17,6 +17,7 @@ import os
 import re
 import secrets
 from pathlib import Path
+from collections.abc import Callable
 from typing import BinaryIO
 
 DEFAULT_MAX_INPUT_BYTES = 1 << 30
@@ -165,10 +166,10 @@ def unlink_if_symlink(path: Path) -> Path:
 
 
 # ------------------------------------------------------------------------------------------ writes
-def write_private(path: str | Path, data: bytes | str, fsync: bool = True) -> None:
-    """Replace ``path`` by ``data`` whole, through a temporary file created new (``O_EXCL``, never
-    following a symlink) beside it, then renamed over it: a planted ``.name.tmp`` symlink redirects
-    nothing, and a crash leaves the old file or the new one. Raises OSError."""
+def write_private(path: str | Path, data: bytes | str | Callable[[BinaryIO], object], fsync: bool = True) -> None:
+    """Replace ``path`` by ``data`` (or what ``data(file)`` writes) whole, through a temporary file created
+    new (``O_EXCL``, never following a symlink) beside it, then renamed over it: a planted ``.name.tmp``
+    symlink redirects nothing, and a crash leaves the old file or the new one. Raises OSError."""
     path = Path(path)
     if isinstance(data, str):
         data = data.encode()
@@ -177,7 +178,7 @@ def write_private(path: str | Path, data: bytes | str, fsync: bool = True) -> No
     fd = os.open(tmp, flags, 0o644)
     try:
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            data(fh) if callable(data) else fh.write(data)
             fh.flush()
             if fsync:
                 os.fsync(fh.fileno())
