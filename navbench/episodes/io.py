@@ -127,7 +127,8 @@ class _JsonStream:
             held = len(self.buf) - self.pos
             if held > self.max_value:
                 raise ValueError(f"a single JSON value longer than {self.max_value >> 20} Mi characters")
-            self._more(max(held, _CHUNK))  # geometric: a long value is parsed O(1) times over
+            # geometric growth (a long value is parsed O(1) times over), stopping just past the cap
+            self._more(max(min(held, self.max_value + 1 - held), _CHUNK))
 
     def members(self):
         """The top-level object's keys; the caller reads each key's value before asking for the next."""
