@@ -74,13 +74,13 @@ class _Capped(io.RawIOBase):
         super().close()
 
 
-def open_input(path: str | Path, cap: int | None = None) -> BinaryIO:
-    """``path`` opened for reading in binary (gunzipped when it ends in ``.gz``), raising
+def open_input(path: str | Path, cap: int | None = None, gunzip: bool = True) -> BinaryIO:
+    """``path`` opened for reading in binary (gunzipped when it ends in ``.gz`` and ``gunzip``), raising
     :class:`InputTooLarge` as soon as more than ``cap`` (default :func:`max_input_bytes`) bytes come out."""
     path = Path(path)
     cap = max_input_bytes() if cap is None else cap
     fh: BinaryIO = open(path, "rb")
-    if path.suffix == ".gz":
+    if gunzip and path.suffix == ".gz":
         fh = gzip.GzipFile(fileobj=fh, mode="rb")  # type: ignore[assignment]
     elif os.fstat(fh.fileno()).st_size > cap:
         fh.close()
@@ -88,9 +88,9 @@ def open_input(path: str | Path, cap: int | None = None) -> BinaryIO:
     return io.BufferedReader(_Capped(fh, path, cap), 1 << 20)  # type: ignore[return-value]
 
 
-def read_input(path: str | Path, cap: int | None = None) -> bytes:
+def read_input(path: str | Path, cap: int | None = None, gunzip: bool = True) -> bytes:
     """The whole of ``path`` (gunzipped when ``.gz``), at most ``cap`` bytes, else :class:`InputTooLarge`."""
-    with open_input(path, cap) as fh:
+    with open_input(path, cap, gunzip) as fh:
         return fh.read()
 
 
