@@ -49,6 +49,7 @@ from navbench.episodes.io import episode_keys, load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.metrics import aggregate
+from navbench.safeio import read_input
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
 
@@ -529,7 +530,7 @@ def _check_resume(out: Path, cfg_json: dict[str, Any], has_records: bool) -> Non
                            f"against this run's config (restore it, or use another --out)")
         return
     try:
-        old = json.loads(old_path.read_text())
+        old = json.loads(read_input(old_path, gunzip=False))
         if not isinstance(old, dict):
             raise ValueError
     except ValueError:

@@ -17,6 +17,8 @@ from typing import Any
 
 import pandas as pd
 
+from navbench.safeio import read_input
+
 FORMATS = ("markdown", "csv", "latex")
 
 
@@ -30,7 +32,7 @@ METRICS = ("success", "spl", "soft_spl", "distance_to_goal")
 def _read_object(path: Path, what: str) -> dict[str, Any]:
     """A JSON object from ``path``, or a one-line TableError naming it."""
     try:
-        doc = json.loads(path.read_bytes())
+        doc = json.loads(read_input(path, gunzip=False))
     except FileNotFoundError:
         raise TableError(f"{path}: no {path.name} (is this a navbench run directory?)") from None
     except (OSError, ValueError, RecursionError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
