@@ -10,6 +10,7 @@ and returns the summary. See examples/evaluate_agent.py.
 from __future__ import annotations
 
 import inspect
+import itertools
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -31,8 +32,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
     if episodes:
         episodes = Path(episodes)
         if task is None:
-            from navbench.episodes.io import load_dataset
-            task = load_dataset(episodes).task
+            from navbench.episodes.io import load_dataset  # the first episode tells the task (streamed)
+            task = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), 1))).task
         return task, split, episodes, SUCCESS_DISTANCE[task]
     split = split or ("val" if task == "pointnav" else "val_unseen")
     if task is None:
