@@ -161,7 +161,7 @@ class RemoteAgent:
         self.config = _config_to_wire(cfg)
         self.info = self._request("GET", "/info")
         if self.info.get("protocol") != PROTOCOL:
-            raise RemoteAgentError(f"{self.url}: speaks {self.info.get('protocol')!r}, not {PROTOCOL}")
+            raise RemoteAgentError(printable(f"{self.url}: speaks {self.info.get('protocol')!r}, not {PROTOCOL}"))
         sensors = self.info.get("sensors", [])
         if not isinstance(sensors, list) or not all(s in ("rgb", "depth", "semantic") for s in sensors):
             raise RemoteAgentError(printable(f"{self.url}/info: sensors {sensors!r} are not a list of rgb, depth, "
@@ -252,7 +252,7 @@ class RemoteAgent:
         answer = self._request("POST", "/act", encode_arrays(observations, {"session": self.session}), ARRAYS_TYPE)
         action = answer.get("action")
         if not isinstance(action, int) or isinstance(action, bool):
-            raise RemoteAgentError(f"{self.url}/act: answered {action!r}, not an integer action")
+            raise RemoteAgentError(printable(f"{self.url}/act: answered {action!r}, not an integer action"))
         return action
 
     def episode_log(self) -> dict[str, Any]:
