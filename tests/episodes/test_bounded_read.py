@@ -152,3 +152,28 @@ def test_a_bomb_through_the_cli_is_exit_2_with_memory_bounded(tmp_path):
     assert len(lines) == 1 and str(path) in lines[0] and "larger than 64 MiB" in lines[0]
     assert int(out.stdout) < 600, f"{out.stdout} MB"  # imports (torch) included; the bomb adds little
     assert set(p.name for p in tmp_path.iterdir()) <= {"bomb.json.gz", "run"}  # nothing outside OUT
+
+
+@pytest.mark.parametrize("chunk", [5, 61])
+def test_reading_in_tiny_chunks_gives_the_same_dataset(chunk, objectnav_file, monkeypatch):
+    """Every value split across chunk boundaries (strings, numbers, keys, view points)."""
+    from navbench.episodes import io
+
+    whole = load_dataset(objectnav_file)
+    monkeypatch.setattr(io, "_CHUNK", chunk)
+    for limit in (None, 2):
+        streamed = load_dataset(objectnav_file, selector(limit))
+        assert streamed.goals_by_category == whole.goals_by_category
+        assert streamed.episodes == whole.episodes[:limit]
+        assert streamed.extra == whole.extra
+
+
+def test_tiny_chunks_with_escapes_and_unicode(tmp_path, monkeypatch):
+    from navbench.episodes import io
+    eps = [dict(EPISODE, episode_id=f'é\\"{i}\u2603\U0001F600', info={"n": 1.5e-7, "s": "a\\\\b\\n"}) for i in range(5)]
+    path = tmp_path / "u.json"
+    path.write_text(json.dumps({"episodes": eps, "x": [1, {"y": "}]"}]}, ensure_ascii=False), encoding="utf-8")
+    whole = load_dataset(path)
+    monkeypatch.setattr(io, "_CHUNK", 1)
+    assert load_dataset(path).episodes == whole.episodes and load_dataset(path).extra == {"x": [1, {"y": "}]"}]}
+    assert [e.episode_id for e in load_dataset(path, selector(2)).episodes] == [e.episode_id for e in whole.episodes[:2]]
