@@ -176,4 +176,5 @@ def test_tiny_chunks_with_escapes_and_unicode(tmp_path, monkeypatch):
     whole = load_dataset(path)
     monkeypatch.setattr(io, "_CHUNK", 1)
     assert load_dataset(path).episodes == whole.episodes and load_dataset(path).extra == {"x": [1, {"y": "}]"}]}
-    assert [e.episode_id for e in load_dataset(path, selector(2)).episodes] == [e.episode_id for e in whole.episodes[:2]]
+    first = load_dataset(path, selector(2)).episodes
+    assert [e.episode_id for e in first] == [e.episode_id for e in whole.episodes[:2]]
