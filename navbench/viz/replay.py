@@ -124,9 +124,16 @@ class Replayer:
         self._dataset = None
         self._envs: dict[tuple[str, ...], Any] = {}
 
-    def episode(self, r: dict[str, Any]) -> Episode:
+    def dataset(self):
+        """The run's episode file, holding only the episodes the run recorded (streamed)."""
         if self._dataset is None:
-            self._dataset = load_dataset(self.run.cfg.episodes)
+            wanted = {(str(r["scene_id"]), str(r["episode_id"])) for r in self.run.records}
+            self._dataset = load_dataset(self.run.cfg.episodes, lambda stream: [
+                e for e in stream() if (e.scene_id, e.episode_id) in wanted])
+        return self._dataset
+
+    def episode(self, r: dict[str, Any]) -> Episode:
+        self.dataset()
         for e in self._dataset.episodes:
             if e.episode_id == str(r["episode_id"]) and e.scene_id == r["scene_id"]:
                 return e
@@ -134,8 +141,7 @@ class Replayer:
 
     def env(self, sensors: tuple[str, ...] = ()):
         if sensors not in self._envs:
-            self._envs[sensors] = make_env(self.run.cfg, self._dataset or load_dataset(self.run.cfg.episodes),
-                                           sensors)
+            self._envs[sensors] = make_env(self.run.cfg, self.dataset(), sensors)
         return self._envs[sensors]
 
     def steps(self, r: dict[str, Any], sensors: tuple[str, ...] = ()) -> Iterator[tuple[dict, dict, bool]]:
