@@ -10,6 +10,7 @@ and returns the summary. See examples/evaluate_agent.py.
 from __future__ import annotations
 
 import inspect
+import itertools
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -34,7 +35,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         episodes = Path(episodes)
         if task in (None, "objectnav"):
             from navbench.episodes.io import is_ovon, load_dataset
-            dataset = load_dataset(episodes)
+            # the first episode (and the goals by category) tell the task and the format: streamed
+            dataset = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), 1)))
             task = task or dataset.task
             if task == "objectnav" and is_ovon(dataset):
                 return task, split, episodes, SUCCESS_DISTANCE["ovon"]
@@ -99,7 +101,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     from navbench.agents.habitat_compat import check_agent
     from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
     from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
-    from navbench.eval.runner import RunConfig, run, select_episodes
+    from navbench.eval.runner import RunConfig, run
 
     options = dict(options or {})
     if isinstance(agent, str):
@@ -138,7 +140,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
                                                     runs_dir)
     if resolved.spec == "memory":
         from navbench.eval.runner import run_dataset
-        prebuild_memories(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene))
+        prebuild_memories(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene).episodes)
     summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                   retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
     warn_failed(summary, out)

@@ -40,7 +40,7 @@ from navbench.paths import EPISODES_DIR, SCENES_DIR
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
     from navbench.eval.run_progress import Progress
-    from navbench.eval.runner import RunConfig, parse_shard, run, run_dataset, select_episodes
+    from navbench.eval.runner import RunConfig, parse_shard, run, run_dataset
     from navbench.eval.table import summary_markdown
 
     task, split, episodes, default_sd = resolve_episodes(args.task, args.split, args.episodes)
@@ -69,7 +69,7 @@ def cmd_run(args) -> int:
         require_ray()
 
     if args.agent == "memory":
-        prebuild_memories(cfg, select_episodes(run_dataset(episodes), cfg.limit, cfg.per_scene, cfg.shard))
+        prebuild_memories(cfg, run_dataset(episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes)
     summary = run(cfg, agent.factory, out, resume=args.resume, progress=None if args.quiet else Progress(),
                   overwrite=args.overwrite, retries=args.retries, step_timeout=args.step_timeout,
                   fail_fast=args.fail_fast, backend=args.backend, address=args.address)

@@ -20,11 +20,14 @@ Quaternions are [x, y, z, w]; floats are written rounded to 5 decimals; episode 
 
 from __future__ import annotations
 
+import codecs
 import gzip
 import json
 import math
 import os
+import re
 import zlib
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +40,7 @@ from navbench.episodes.types import (
     ObjectGoal,
     ViewPoint,
 )
+from navbench.safeio import InputTooLarge, open_input, read_input
 
 _EPISODE_KEYS = {"episode_id", "scene_id", "start_position", "start_rotation", "goals", "info", "object_category"}
 _OBJECT_GOAL_KEYS = {"position", "radius", "object_id", "object_category", "object_name", "room_id", "room_name",
@@ -49,34 +53,268 @@ def goals_key(scene_id: str, category: str) -> str:
 
 
 # --------------------------------------------------------------------------------------------- read
-def read_json(path: str | Path) -> Any:
+_READ_ERRORS = (OSError, EOFError, zlib.error, gzip.BadGzipFile, UnicodeDecodeError, json.JSONDecodeError)
+
+
+def read_json(path: str | Path, cap: int | None = None) -> Any:
+    """A whole JSON(.gz) file, at most ``cap`` bytes decompressed (default: the input cap of
+    :mod:`navbench.safeio`); EpisodeError naming the file otherwise."""
     path = Path(path)
     if not path.is_file():
         raise EpisodeError(f"{path}: file not found")
     try:
-        raw = path.read_bytes()
-        if path.suffix == ".gz":
-            raw = gzip.decompress(raw)
-        return json.loads(raw)
-    except (OSError, EOFError, zlib.error, gzip.BadGzipFile, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        return json.loads(read_input(path, cap))
+    except InputTooLarge as exc:
+        raise EpisodeError(str(exc)) from None
+    except _READ_ERRORS as exc:
         raise EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})") from None
     except RecursionError:
         raise EpisodeError(f"{path}: JSON nested too deeply to read") from None
 
 
-def load_dataset(path: str | Path) -> EpisodeDataset:
-    """Load a dataset file (and its ``content/`` per-scene files when present)."""
+MAX_VALUE_CHARS = 64 << 20  # one episode, one goal list or one other top-level value, held whole
+_WS = re.compile(r"[ \t\n\r]*")
+_CHUNK = 1 << 20
+
+
+class _JsonStream:
+    """A JSON document read incrementally: its top-level object's members one by one, the elements of an
+    array member one by one. At most one value (``MAX_VALUE_CHARS``) is held as text at a time."""
+
+    def __init__(self, fh, max_value: int = MAX_VALUE_CHARS) -> None:
+        self.fh, self.max_value = fh, max_value
+        self.text = codecs.getincrementaldecoder("utf-8")()
+        self.decoder = json.JSONDecoder()
+        self.buf, self.pos, self.eof = "", 0, False
+
+    def _more(self, at_least: int = _CHUNK) -> bool:
+        if self.eof:
+            return False
+        parts, got = [self.buf[self.pos:]], 0
+        while got < at_least:
+            data = self.fh.read(_CHUNK)
+            if not data:
+                self.eof = True
+                parts.append(self.text.decode(b"", final=True))
+                break
+            got += len(data)
+            parts.append(self.text.decode(data))
+        self.buf, self.pos = "".join(parts), 0
+        return True
+
+    def peek(self) -> str:
+        """The next character that is not whitespace ("" at the end)."""
+        while True:
+            self.pos = _WS.match(self.buf, self.pos).end()
+            if self.pos < len(self.buf):
+                return self.buf[self.pos]
+            if not self._more():
+                return ""
+
+    def expect(self, chars: str) -> str:
+        c = self.peek()
+        if not c or c not in chars:
+            raise json.JSONDecodeError(f"expected {' or '.join(map(repr, chars))}", self.buf, self.pos)
+        self.pos += 1
+        return c
+
+    def value(self) -> Any:
+        """The next complete JSON value."""
+        self.peek()
+        while True:
+            try:
+                v, end = self.decoder.raw_decode(self.buf, self.pos)
+                if end < len(self.buf) or self.eof:  # a number may go on in the next chunk
+                    self.pos = end
+                    return v
+            except json.JSONDecodeError as exc:  # the end of the buffer, or a real error
+                if self.eof or not (exc.msg.startswith("Unterminated string") or exc.pos >= len(self.buf) - 16):
+                    raise
+            held = len(self.buf) - self.pos
+            if held > self.max_value:
+                raise ValueError(f"a single JSON value longer than {self.max_value >> 20} Mi characters")
+            # geometric growth (a long value is parsed O(1) times over), stopping just past the cap
+            self._more(max(min(held, self.max_value + 1 - held), _CHUNK))
+
+    def members(self):
+        """The top-level object's keys; the caller reads each key's value before asking for the next."""
+        self.expect("{")
+        if self.peek() == "}":
+            self.pos += 1
+        else:
+            while True:
+                key = self.value()
+                if not isinstance(key, str):
+                    raise json.JSONDecodeError("expected a key", self.buf, self.pos)
+                self.expect(":")
+                yield key
+                if self.expect(",}") == "}":
+                    break
+        if self.peek():
+            raise json.JSONDecodeError("extra data after the document", self.buf, self.pos)
+
+    def elements(self):
+        """The elements of the array that comes next."""
+        self.expect("[")
+        if self.peek() == "]":
+            self.pos += 1
+            return
+        while True:
+            yield self.value()
+            if self.expect(",]") == "]":
+                return
+
+    def items(self):
+        """The (key, value) pairs of the object that comes next."""
+        self.expect("{")
+        if self.peek() == "}":
+            self.pos += 1
+            return
+        while True:
+            key = self.value()
+            if not isinstance(key, str):
+                raise json.JSONDecodeError("expected a key", self.buf, self.pos)
+            self.expect(":")
+            yield key, self.value()
+            if self.expect(",}") == "}":
+                return
+
+
+class _Pass:
+    """One read of a dataset file (and its ``content/`` files): the episodes' raw dicts in file order,
+    and the file's other members collected into ``dataset`` as they go by."""
+
+    def __init__(self, path: Path, cap: int | None) -> None:
+        self.path, self.cap, self.dataset = path, cap, EpisodeDataset()
+        self._iter = None
+
+    def raw(self):
+        """(raw episode, file it is in) for every episode, in file order; one read per pass."""
+        if self._iter is None:
+            self._iter = self._raw()
+        return self._iter
+
+    def _raw(self):
+        n = 0
+        for item in self._file(self.path, top=True):
+            n += 1
+            yield item
+        content = self.path.parent / "content"
+        if n == 0 and content.is_dir():
+            for f in sorted(content.iterdir()):
+                if f.name.endswith((".json", ".json.gz")):
+                    yield from self._file(f, top=False)
+
+    def _file(self, path: Path, top: bool):
+        try:
+            with open_input(path, self.cap) as fh:
+                stream = _JsonStream(fh)
+                if stream.peek() != "{":
+                    if top:
+                        raise EpisodeError(f"{path}: not a Habitat episode dataset (no top-level 'episodes')")
+                    raise TypeError("'episodes' must be a list of episodes")
+                seen = False
+                for key in stream.members():
+                    if key == "episodes":
+                        seen = True
+                        if stream.peek() != "[":
+                            raise TypeError("'episodes' must be a list of episodes")
+                        for raw in stream.elements():
+                            yield raw, path
+                    else:
+                        self._member(stream, key)
+                if not seen:
+                    if top:
+                        raise EpisodeError(f"{path}: not a Habitat episode dataset (no top-level 'episodes')")
+                    raise TypeError("'episodes' must be a list of episodes")
+        except EpisodeError:
+            raise
+        except InputTooLarge as exc:
+            raise EpisodeError(str(exc)) from None
+        except _READ_ERRORS as exc:
+            raise EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})") from None
+        except RecursionError:
+            raise EpisodeError(f"{path}: JSON nested too deeply to read") from None
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise EpisodeError(f"{path}: malformed dataset ({type(exc).__name__}: {exc})") from None
+
+    def _member(self, stream: _JsonStream, key: str) -> None:
+        dataset = self.dataset
+        if key == "goals_by_category":
+            if stream.peek() != "{":
+                value = stream.value()
+                if value:
+                    raise TypeError(f"'goals_by_category' must be an object, got {type(value).__name__}")
+                return
+            for k, goals in stream.items():
+                if not isinstance(goals, list):
+                    raise TypeError(f"goals_by_category[{k!r}] must be a list of goals")
+                dataset.goals_by_category[k] = [_object_goal(g) for g in goals]
+        elif key in ("category_to_task_category_id", "category_to_scene_annotation_category_id"):
+            table = _mapping({key: stream.value()}, key)
+            if not all(isinstance(v, int) and not isinstance(v, bool) for v in table.values()):
+                raise TypeError(f"{key} must map category names to integer ids")
+            getattr(dataset, key).update(table)
+        else:
+            dataset.extra.setdefault(key, stream.value())
+
+
+EpisodeStream = Callable[..., Iterator[Episode]]
+
+
+def load_dataset(path: str | Path,
+                 select: Callable[[EpisodeStream], list[Episode]] | None = None,
+                 cap: int | None = None) -> EpisodeDataset:
+    """Load a dataset file (and its ``content/`` per-scene files when present), streamed: only the
+    episodes kept are held in memory. ``select(stream)`` picks them: ``stream()`` reads the file (again)
+    and yields its episodes in file order, ``stream(keys=True)`` only their ``(scene_id, episode_id)``;
+    it may stop early. Each file is read at most ``cap`` bytes decompressed (see :mod:`navbench.safeio`)."""
     path = Path(path)
-    data = read_json(path)
-    if not isinstance(data, dict) or "episodes" not in data:
-        raise EpisodeError(f"{path}: not a Habitat episode dataset (no top-level 'episodes')")
-    dataset = EpisodeDataset()
-    _merge(dataset, data, path)
-    content = path.parent / "content"
-    if not data["episodes"] and content.is_dir():
-        for f in sorted(content.iterdir()):
-            if f.name.endswith((".json", ".json.gz")):
-                _merge(dataset, read_json(f), f)
+    if not path.is_file():
+        raise EpisodeError(f"{path}: file not found")
+    passes: list[_Pass] = []
+
+    def stream(keys: bool = False) -> Iterator[Any]:
+        p = _Pass(path, cap)
+        if not keys:
+            passes.append(p)
+        return _keys(p.raw()) if keys else _episodes(p.raw())
+
+    episodes = list(stream()) if select is None else list(select(stream))
+    last = passes[-1] if passes else _Pass(path, cap)
+    for _ in last.raw():  # the members after the episodes (the rest of them only parsed, not kept)
+        pass
+    return _finish(last, episodes, path)
+
+
+def episode_keys(path: str | Path, cap: int | None = None) -> set[tuple[str, str]]:
+    """The ``(scene_id, episode_id)`` of every episode in a dataset file, without holding the episodes."""
+    keys: set[tuple[str, str]] = set()
+
+    def collect(stream: EpisodeStream) -> list[Episode]:
+        keys.update(stream(keys=True))
+        return []
+    load_dataset(path, collect, cap)
+    return keys
+
+
+def _keys(raws) -> Iterator[tuple[str, str]]:
+    for raw, _ in raws:
+        yield (str(raw.get("scene_id")), _episode_id(raw)) if isinstance(raw, dict) else ("?", "?")
+
+
+def _episodes(raws) -> Iterator[Episode]:
+    for raw, f in raws:
+        yield _episode(raw, f)
+
+
+def _episode_id(raw: Any) -> str:
+    return str(raw.get("episode_id", "?"))[:40] if isinstance(raw, dict) else "?"
+
+
+def _finish(p: _Pass, episodes: list[Episode], path: Path) -> EpisodeDataset:
+    dataset = p.dataset
+    dataset.episodes = episodes
     for ep in dataset.episodes:
         if ep.object_category is None and not ep.goals:
             raise EpisodeError(f"{path}: episode {ep.episode_id}: no goals and no object_category")
@@ -88,31 +326,6 @@ def load_dataset(path: str | Path) -> EpisodeDataset:
                                    f"'{ep.object_category}' (key '{key}' missing from goals_by_category)")
             ep.goals = list(goals)
     return dataset
-
-
-def _merge(dataset: EpisodeDataset, data: dict, path: Path) -> None:
-    try:
-        if not isinstance(data, dict) or not isinstance(data.get("episodes"), list):
-            raise TypeError("'episodes' must be a list of episodes")
-        for key, goals in _mapping(data, "goals_by_category").items():
-            if not isinstance(goals, list):
-                raise TypeError(f"goals_by_category[{key!r}] must be a list of goals")
-            dataset.goals_by_category[key] = [_object_goal(g) for g in goals]
-        for name in ("category_to_task_category_id", "category_to_scene_annotation_category_id"):
-            table = _mapping(data, name)
-            if not all(isinstance(v, int) and not isinstance(v, bool) for v in table.values()):
-                raise TypeError(f"{name} must map category names to integer ids")
-            getattr(dataset, name).update(table)
-        for k, v in data.items():
-            if k not in ("episodes", "goals_by_category", "category_to_task_category_id",
-                         "category_to_scene_annotation_category_id"):
-                dataset.extra.setdefault(k, v)
-        for raw in data["episodes"]:
-            dataset.episodes.append(_episode(raw, path))
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        if isinstance(exc, EpisodeError):
-            raise
-        raise EpisodeError(f"{path}: malformed dataset ({type(exc).__name__}: {exc})") from None
 
 
 def _mapping(data: dict, key: str) -> dict:
@@ -143,7 +356,7 @@ def _vec(v: Any, n: int, what: str) -> list[float]:
 
 
 def _episode(raw: dict, path: Path) -> Episode:
-    eid = str(raw.get("episode_id", "?"))[:40] if isinstance(raw, dict) else "?"
+    eid = _episode_id(raw)
     try:
         raw = _dict(raw, "an episode")
         goals: list[NavigationGoal | ObjectGoal] = []

@@ -16,7 +16,7 @@ from typing import Any
 
 from navbench.episodes.io import load_dataset
 from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
-from navbench.eval.runner import RunConfig, config_diff, select_episodes, summarize
+from navbench.eval.runner import RunConfig, config_diff, selector, summarize
 
 # Keys shards may differ in: how each was run, not what it computes.
 _MERGE_FREE_KEYS = ("shard", "workers", "envs_per_worker", "navbench_version")
@@ -55,8 +55,8 @@ def merge(run_dirs: list[Path], out: Path, overwrite: bool = False, note=print) 
         seen_shards[s] = d
     cfg = RunConfig(**{k: v for k, v in first.items() if k in RunConfig.__dataclass_fields__})
     cfg.shard = None
-    expected = [(e.scene_id, e.episode_id) for e in select_episodes(load_dataset(cfg.episodes), cfg.limit,
-                                                                   cfg.per_scene)]
+    expected = [(e.scene_id, e.episode_id) for e in load_dataset(cfg.episodes, selector(cfg.limit,
+                                                                                         cfg.per_scene)).episodes]
     wanted = set(expected)
     by_key: dict[tuple[str, str], dict[str, Any]] = {}
     where: dict[tuple[str, str], Path] = {}

@@ -175,7 +175,7 @@ def warm_scene(cfg: R.RunConfig) -> str:
     ``NavEnv.reset`` draws without one (gymnasium's seeded generator)."""
     from gymnasium.utils import seeding
 
-    episodes = R.run_dataset(cfg.episodes).episodes
+    episodes = R.run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes
     rng, _ = seeding.np_random(cfg.seed)
     return episodes[int(rng.integers(len(episodes)))].scene_id
 
@@ -304,7 +304,8 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
     from ray.util.queue import Queue as RayQueue
 
     dying = _death_errors(ray)
-    by_key = {(e.scene_id, e.episode_id): e for e in R.run_dataset(cfg.episodes).episodes}
+    selected = R.run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes
+    by_key = {(e.scene_id, e.episode_id): e for e in selected}
     slots: list[_Slot] = []
     try:
         shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for k in keys])

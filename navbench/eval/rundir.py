@@ -10,10 +10,15 @@ from __future__ import annotations
 import errno
 import json
 import os
+import secrets
 import socket
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from navbench.safeio import InputTooLarge, read_input, write_private
+
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
 
 class RunError(ValueError):
@@ -38,8 +43,10 @@ def _pid_alive(pid: int) -> bool:
 
 def _create_exclusive(path: Path, text: str) -> bool:
     """Write ``text`` to ``path`` only if it does not exist (the lock appears whole or not at all)."""
-    tmp = path.with_name(f"{path.name}.{os.getpid()}")
-    tmp.write_text(text)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.{secrets.token_hex(4)}")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW, 0o644)  # never through a planted link
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
     try:
         os.link(tmp, path)
         return True
@@ -93,16 +100,11 @@ class RunLock:
 
 
 def write_atomic(path: Path, text: str) -> None:
-    """Replace ``path`` by ``text`` whole: a crash leaves the old file or the new one, never a mix."""
-    tmp = path.with_name(f".{path.name}.tmp")
+    """Replace ``path`` by ``text`` whole: a crash leaves the old file or the new one, never a mix. The
+    temporary file is created new and never through a symlink (see :func:`navbench.safeio.write_private`)."""
     try:
-        with open(tmp, "w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        write_private(path, text)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
         raise _oserror(path, exc, "write") from None
 
 
@@ -111,13 +113,17 @@ def read_records(path: Path, notes: list[str] | None = None) -> list[dict[str, A
     noted in ``notes``); a corrupt line elsewhere is an error."""
     if not path.is_file():
         return []
-    records, lines = [], path.read_text().splitlines()
+    try:
+        lines = read_input(path).decode("utf-8", "replace").splitlines()
+    except InputTooLarge as exc:
+        raise RunError(str(exc)) from None
+    records = []
     for i, line in enumerate(lines):
         if not line.strip():
             continue
         try:
             records.append(json.loads(line))
-        except json.JSONDecodeError:
+        except (json.JSONDecodeError, RecursionError):
             if i == len(lines) - 1:
                 if notes is not None:
                     notes.append(f"{path}: dropped a truncated last line (an episode cut off mid-write; rerun)")
@@ -140,7 +146,7 @@ class RecordFile:
     def __init__(self, path: Path) -> None:
         self.path = path
         try:
-            self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | _NOFOLLOW, 0o644)
         except OSError as exc:
             raise _oserror(path, exc, "open for appending") from None
 

@@ -26,12 +26,13 @@ the records' only wall-clock fields).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import sys
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,10 +46,11 @@ from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
 from navbench.env.pointnav import PointNavEnv
 from navbench.eval.trace import Trace
-from navbench.episodes.io import load_dataset
+from navbench.episodes.io import episode_keys, load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.metrics import aggregate
+from navbench.safeio import read_input
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
 
@@ -118,33 +120,57 @@ def shard_of(episodes: list, shard: str | None) -> list:
     return episodes[(i - 1) * len(episodes) // n: i * len(episodes) // n]
 
 
+def selector(limit: int | None, per_scene: int | None = None, shard: str | None = None
+             ) -> Callable[[Callable[..., Iterator[Any]]], list[Episode]]:
+    """The selection of :func:`select_episodes` as a ``select`` for :func:`load_dataset`: it streams the
+    file, so only the episodes kept are held (a shard counts the selection in a first, keys-only read)."""
+    parsed = parse_shard(shard)
+
+    def select(stream: Callable[..., Iterator[Any]]) -> list[Episode]:
+        def chosen(keys: bool = False) -> Iterator[Any]:
+            it = stream(keys=keys)
+            if per_scene is not None:
+                seen: dict[str, int] = {}
+
+                def first_of_scene(item: Any) -> bool:
+                    scene = item[0] if keys else item.scene_id
+                    seen[scene] = seen.get(scene, 0) + 1
+                    return seen[scene] <= per_scene
+                it = filter(first_of_scene, it)
+            return itertools.islice(it, limit) if limit is not None else it
+
+        if parsed is None:
+            return list(chosen())
+        i, n = parsed
+        total = sum(1 for _ in chosen(keys=True))
+        return list(itertools.islice(chosen(), (i - 1) * total // n, i * total // n))
+    return select
+
+
 def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int | None = None,
                     shard: str | None = None) -> list[Episode]:
     """The first ``limit`` episodes in file order (Habitat's convention for partial evaluation), after
     keeping only the first ``per_scene`` episodes of each scene when that is set; then shard ``shard``
     ("I/N") of those."""
-    episodes = list(dataset.episodes)
-    if per_scene is not None:
-        seen: dict[str, int] = {}
-        kept = []
-        for e in episodes:
-            seen[e.scene_id] = seen.get(e.scene_id, 0) + 1
-            if seen[e.scene_id] <= per_scene:
-                kept.append(e)
-        episodes = kept
-    return shard_of(episodes[:limit] if limit is not None else episodes, shard)
+    def stream(keys: bool = False) -> Iterator[Any]:
+        return ((e.scene_id, e.episode_id) for e in dataset.episodes) if keys else iter(dataset.episodes)
+    return selector(limit, per_scene, shard)(stream)
 
 
 _DATASET: dict[tuple, EpisodeDataset] = {}
 
 
-def run_dataset(path: str | Path) -> EpisodeDataset:
+def run_dataset(path: str | Path, limit: int | None = None, per_scene: int | None = None,
+                shard: str | None = None) -> EpisodeDataset:
     """The run's episode file, parsed once per process (the driver and an in-process worker share it);
-    read again when the file changed. Callers must not modify it."""
+    read again when the file changed. With a selection (see :func:`select_episodes`) the file is
+    streamed and the dataset holds only the episodes selected. Callers must not modify it."""
     st = Path(path).stat()
-    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size)
+    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard)
     if key not in _DATASET:
-        dataset = load_dataset(path)
+        select = None if limit is None and per_scene is None and shard is None else \
+            selector(limit, per_scene, shard)
+        dataset = load_dataset(path, select)
         _DATASET.clear()
         _DATASET[key] = dataset
     return _DATASET[key]
@@ -434,7 +460,7 @@ def task_size(n: int, workers: int, envs_per_worker: int) -> int:
 def _worker_init(cfg: RunConfig, make_agent: AgentFactory, single_thread: bool) -> None:
     if single_thread:
         share_cores(1)
-    dataset = run_dataset(cfg.episodes)
+    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard)
     agent = make_agent(cfg)
     sensors = tuple(getattr(agent, "sensors", ("rgb", "depth")))
     n_envs = agent.num_envs if isinstance(agent, BatchAgent) else 1
@@ -516,7 +542,7 @@ def _check_resume(out: Path, cfg_json: dict[str, Any], has_records: bool) -> Non
                            f"against this run's config (restore it, or use another --out)")
         return
     try:
-        old = json.loads(old_path.read_text())
+        old = json.loads(read_input(old_path, gunzip=False))
         if not isinstance(old, dict):
             raise ValueError
     except ValueError:
@@ -531,7 +557,8 @@ def _repair(records: list[dict[str, Any]], jsonl: Path, dataset: EpisodeDataset,
             notes: list[str]) -> list[dict[str, Any]]:
     """The records a resumed run keeps: each episode once (the first record), none of a failed episode
     (rerun), and an error naming a record of an episode the dataset does not have."""
-    known = {(e.scene_id, e.episode_id) for e in dataset.episodes}
+    known: set[tuple[str, str]] | Any = {(e.scene_id, e.episode_id) for e in dataset.episodes}
+    everything: set[tuple[str, str]] | None = None  # every episode of the file, read when needed
     kept: dict[tuple[str, str], dict[str, Any]] = {}
     dups = reruns = 0
     for i, r in enumerate(records):
@@ -539,7 +566,9 @@ def _repair(records: list[dict[str, Any]], jsonl: Path, dataset: EpisodeDataset,
             key = (r["scene_id"], r["episode_id"])
         except (KeyError, TypeError):
             raise RunError(f"{jsonl}: record {i + 1} has no scene_id/episode_id") from None
-        if key not in known:
+        if key not in known and everything is None:  # records beyond this run's selection (e.g. --limit)
+            everything = episode_keys(dataset_file)
+        if key not in known and key not in (everything or ()):
             raise RunError(f"{jsonl}: record {i + 1} is of episode {key[1]!r} ({key[0]}), which is not in "
                            f"{dataset_file}: records of another run? (use another --out)")
         if key in kept:
@@ -610,7 +639,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
     if not resume and not overwrite and (old or (out / "config.json").is_file()):
         raise RunError(f"{out} already holds a run ({len(old)} records): --resume to continue it, --overwrite to "
                        f"replace it, or another --out")
-    dataset = run_dataset(cfg.episodes)
+    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard)
     if resume:
         _check_resume(out, cfg_json, bool(old))
         records = _repair(old, jsonl, dataset, cfg.episodes, notes)
@@ -622,7 +651,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
     # Rewrite the kept records whole (atomically) so a torn line or a duplicate does not stay in the file.
     write_atomic(jsonl, "".join(json.dumps(r) + "\n" for r in records))
 
-    episodes = select_episodes(dataset, cfg.limit, cfg.per_scene, cfg.shard)
+    episodes = dataset.episodes  # the selection
     done = {(r["scene_id"], r["episode_id"]) for r in records}
     todo = [(e.scene_id, e.episode_id) for e in episodes if (e.scene_id, e.episode_id) not in done]
     todo.sort()  # group by scene so each worker loads a scene once

@@ -10,11 +10,14 @@ that drive with the PointNav policy, the seed, and the perception of agents that
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+
+from navbench.safeio import read_input
 
 FORMATS = ("markdown", "csv", "latex")
 
@@ -29,7 +32,7 @@ METRICS = ("success", "spl", "soft_spl", "distance_to_goal")
 def _read_object(path: Path, what: str) -> dict[str, Any]:
     """A JSON object from ``path``, or a one-line TableError naming it."""
     try:
-        doc = json.loads(path.read_bytes())
+        doc = json.loads(read_input(path, gunzip=False))
     except FileNotFoundError:
         raise TableError(f"{path}: no {path.name} (is this a navbench run directory?)") from None
     except (OSError, ValueError, RecursionError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
@@ -91,7 +94,8 @@ def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
     # a bundled split is read where this checkout keeps it (config.json holds the writer's path)
     bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
     episodes = bundled if bundled is not None and bundled.is_file() else Path(cfg.get("episodes") or "")
-    keep = {(e.scene_id, e.episode_id) for e in load_dataset(episodes).episodes[:first]}
+    head = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), first))).episodes
+    keep = {(e.scene_id, e.episode_id) for e in head}
     recs = [r for r in read_records(run_dir / "episodes.jsonl") if (r["scene_id"], r["episode_id"]) in keep]
     if len(recs) < len(keep):
         raise TableError(f"{run_dir}: has {len(recs)} of the first {first} episodes of {episodes.name}")
@@ -125,8 +129,8 @@ def run_identity(run_dir: str | Path) -> dict[str, Any]:
         if ident["decoding"] == "sample" and o.get("temperature", 1.0) != 1.0:
             ident["decoding"] = f"sample T={o['temperature']:g}"
     if agent in ("memory", "frontier"):
-        noise = o.get("noise", "none")
-        ident["perception"] = o.get("perception", "oracle") + ("" if noise == "none" else f", noise {noise}")
+        noise = o.get("noise") or "none"
+        ident["perception"] = (o.get("perception") or "oracle") + ("" if noise == "none" else f", noise {noise}")
     return ident
 
 

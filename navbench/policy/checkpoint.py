@@ -29,6 +29,7 @@ import numpy as np
 import torch
 
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
+from navbench.safeio import write_private
 
 HABITAT_PREFIX = "actor_critic."
 _NORMALIZER = "net.visual_encoder.running_mean_and_var."
@@ -53,22 +54,89 @@ def _json_scalar(value: object) -> object:
     raise TypeError(f"{type(value).__name__} value {value!r} is not JSON-like")
 
 
+TRAIN_STATE_FORMAT = "navbench-train-state/1"
+
+
+def _encode(obj: Any, tensors: dict[str, torch.Tensor]) -> Any:
+    """``obj`` as JSON, its tensors moved to ``tensors`` (and named there); dict keys and tuples kept."""
+    if isinstance(obj, torch.Tensor):
+        name = str(len(tensors))
+        tensors[name] = obj.detach().cpu()
+        return {"tensor": name}
+    if isinstance(obj, Mapping):
+        return {"dict": [[_encode(k, tensors), _encode(v, tensors)] for k, v in obj.items()]}
+    if isinstance(obj, tuple):
+        return {"tuple": [_encode(v, tensors) for v in obj]}
+    if isinstance(obj, list):
+        return [_encode(v, tensors) for v in obj]
+    if obj is None or isinstance(obj, (bool, int, float, str)):
+        return obj
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"cannot store a {type(obj).__name__} in a training state")
+
+
+def _decode(obj: Any, tensors: Mapping[str, torch.Tensor]) -> Any:
+    if isinstance(obj, list):
+        return [_decode(v, tensors) for v in obj]
+    if isinstance(obj, dict):
+        (kind, value), = obj.items()
+        if kind == "tensor":
+            return tensors[value]
+        if kind == "tuple":
+            return tuple(_decode(v, tensors) for v in value)
+        if kind == "dict":
+            return {_decode(k, tensors): _decode(v, tensors) for k, v in value}
+        raise ValueError(f"unknown entry {kind!r}")
+    return obj
+
+
 def save_train_state(path: Path, state: dict[str, Any]) -> None:
-    """Write a resumable training state (weights, optimizer, counters) so that a run killed mid-write
-    leaves the previous state whole: the file is written beside ``path`` and then moved over it."""
-    tmp = path.with_suffix(".tmp")
-    torch.save(state, tmp)
-    tmp.replace(path)
+    """Write a resumable training state (weights, optimizer, counters) in a format that cannot run code
+    when read: ``torch.save`` of tensors only, plus the rest as a JSON string. A run killed mid-write
+    leaves the previous state whole (a fresh temporary file, never a symlink, is renamed over ``path``)."""
+    tensors: dict[str, torch.Tensor] = {}
+    meta = json.dumps(_encode(state, tensors))
+    write_private(Path(path), lambda fh: torch.save({"format": TRAIN_STATE_FORMAT, "state": meta,
+                                                      "tensors": tensors}, fh), fsync=False)
+
+
+def read_train_state(path: Path) -> dict[str, Any]:
+    """The state :func:`save_train_state` wrote, read with ``torch.load(weights_only=True)``: a crafted
+    file runs no code and fails as one line (:class:`CheckpointError`) naming it."""
+    path = Path(path)
+    try:
+        obj = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as e:  # weights_only refusals, truncation, garbage: many types
+        raise CheckpointError(f"{path}: not a training state navbench wrote ({_reason(e)}); start over "
+                              f"without --resume or remove it") from None
+    try:
+        if not isinstance(obj, dict) or obj.get("format") != TRAIN_STATE_FORMAT:
+            raise ValueError(f"no {TRAIN_STATE_FORMAT!r} format tag")
+        tensors = obj["tensors"]
+        if not isinstance(tensors, dict) or not all(isinstance(t, torch.Tensor) for t in tensors.values()):
+            raise ValueError("its tensors are not a dict of tensors")
+        state = _decode(json.loads(obj["state"]), tensors)
+        if not isinstance(state, dict):
+            raise ValueError("its state is not a dict")
+        return state
+    except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as e:
+        raise CheckpointError(f"{path}: not a training state navbench wrote ({type(e).__name__}: {e}); start "
+                              f"over without --resume or remove it"[:400]) from None
 
 
 def load_train_state(path: Path, policy: torch.nn.Module, opt: torch.optim.Optimizer, counter: str
                      ) -> tuple[int, int, float]:
     """Restore ``policy`` and ``opt`` from a state :func:`save_train_state` wrote; returns (``state[counter]``,
     frames, wall seconds): where the run stopped."""
-    st = torch.load(path, weights_only=False)
-    policy.load_state_dict(st["policy"])
-    opt.load_state_dict(st["optimizer"])
-    return st[counter], st["frames"], st["wall_s"]
+    st = read_train_state(path)
+    try:
+        policy.load_state_dict(st["policy"])
+        opt.load_state_dict(st["optimizer"])
+        return int(st[counter]), int(st["frames"]), float(st["wall_s"])
+    except (KeyError, TypeError, ValueError, RuntimeError) as e:
+        raise CheckpointError(f"{path}: training state does not fit this run ({type(e).__name__}: "
+                              f"{str(e).splitlines()[0] if str(e) else ''})"[:400]) from None
 
 
 def save_checkpoint(
@@ -162,6 +230,11 @@ def read_checkpoint(path: str | Path) -> CheckpointData:
     return CheckpointData(state_dict=state_dict, config=config)
 
 
+def _ranked(t: Any, rank: int) -> torch.Tensor | None:
+    """``t`` when it is a tensor of at least ``rank`` dimensions, else None."""
+    return t if isinstance(t, torch.Tensor) and t.dim() >= rank else None
+
+
 def infer_net_config(state_dict: Mapping[str, torch.Tensor]) -> PolicyNetConfig:
     """The architecture a state_dict was saved from, as far as the shapes tell.
 
@@ -170,9 +243,10 @@ def infer_net_config(state_dict: Mapping[str, torch.Tensor]) -> PolicyNetConfig:
     stays 224x224 (a checkpoint for another size then fails on ``net.visual_fc.1.weight``).
     """
     defaults = PolicyNetConfig()
-    critic = state_dict.get("critic.fc.weight")
-    actor = state_dict.get("action_distribution.linear.weight")
-    conv1 = state_dict.get("net.visual_encoder.backbone.conv1.0.weight")
+    # a tensor of the wrong rank tells nothing: the default stands and the shape check names the tensor
+    critic = _ranked(state_dict.get("critic.fc.weight"), 2)
+    actor = _ranked(state_dict.get("action_distribution.linear.weight"), 2)
+    conv1 = _ranked(state_dict.get("net.visual_encoder.backbone.conv1.0.weight"), 1)
     layers = sum(1 for k in state_dict if k.startswith("net.state_encoder.rnn.weight_ih_l"))
     base = int(conv1.shape[0]) if conv1 is not None else defaults.base_planes
     return PolicyNetConfig(

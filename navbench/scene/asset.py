@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from navbench.scene.annotations import ObjectAnnotation, RoomAnnotation
+from navbench.safeio import InputTooLarge, max_input_bytes, read_input, too_large
 from navbench.scene.errors import SceneError
 from navbench.scene.mesh_io import read_mesh
 
@@ -79,6 +80,8 @@ def load_scene(path: str | Path) -> SceneAsset:
     path = Path(path)
     if not path.is_file():
         raise SceneError(f"{path}: scene file not found")
+    if path.stat().st_size > max_input_bytes():
+        raise SceneError(str(too_large(path, max_input_bytes(), "on disk")))
     from navbench.scene.datasets import instances
 
     if instances.is_scene_instance(path):  # a stage plus object instances (HSSD, ReplicaCAD)
@@ -97,12 +100,14 @@ def load_scene(path: str | Path) -> SceneAsset:
     scene_id = path.name.split(".")[0]
     if sem.is_file():
         try:
-            data = json.loads(sem.read_bytes())
+            data = json.loads(read_input(sem, gunzip=False))
             if not isinstance(data, dict) or not all(isinstance(data.get(k, []), list) for k in ("objects", "rooms")):
                 raise TypeError("expected an object with 'objects' and 'rooms' lists")
             objects = {o.id: o for o in map(ObjectAnnotation.from_json, data.get("objects", []))}
             rooms = [RoomAnnotation.from_json(r) for r in data.get("rooms", [])]
             scene_id = str(data.get("scene_id", scene_id))
+        except InputTooLarge as exc:
+            raise SceneError(str(exc)) from None
         except (ValueError, KeyError, TypeError, AttributeError, IndexError, OverflowError, RecursionError) as exc:
             raise SceneError(f"{sem}: corrupt semantic annotation ({type(exc).__name__}: {exc})"[:300]) from None
     else:

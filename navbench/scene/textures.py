@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.safeio import InputTooLarge, read_input
 from navbench.scene.errors import SceneError
 
 BASISU = "KHR_texture_basisu"
@@ -80,6 +81,16 @@ def _view_bytes(header: dict, binary: bytes, index: int, path: Path) -> bytes:
         raise SceneError(f"{path}: image refers to a missing bufferView {index}") from None
 
 
+MAX_TEXTURE_PIXELS = 8192 * 8192  # 256 MB as RGBA; scans' textures are 4096 x 4096 at most
+
+
+def _check_pixels(width: int, height: int, where: str) -> None:
+    """Refuse a texture whose decoded size would pass :data:`MAX_TEXTURE_PIXELS` (a decompression bomb)."""
+    if width * height > MAX_TEXTURE_PIXELS:
+        raise SceneError(f"{where}: texture of {width} x {height} pixels is larger than {MAX_TEXTURE_PIXELS} "
+                         f"pixels (a decompression bomb?)")
+
+
 def decode_basis(blob: bytes, where: str, extension: str = BASISU) -> np.ndarray:
     """(H, W, 4) uint8 RGBA of the top mip level of a KTX2/Basis Universal image, row 0 at the top;
     ``extension`` (the glTF extension that referenced it) is named in every error."""
@@ -90,6 +101,7 @@ def decode_basis(blob: bytes, where: str, extension: str = BASISU) -> np.ndarray
                          f"package (pip install opengl-basisu)") from None
     try:
         texture = opengl_basisu.open(bytes(blob))
+        _check_pixels(int(texture.width), int(texture.height), where)
         rgba = np.asarray(texture.transcode(opengl_basisu.Target.RGBA8).data, dtype=np.uint8)
     except (ValueError, IndexError) as exc:  # BasisuError is a ValueError
         raise SceneError(f"{where}: cannot decode {extension} texture ({type(exc).__name__}: {exc})") from None
@@ -133,7 +145,10 @@ def _image_bytes(header: dict, binary: bytes, img: dict, index: int, path: Path)
     f = path.parent / unquote(uri)
     if not uri or not f.is_file():
         raise SceneError(f"{path}: texture image {index} not found: {f}")
-    return f.read_bytes()
+    try:
+        return read_input(f, gunzip=False)
+    except InputTooLarge as exc:
+        raise SceneError(str(exc)) from None
 
 
 def _is_basis(img: dict, blob: bytes) -> bool:
@@ -162,6 +177,12 @@ def _texture_source(tex: dict, t: int, path: Path) -> tuple[object, str | None]:
         raise SceneError(f"{path}: texture {t} uses the {others[0]} extension, which navbench cannot decode "
                          f"(readable: PNG/JPEG images, {' and '.join(BASIS_EXTENSIONS)})")
     return None, None
+def _read_scan(path: Path) -> bytes:
+    """A scan file's bytes, at most the input cap (``NAVBENCH_MAX_INPUT_BYTES``, see :mod:`navbench.safeio`)."""
+    try:
+        return read_input(path, gunzip=False)
+    except InputTooLarge as exc:
+        raise SceneError(str(exc)) from None
 
 
 def prepare_glb(path: Path) -> bytes | None:
@@ -170,7 +191,7 @@ def prepare_glb(path: Path) -> bytes | None:
     Every image a texture uses is checked: an undecodable one raises :class:`SceneError` naming the
     file, the image and (for Basis payloads) the extension.
     """
-    data = path.read_bytes()
+    data = _read_scan(path)
     header, binary = read_glb(data, path)
     images = header.get("images", [])
     textures = header.get("textures", [])
@@ -200,7 +221,11 @@ def prepare_glb(path: Path) -> bytes | None:
                 (tex.get("extensions") or {}).pop(name, None)
         else:
             try:
-                Image.open(io.BytesIO(blob)).verify()
+                with Image.open(io.BytesIO(blob)) as im:
+                    _check_pixels(*im.size, f"{path}: image {index}")
+                    im.verify()
+            except SceneError:
+                raise
             except Exception as exc:  # PIL raises many types for a bad image
                 raise SceneError(f"{path}: texture image {index} ({img.get('mimeType', 'unknown type')}) "
                                  f"cannot be decoded ({type(exc).__name__}: {exc})") from None

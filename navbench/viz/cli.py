@@ -9,9 +9,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from navbench.safeio import UniqueNames, child, own_dir, unlink_if_symlink
+
 
 def write_videos(run_dir: Path, which: str, quiet: bool = False, episode: str | None = None) -> list[Path]:
-    """OUT/videos/<episode_id>.mp4 for ``which`` = failures | all episodes of a finished run (or one ``episode``)."""
+    """OUT/videos/<episode_id>.mp4 for ``which`` = failures | all episodes of a finished run (or one ``episode``);
+    the episode id is made a plain file name (:func:`navbench.safeio.safe_name`), so it stays in OUT/videos."""
     from navbench.viz.replay import Replayer, Run
     from navbench.viz.video import select, write_video
 
@@ -22,10 +25,10 @@ def write_videos(run_dir: Path, which: str, quiet: bool = False, episode: str | 
         print(f"{run_dir}: no video for {len(untraced)} episodes recorded without a trace", file=sys.stderr)
         recs = [r for r in recs if r.get("trace")]
     rp = Replayer(run)
-    out = []
+    out, names = [], UniqueNames()
     try:
         for k, r in enumerate(recs, 1):
-            path = Path(run_dir) / "videos" / f"{r['episode_id']}.mp4"
+            path = unlink_if_symlink(child(own_dir(Path(run_dir) / "videos"), names(r["episode_id"], ".mp4")))
             n = write_video(rp, r, path)
             out.append(path)
             if not quiet:
@@ -50,9 +53,10 @@ def cmd_viz(args) -> int:
     if untraced:
         raise ValueError(f"{args.run}: the run predates pose recording (no trace in episode "
                          f"{', '.join(untraced[:3])}{'...' if len(untraced) > 3 else ''}); rerun it to draw it")
-    out = Path(args.out or Path(args.run) / "viz")
+    out = Path(args.out) if args.out else own_dir(Path(args.run) / "viz")
     out.mkdir(parents=True, exist_ok=True)
     rp = Replayer(run)
+    names = UniqueNames()
     try:
         for r in recs:
             explored = None
@@ -61,12 +65,13 @@ def cmd_viz(args) -> int:
                 explored = explored_mask(rp, r)
             # replays the actions, checking every recorded pose
             img = episode_map(rp, r, max_side=args.size, explored=explored)
-            png = out / f"{r['episode_id']}.png"
+            name = names(r["episode_id"])  # an episode id from a file is a name, never a path
+            png = unlink_if_symlink(child(out, name + ".png"))
             cv2.imwrite(str(png), img[..., ::-1])
             line = f"{png}: {r.get('num_steps', 0)} steps replayed, path matches the record"
             if args.video:
                 from navbench.viz.video import write_video
-                mp4 = Path(args.run) / "videos" / f"{r['episode_id']}.mp4"
+                mp4 = unlink_if_symlink(child(own_dir(Path(args.run) / "videos"), name + ".mp4"))
                 line += f"; {mp4} ({write_video(rp, r, mp4)} frames)"
             print(line)
     finally:

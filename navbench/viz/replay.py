@@ -19,6 +19,7 @@ from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, ObjectGoal
 from navbench.eval.failures import failure_kind
 from navbench.eval.runner import RunConfig, make_env, read_records
+from navbench.safeio import read_input
 from navbench.viz.topdown import EpisodeDrawing, TopDown, shortest_path
 
 
@@ -36,15 +37,28 @@ class Run:
 
     @classmethod
     def load(cls, path: str | Path) -> "Run":
+        """A run directory, its config and records checked (a hand-edited file is one line naming it)."""
         path = Path(path)
         records = read_records(path / "episodes.jsonl")
         if not records:
             raise ReplayError(f"{path}: no episode records (episodes.jsonl missing or empty)")
+        for i, r in enumerate(records):
+            problem = record_problem(r)
+            if problem:
+                raise ReplayError(f"{path / 'episodes.jsonl'}: record {i + 1}: {problem}"[:300])
         cfg_file = path / "config.json"
         if not cfg_file.is_file():
             raise ReplayError(f"{path}: no config.json")
-        raw = json.loads(cfg_file.read_text())
+        try:
+            raw = json.loads(read_input(cfg_file, 16 << 20))
+        except (ValueError, OSError, RecursionError) as exc:
+            raise ReplayError(f"{cfg_file}: not a run config ({type(exc).__name__})") from None
         names = {f.name for f in dataclasses.fields(RunConfig)}
+        bad = [k for k in ("agent", "label", "task", "split", "episodes", "scene_dir")
+               if isinstance(raw, dict) and raw.get(k) is not None and not isinstance(raw[k], str)]
+        if not isinstance(raw, dict) or bad:
+            raise ReplayError(f"{cfg_file}: not a run config ({'a ' + type(raw).__name__ if not bad else bad[0]!r}"
+                              f"{' is not a string' if bad else ''})")
         return cls(path, RunConfig(**{k: v for k, v in raw.items() if k in names}), records)
 
     @property
@@ -59,6 +73,38 @@ class Run:
 
     def failures(self) -> list[dict[str, Any]]:
         return [r for r in self.records if not r.get("skipped") and not r.get("success")]
+
+
+_NUMBERS = ("spl", "soft_spl", "distance_to_goal", "geodesic_distance", "elapsed_s", "path_length")
+_COUNTS = ("num_steps", "collisions")
+
+
+def record_problem(r: Any) -> str | None:
+    """What makes ``r`` unusable as an episode record (a wrong type), or None."""
+    if not isinstance(r, dict):
+        return f"not an object but {type(r).__name__}"
+    eid = r.get("episode_id")
+    if isinstance(eid, bool) or not isinstance(eid, (str, int)):
+        return f"'episode_id' must be a string, got {eid!r}"
+    if not isinstance(r.get("scene_id"), str):
+        return f"episode {eid}: 'scene_id' must be a string, got {r.get('scene_id')!r}"
+    for k in ("success", *_NUMBERS):
+        v = r.get(k)
+        if v is not None and (not isinstance(v, (int, float)) or (isinstance(v, bool) and k != "success")):
+            return f"episode {eid}: {k!r} must be a number, got {v!r}"
+    for k in _COUNTS:
+        v = r.get(k)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int)):
+            return f"episode {eid}: {k!r} must be an integer, got {v!r}"
+    for k in ("object_category", "failure_reason"):
+        if r.get(k) is not None and not isinstance(r[k], str):
+            return f"episode {eid}: {k!r} must be a string, got {r[k]!r}"
+    trace = r.get("trace")
+    if trace is not None and (not isinstance(trace, dict) or not isinstance(trace.get("poses", []), list)
+                              or not isinstance(trace.get("actions", ""), (str, list))
+                              or not isinstance(trace.get("decisions", []), list)):
+        return f"episode {eid}: 'trace' must be an object (poses and decisions lists, actions)"
+    return None
 
 
 def outcome(r: dict[str, Any]) -> str:
@@ -78,9 +124,16 @@ class Replayer:
         self._dataset = None
         self._envs: dict[tuple[str, ...], Any] = {}
 
-    def episode(self, r: dict[str, Any]) -> Episode:
+    def dataset(self):
+        """The run's episode file, holding only the episodes the run recorded (streamed)."""
         if self._dataset is None:
-            self._dataset = load_dataset(self.run.cfg.episodes)
+            wanted = {(str(r["scene_id"]), str(r["episode_id"])) for r in self.run.records}
+            self._dataset = load_dataset(self.run.cfg.episodes, lambda stream: [
+                e for e in stream() if (e.scene_id, e.episode_id) in wanted])
+        return self._dataset
+
+    def episode(self, r: dict[str, Any]) -> Episode:
+        self.dataset()
         for e in self._dataset.episodes:
             if e.episode_id == str(r["episode_id"]) and e.scene_id == r["scene_id"]:
                 return e
@@ -88,8 +141,7 @@ class Replayer:
 
     def env(self, sensors: tuple[str, ...] = ()):
         if sensors not in self._envs:
-            self._envs[sensors] = make_env(self.run.cfg, self._dataset or load_dataset(self.run.cfg.episodes),
-                                           sensors)
+            self._envs[sensors] = make_env(self.run.cfg, self.dataset(), sensors)
         return self._envs[sensors]
 
     def steps(self, r: dict[str, Any], sensors: tuple[str, ...] = ()) -> Iterator[tuple[dict, dict, bool]]:

@@ -2,7 +2,8 @@
 gallery of episodes (map thumbnail, outcome, video) filterable by run, outcome and category.
 
 Everything (styles, script, thumbnails, embedded videos) is inline, so the page works opened from disk
-with no server and no network.
+with no server and no network. Every string from a run (labels, ids, categories, reasons) is escaped, and
+records are type-checked when the run is loaded, so a hand-edited ``episodes.jsonl`` cannot script the page.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from typing import Any
 
 import cv2
 
+from navbench.safeio import read_input, safe_name
 from navbench.viz.replay import Replayer, ReplayError, Run, outcome
 
 OUTCOMES = ("success", "wrong instance", "stopped early", "stuck", "timeout", "crashed", "skipped")
@@ -74,10 +76,10 @@ def summary_table(runs: list[Run]) -> str:
     rows = []
     for run in runs:
         s = _scored(run.records)
-        rows.append([run.label, run.cfg.task, run.cfg.split or "", len(s), _pct(_mean([r["success"] for r in s])),
-                     _pct(_mean([r["spl"] for r in s])), _pct(_mean([r["soft_spl"] for r in s])),
-                     f"{_mean([r['num_steps'] for r in s]) or 0:.0f}",
-                     f"{_mean([r['collisions'] for r in s]) or 0:.1f}",
+        rows.append([run.label, run.cfg.task, run.cfg.split or "", len(s), _pct(_mean([r.get("success") for r in s])),
+                     _pct(_mean([r.get("spl") for r in s])), _pct(_mean([r.get("soft_spl") for r in s])),
+                     f"{_mean([r.get('num_steps') for r in s]) or 0:.0f}",
+                     f"{_mean([r.get('collisions') for r in s]) or 0:.1f}",
                      sum(1 for r in run.records if r.get("skipped"))])
     return _table(["run", "task", "split", "episodes", "SR %", "SPL %", "soft SPL %", "steps", "collisions",
                    "skipped"], rows)
@@ -91,7 +93,7 @@ def category_table(runs: list[Run]) -> str:
         row: list[Any] = [c]
         for run in runs:
             s = [r for r in _scored(run.records) if (r.get("object_category") or "(point goal)") == c]
-            row += [len(s), _pct(_mean([r["success"] for r in s])), _pct(_mean([r["spl"] for r in s]))]
+            row += [len(s), _pct(_mean([r.get("success") for r in s])), _pct(_mean([r.get("spl") for r in s]))]
         rows.append(row)
     return _table(head, rows)
 
@@ -134,11 +136,11 @@ def _cards(run: Run, out_dir: Path, thumbs: int, max_episodes: int | None, embed
                 note = "" if r.get("trace") else "no trace recorded: start, goals and shortest path only"
             pic = f'<img alt="map of episode {html.escape(str(r["episode_id"]))}" src="data:image/png;base64,' \
                   f'{_png_b64(img, thumbs)}">' if img is not None else ""
-            video = Path(run.path) / "videos" / f"{r['episode_id']}.mp4"
+            video = Path(run.path) / "videos" / (safe_name(r["episode_id"]) + ".mp4")
             vid = ""
             if video.is_file():
                 if embed_videos:
-                    b = base64.b64encode(video.read_bytes()).decode()
+                    b = base64.b64encode(read_input(video, 256 << 20)).decode()
                     vid = f'<video controls preload="none" src="data:video/mp4;base64,{b}"></video>'
                 else:
                     rel = Path(_relpath(video, out_dir))
@@ -151,8 +153,9 @@ def _cards(run: Run, out_dir: Path, thumbs: int, max_episodes: int | None, embed
                 f'<div><span class="badge {cls}">{html.escape(o)}</span> {html.escape(cat)}</div>'
                 f'<div>{html.escape(run.label)} · ep {html.escape(str(r["episode_id"]))} · '
                 f'{html.escape(Path(r["scene_id"]).stem)}</div>'
-                f'<div>{r.get("num_steps", 0)} steps · SPL {spl if spl is None else f"{spl:.2f}"} · '
-                f'{r.get("collisions", 0)} collisions</div>'
+                f'<div>{html.escape(str(r.get("num_steps", 0)))} steps · SPL '
+                f'{html.escape(str(spl if spl is None else f"{spl:.2f}"))} · '
+                f'{html.escape(str(r.get("collisions", 0)))} collisions</div>'
                 + (f'<div><i>{html.escape(note)}</i></div>' if note else "") + vid + "</div>")
     finally:
         rp.close()

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 import trimesh
-from fuzzlib import assert_cli_error, check_user_error
+from fuzzlib import assert_cli_error, check_user_error, run_cli
 
 from navbench.episodes.io import load_dataset
 from navbench.localize.goat import load_goat_split
@@ -153,3 +153,27 @@ def test_memory_build_unknown_perception_is_one_line():
 
 def test_train_config_directory_is_one_line(tmp_path):
     assert_cli_error(["train", "--config", str(tmp_path)], tmp_path)
+
+
+@pytest.mark.parametrize("key", ["critic.fc.weight", "action_distribution.linear.weight",
+                                 "net.visual_encoder.backbone.conv1.0.weight"])
+def test_checkpoint_with_a_0d_tensor_where_a_matrix_belongs_is_refused(key, small_checkpoint, tmp_path):
+    state = dict(read_checkpoint(small_checkpoint).state_dict)
+    state[key] = torch.tensor(1.0)
+    path = tmp_path / "scalar.pth"
+    torch.save({"state_dict": state, "config": {}}, path)
+    with pytest.raises(ValueError) as exc:
+        load_checkpoint(path)
+    check_user_error(exc.value, path)
+
+
+@pytest.mark.parametrize("option", ["perception", "noise", "checkpoint", "decoding"])
+def test_table_reads_a_null_agent_option(option, tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(RUN, run)
+    cfg = json.loads((run / "config.json").read_text())
+    cfg["agent_options"][option] = None
+    (run / "config.json").write_text(json.dumps(cfg))
+    code, out, err = run_cli(["table", str(run)])
+    assert code == 0 and not err, err
+    assert "oracle" in out

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from navbench.safeio import read_input
 from navbench.scene.errors import SceneError
 
 CONFIG_SUFFIX = ".scene_dataset_config.json"
@@ -102,9 +103,9 @@ def stage_attributes(mesh_path: Path) -> dict:
     if cfg is None:
         return {}
     try:
-        data = json.loads(cfg.read_text())
+        data = json.loads(read_input(cfg, gunzip=False))
         attrs = dict(data.get("stages", {}).get("default_attributes", {}) or {})
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError) as exc:
+    except (OSError, ValueError, AttributeError) as exc:  # JSON, UTF-8 and size errors are ValueErrors
         raise SceneError(f"{cfg}: corrupt scene dataset config ({type(exc).__name__}: {exc})") from None
     name = scene_name(mesh_path)
     out = {}

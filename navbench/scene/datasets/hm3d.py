@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from navbench.safeio import read_input
 from navbench.scene.annotations import objects_from_faces, rooms_from_faces, transfer_face_labels
 from navbench.scene.datasets.label_map import map_category
 from navbench.scene.errors import SceneError
@@ -26,8 +27,8 @@ HEADER = "HM3D Semantic Annotations"
 def read_semantic_txt(path: Path) -> list[tuple[int, int, str, int]]:
     """[(object_id, colour as 0xRRGGBB, raw name, region_id)], in file order."""
     try:
-        lines = Path(path).read_text().splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
+        lines = read_input(path, gunzip=False).decode().splitlines()
+    except (OSError, ValueError) as exc:  # UTF-8 and size errors are ValueErrors
         raise SceneError(f"{path}: cannot read ({exc})") from None
     if not lines or lines[0].strip() != HEADER:
         raise SceneError(f"{path}: not an HM3D semantic.txt (first line must be {HEADER!r})")

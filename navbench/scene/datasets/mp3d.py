@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from navbench.safeio import read_input
 from navbench.scene.annotations import objects_from_faces, rooms_from_faces, transfer_face_labels
 from navbench.scene.datasets.label_map import RAW_TO_CATEGORY, map_category, normalise
 from navbench.scene.errors import SceneError
@@ -39,8 +40,8 @@ def read_house(path: Path) -> tuple[dict[int, tuple[str, str]], dict[int, tuple[
     objs: dict[int, tuple[int, int]] = {}
     regions: dict[int, str] = {}
     try:
-        lines = Path(path).read_text().splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
+        lines = read_input(path, gunzip=False).decode().splitlines()
+    except (OSError, ValueError) as exc:  # UTF-8 and size errors are ValueErrors
         raise SceneError(f"{path}: cannot read ({exc})") from None
     if not lines or not lines[0].startswith("ASCII"):
         raise SceneError(f"{path}: not a Matterport .house file (first line must start with 'ASCII')")
