@@ -55,8 +55,9 @@ def too_large(path: str | Path, cap: int, what: str = "decompressed") -> InputTo
 class _Capped(io.RawIOBase):
     """A binary stream that raises :class:`InputTooLarge` once more than ``cap`` bytes were read."""
 
-    def __init__(self, inner: BinaryIO, path: Path, cap: int) -> None:
+    def __init__(self, inner: BinaryIO, path: Path, cap: int, raw: BinaryIO | None = None) -> None:
         self.inner, self.path, self.cap, self.count = inner, path, cap, 0
+        self.raw = raw  # the file under a GzipFile, which closing the GzipFile leaves open
 
     def readable(self) -> bool:
         return True
@@ -71,6 +72,8 @@ class _Capped(io.RawIOBase):
 
     def close(self) -> None:
         self.inner.close()
+        if self.raw is not None:
+            self.raw.close()
         super().close()
 
 
@@ -80,12 +83,13 @@ def open_input(path: str | Path, cap: int | None = None, gunzip: bool = True) ->
     path = Path(path)
     cap = max_input_bytes() if cap is None else cap
     fh: BinaryIO = open(path, "rb")
+    raw = None
     if gunzip and path.suffix == ".gz":
-        fh = gzip.GzipFile(fileobj=fh, mode="rb")  # type: ignore[assignment]
+        raw, fh = fh, gzip.GzipFile(fileobj=fh, mode="rb")  # type: ignore[assignment]
     elif os.fstat(fh.fileno()).st_size > cap:
         fh.close()
         raise too_large(path, cap, "on disk")
-    return io.BufferedReader(_Capped(fh, path, cap), 1 << 20)  # type: ignore[return-value]
+    return io.BufferedReader(_Capped(fh, path, cap, raw), 1 << 20)  # type: ignore[return-value]
 
 
 def read_input(path: str | Path, cap: int | None = None, gunzip: bool = True) -> bytes:

@@ -194,6 +194,11 @@ class _Pass:
             self._iter = self._raw()
         return self._iter
 
+    def close(self) -> None:
+        """Close the file of a pass left before its end (a selection that stopped early)."""
+        if self._iter is not None:
+            self._iter.close()
+
     def _raw(self):
         n = 0
         for item in self._file(self.path, top=True):
@@ -272,10 +277,12 @@ def load_dataset(path: str | Path,
     path = Path(path)
     if not path.is_file():
         raise EpisodeError(f"{path}: file not found")
-    passes: list[_Pass] = []
+    passes: list[_Pass] = []  # the episode passes; the last one's members make the dataset
+    opened: list[_Pass] = []  # every pass, to be closed however far it was read
 
     def stream(keys: bool = False) -> Iterator[Any]:
         p = _Pass(path, cap)
+        opened.append(p)
         if not keys:
             passes.append(p)
         return _keys(p.raw()) if keys else _episodes(p.raw())
@@ -284,6 +291,8 @@ def load_dataset(path: str | Path,
     last = passes[-1] if passes else _Pass(path, cap)
     for _ in last.raw():  # the members after the episodes (the rest of them only parsed, not kept)
         pass
+    for p in opened:
+        p.close()
     return _finish(last, episodes, path)
 
 

@@ -41,7 +41,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from navbench.scene.annotations import ObjectAnnotation, RoomAnnotation
 from navbench.scene.errors import SceneError
+from navbench.scene.mesh_io import read_mesh
+from navbench.scene.types import SceneAsset
 
 SUFFIX = ".scene_instance.json"
 
@@ -120,7 +123,6 @@ def _lexicon(root: Path) -> dict[int, str]:
 
 def _load_part(config_path: Path, config: dict):
     """(mesh, uv, face_texture, textures) of a stage/object config's render asset in its own frame."""
-    from navbench.scene.asset import read_mesh
     from navbench.scene.datasets import frame_rotation
 
     asset = config.get("render_asset")
@@ -137,9 +139,7 @@ def _load_part(config_path: Path, config: dict):
 
 
 def load(path: Path):
-    """A :class:`~navbench.scene.asset.SceneAsset` composed from a scene instance file."""
-    from navbench.scene.asset import ObjectAnnotation, SceneAsset
-
+    """A :class:`~navbench.scene.types.SceneAsset` composed from a scene instance file."""
     path = Path(path)
     doc = _read(path, "scene instance")
     root = dataset_root(path)
@@ -179,7 +179,7 @@ def load(path: Path):
             parts.append((mesh, uv, ft, tex, k))
         else:
             parts.append((mesh, uv, ft, tex, -1))
-    return _compose(path, parts, records, SceneAsset, ObjectAnnotation)
+    return _compose(path, parts, records)
 
 
 def _place(mesh: trimesh.Trimesh, inst: dict, scale: np.ndarray, com: np.ndarray | None, where: Path) -> None:
@@ -194,9 +194,7 @@ def _place(mesh: trimesh.Trimesh, inst: dict, scale: np.ndarray, com: np.ndarray
     mesh.vertices = (v * s) @ rot.T + t
 
 
-def _compose(path: Path, parts, records, SceneAsset, ObjectAnnotation):
-    from navbench.scene.asset import RoomAnnotation
-
+def _compose(path: Path, parts, records) -> SceneAsset:
     meshes = [p[0] for p in parts]
     mesh = trimesh.util.concatenate(meshes) if len(meshes) > 1 else meshes[0]
     face_ids = np.concatenate([np.full(len(p[0].faces), p[4], np.int32) for p in parts])
