@@ -7,7 +7,8 @@
     navbench agents
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
     navbench merge RUN_DIR... --out DIR
-    navbench table RUN_DIR... [--format markdown|csv|latex]
+    navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
+    navbench compare BASE OTHER... [--json] [--metric spl]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
@@ -34,6 +35,8 @@ from navbench.agents.registry import scan_config
 from navbench.agents.registry import agent_factory, make_oracle, make_pointnav  # noqa: F401  (importable from here too)
 from navbench.api import OBJECTNAV_SPLITS, OVON_SPLITS, POINTNAV_SPLITS, resolve_episodes, run_dir  # noqa: F401
 from navbench.paths import EPISODES_DIR, SCENES_DIR
+
+METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
 
 
 # ------------------------------------------------------------------------------------------ commands
@@ -151,8 +154,23 @@ def cmd_serve_agent(args) -> int:
 
 
 def cmd_table(args) -> int:
-    from navbench.eval.table import render, runs_frame
-    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first), args.format))
+    from navbench.eval.table import group_frame, render, runs_frame
+    if args.by:
+        print(render(group_frame(args.run_dirs, args.by, args.first, args.mix_protocols), args.format))
+        return 0
+    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first, mix_protocols=args.mix_protocols),
+                 args.format))
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from navbench.eval.stats import compare_runs, format_comparison
+    results = compare_runs(args.base, args.others, tuple(dict.fromkeys(args.metric or ())) or METRIC_NAMES,
+                           mix_protocols=args.mix_protocols)
+    if args.json:
+        print(json.dumps(results[0] if len(results) == 1 else results, indent=1))
+    else:
+        print("\n\n".join(format_comparison(r) for r in results))
     return 0
 
 
@@ -356,7 +374,27 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--format", default="markdown", choices=("markdown", "csv", "latex"))
     t.add_argument("--long", action="store_true", help="one row per run instead of agent x split")
     t.add_argument("--first", type=_count, help="score every run on the first N episodes of its split only")
+    t.add_argument("--by", choices=("scene", "category"), help="one row per run and scene or object category")
+    t.add_argument("--mix-protocols", action="store_true", help="tabulate runs scored under different protocols "
+                                                                "(success distance, step limit...) anyway: a "
+                                                                "protocol column and a note mark the table")
     t.set_defaults(func=cmd_table)
+
+    c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
+                       description="Pairs OTHER with BASE on the episodes both scored and, per metric, prints "
+                       "both means, the difference OTHER - BASE, its 95%% interval (two-stage bootstrap: scenes, "
+                       "then episodes within each drawn scene; 2,000 resamples, seed 0), P(other better) (the "
+                       "share of resamples whose difference favours OTHER, ties half; lower is better for DTG) "
+                       "and the smallest difference this episode set could detect: 2.8 x the bootstrap "
+                       "standard error of the difference (80%% power, two-sided alpha 0.05). Runs under "
+                       "different protocols or on different episode files are refused.")
+    c.add_argument("base")
+    c.add_argument("others", nargs="+", metavar="other")
+    c.add_argument("--json", action="store_true", help="one JSON object (a list for several OTHER runs)")
+    c.add_argument("--metric", action="append", choices=METRIC_NAMES, help="only this metric (repeatable)")
+    c.add_argument("--mix-protocols", action="store_true", help="compare runs under different protocols anyway "
+                                                                "(the output says so)")
+    c.set_defaults(func=cmd_compare)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
                                         "extra training houses and episodes (policy-train) or its houses and "
