@@ -10,6 +10,7 @@
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
     navbench compare BASE OTHER... [--json] [--metric spl]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
+    navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
@@ -175,7 +176,14 @@ def cmd_compare(args) -> int:
 
 
 def cmd_generate(args) -> int:
-    if args.what == "scenes":
+    if args.what == "benchmark":
+        from navbench.episodes.benchmark import generate_benchmark
+        if not args.out:
+            raise ValueError("generate benchmark needs --out DIR")
+        m = generate_benchmark(Path(args.out), houses=args.houses, episodes_per_split=args.episodes_per_split,
+                               seed=args.seed)
+        print("run a split with: " + m["run"].replace("DIR", args.out))
+    elif args.what == "scenes":
         from navbench.scene.procedural import generate_dataset
         generate_dataset(Path(args.out or SCENES_DIR / "houses"), seed=args.seed)
     elif args.what == "policy-train":  # the PointNav policy's extra houses and its train_large episodes
@@ -398,10 +406,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
                                         "extra training houses and episodes (policy-train) or its houses and "
-                                        "episodes for choosing among policies (policy-select)")
-    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select"))
+                                        "episodes for choosing among policies (policy-select); or a larger "
+                                        "ObjectNav benchmark with houses of its own and checksums (benchmark "
+                                        "--out DIR)")
+    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select", "benchmark"))
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
+    g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")
+    g.add_argument("--episodes-per-split", type=_count, default=3000,
+                   help="benchmark: episodes in each of val_seen, val_seen_synonyms, val_unseen (default 3000)")
     g.set_defaults(func=cmd_generate)
 
     from navbench.policy.recipe import add_train_parser

@@ -10,8 +10,8 @@
 - ``navbench``: version, and the git commit with a dirty flag when run from a checkout;
   ``versions`` of Python, torch, numpy, gymnasium, pyrender and trimesh; ``opengl_renderer``; ``cpu``
   (model and flags); it is rewritten when a run is resumed (the records may then come from two machines);
-- ``files``: the sha256 of the episode file, of every scene file the run's episodes use and of the
-  policy checkpoint, each path relative to navbench's data root when it lies under it
+- ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
+  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to navbench's data root when it lies under it
   (``"root": "navbench"``), else as given.
 
 A run directory without provenance.json (written before it existed) gets its protocol derived from
@@ -230,7 +230,14 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
     files: dict[str, Any] = {"episodes": file_entry(cfg.episodes), "scene_dir": data_path(cfg.scene_dir),
                              "scenes": {}}
     for scene_id in sorted({e.scene_id for e in episodes or []}):
-        files["scenes"][scene_id] = {"sha256": sha256(resolve_scene(scene_id, Path(cfg.scene_dir)))}
+        path = resolve_scene(scene_id, Path(cfg.scene_dir))
+        entry: dict[str, Any] = {"sha256": sha256(path)}
+        stem = path.name.split(".")[0]
+        # its annotations beside it (navbench's NAME.semantic.json, HM3D's NAME.semantic.glb / .txt)
+        sidecars = {p.name: sha256(p) for p in sorted(path.parent.glob(f"{stem}.*")) if p != path and p.is_file()}
+        if sidecars:
+            entry["sidecars"] = sidecars
+        files["scenes"][scene_id] = entry
     ckpt = _checkpoint(cfg)
     if ckpt is not None and Path(ckpt).is_file():
         files["checkpoint"] = file_entry(ckpt)

@@ -53,6 +53,8 @@ def test_provenance_checksums_versions_and_relative_paths():
     assert set(files["scenes"]) == {e.scene_id for e in eps} and len(files["scenes"]) == 2
     sid = eps[0].scene_id
     assert files["scenes"][sid]["sha256"] == _sha(SCENES_DIR / sid)
+    semantic = (SCENES_DIR / sid).with_suffix(".semantic.json")
+    assert files["scenes"][sid]["sidecars"] == {semantic.name: _sha(semantic)}
     assert set(doc["versions"]) == {"python", "torch", "numpy", "gymnasium", "pyrender", "trimesh"}
     assert doc["cpu"]["model"] and doc["opengl_renderer"] and doc["navbench"]["version"]
     assert doc["protocol_id"] == protocol_id(doc["protocol"])

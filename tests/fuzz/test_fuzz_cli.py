@@ -13,7 +13,8 @@ from navbench.cli import build_parser
 # (subcommand prefix, option) for every numeric option, with the smallest valid value.
 COUNTS = [(["run", "--split", "val_unseen"], "--limit"), (["run", "--split", "val_unseen"], "--per-scene"),
           (["run", "--split", "val_unseen"], "--workers"), (["run", "--split", "val_unseen"], "--envs-per-worker"),
-          (["localize"], "-k"), (["localize"], "--limit"), (["table", "runs/x"], "--first")]
+          (["localize"], "-k"), (["localize"], "--limit"), (["table", "runs/x"], "--first"),
+          (["generate", "benchmark"], "--houses"), (["generate", "benchmark"], "--episodes-per-split")]
 POSITIVE = [(["run", "--split", "val_unseen"], "--success-distance"), (["bench"], "--seconds")]
 SEEDS = [(["run", "--split", "val_unseen"], "--seed"), (["generate", "episodes"], "--seed")]
 CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
