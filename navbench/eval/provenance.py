@@ -11,8 +11,8 @@
   ``versions`` of Python, torch, numpy, gymnasium, pyrender and trimesh; ``opengl_renderer``; ``cpu``
   (model and flags); it is rewritten when a run is resumed (the records may then come from two machines);
 - ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
-  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to navbench's data root when it lies under it
-  (``"root": "navbench"``), else as given.
+  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to
+  navbench's data root when it lies under it (``"root": "navbench"``), else as given.
 
 A run directory without provenance.json (written before it existed) gets its protocol derived from
 config.json and the EnvConfig defaults of the navbench reading it; ``derived: true`` says so.
