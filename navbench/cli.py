@@ -8,7 +8,7 @@
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
     navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
-    navbench compare BASE OTHER... [--json] [--metric spl]
+    navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
@@ -167,7 +167,7 @@ def cmd_table(args) -> int:
 def cmd_compare(args) -> int:
     from navbench.eval.stats import compare_runs, format_comparison
     results = compare_runs(args.base, args.others, tuple(dict.fromkeys(args.metric or ())) or METRIC_NAMES,
-                           mix_protocols=args.mix_protocols)
+                           mix_protocols=args.mix_protocols, per_scene=args.per_scene)
     if args.json:
         print(json.dumps(results[0] if len(results) == 1 else results, indent=1))
     else:
@@ -400,6 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("others", nargs="+", metavar="other")
     c.add_argument("--json", action="store_true", help="one JSON object (a list for several OTHER runs)")
     c.add_argument("--metric", action="append", choices=METRIC_NAMES, help="only this metric (repeatable)")
+    c.add_argument("--per-scene", type=_count, metavar="K", help="only the first K episodes of each scene of "
+                                                                 "the episode file (as run --per-scene K)")
     c.add_argument("--mix-protocols", action="store_true", help="compare runs under different protocols anyway "
                                                                 "(the output says so)")
     c.set_defaults(func=cmd_compare)

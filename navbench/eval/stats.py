@@ -174,10 +174,26 @@ def _episode_set(run_dir: Path) -> str:
         return "?"
 
 
+def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:
+    """(scene_id, episode_id) of the first ``k`` episodes of each scene of the run's episode file (file
+    order; a bundled split is read where this checkout keeps it)."""
+    import json
+
+    from navbench.episodes.io import load_dataset
+    from navbench.eval.runner import select_episodes
+    from navbench.paths import split_file
+
+    cfg = json.loads((run_dir / "config.json").read_text())
+    bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
+    path = bundled if bundled is not None and bundled.is_file() else Path(cfg["episodes"])
+    return {(e.scene_id, e.episode_id) for e in select_episodes(load_dataset(path), None, per_scene=k)}
+
+
 def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequence[str] = METRICS,
-                 mix_protocols: bool = False) -> list[dict[str, Any]]:
+                 mix_protocols: bool = False, per_scene: int | None = None) -> list[dict[str, Any]]:
     """:func:`compare_records` of ``base`` with each of ``others`` (run directories), refusing runs under
-    another protocol (unless ``mix_protocols``) or on another episode file."""
+    another protocol (unless ``mix_protocols``) or on another episode file; with ``per_scene``, on the
+    first ``per_scene`` episodes of each scene only."""
     from navbench.eval.provenance import check_same_protocol
     from navbench.eval.rundir import read_records
 
@@ -188,6 +204,13 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
         if not (d / "episodes.jsonl").is_file():
             raise StatsError(f"{d / 'episodes.jsonl'}: missing (is this a navbench run directory?)")
         records[d] = read_records(d / "episodes.jsonl")
+    if per_scene is not None:
+        try:
+            keep = first_per_scene(base, per_scene)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise StatsError(f"{base / 'config.json'}: cannot read the run's episode file ({exc})"[:300]) from None
+        records = {d: [r for r in recs if (str(r.get("scene_id")), str(r.get("episode_id"))) in keep]
+                   for d, recs in records.items()}
     out = []
     for d, pid in zip(others, ids[1:]):
         if _episode_set(d) != _episode_set(base):

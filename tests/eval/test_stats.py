@@ -130,13 +130,16 @@ def test_paired_interval_matches_a_loop_bootstrap_of_the_differences():
     assert res["metrics"]["spl"]["mde"] == pytest.approx(2.8 * boot[:, 0].std(ddof=1))
 
 
-def test_memory_leads_frontier_in_spl_on_40_val_unseen_episodes():
+def test_memory_leads_frontier_in_spl_on_40_val_unseen_episodes(capsys):
     keep = {(e.scene_id, e.episode_id)
             for e in select_episodes(load_dataset(split_file("objectnav", "val_unseen")), None, per_scene=10)}
     sub = lambda name: [r for r in _records(name) if (r["scene_id"], r["episode_id"]) in keep]
     res = compare_records(sub("frontier"), sub("memory"))
     assert res["episodes"] == 40 and res["scenes"] == 4
     assert res["metrics"]["spl"]["ci95"][0] > 0
+    assert main(["compare", str(VAL_UNSEEN / "frontier"), str(VAL_UNSEEN / "memory"), "--per-scene", "10",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["metrics"] == res["metrics"]
 
 
 def test_pairing_drops_episodes_one_run_lacks_and_says_which():
