@@ -230,7 +230,11 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
     files: dict[str, Any] = {"episodes": file_entry(cfg.episodes), "scene_dir": data_path(cfg.scene_dir),
                              "scenes": {}}
     for scene_id in sorted({e.scene_id for e in episodes or []}):
-        path = resolve_scene(scene_id, Path(cfg.scene_dir))
+        try:
+            path = resolve_scene(scene_id, Path(cfg.scene_dir))
+        except (OSError, ValueError):  # a missing scene fails its episodes, as the env reports it
+            files["scenes"][scene_id] = {"sha256": None}
+            continue
         entry: dict[str, Any] = {"sha256": sha256(path)}
         stem = path.name.split(".")[0]
         # its annotations beside it (navbench's NAME.semantic.json, HM3D's NAME.semantic.glb / .txt)

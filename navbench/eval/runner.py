@@ -3,8 +3,9 @@
     navbench run --split val_unseen --agent oracle --out runs/oracle_val_unseen
 
 Writes ``OUT/episodes.jsonl`` (appended and synced as each episode finishes, so a killed run loses at
-most the episodes in flight), ``OUT/config.json`` (everything needed to rerun), ``OUT/provenance.json`` (what produced it: versions,
-checksums, the protocol; :mod:`navbench.eval.provenance`) and ``OUT/summary.json`` (with 95% intervals).
+most the episodes in flight), ``OUT/config.json`` (everything needed to rerun), ``OUT/provenance.json``
+(versions, checksums, the protocol: :mod:`navbench.eval.provenance`) and ``OUT/summary.json`` (means with
+95% intervals: :mod:`navbench.eval.stats`).
 ``OUT/.lock`` keeps a second run out while one runs. ``resume=True`` keeps the episodes already in
 ``episodes.jsonl`` (each once) and reruns failed ones; it refuses a run directory whose config differs
 in anything that changes results, and a record of an episode the dataset does not have.
