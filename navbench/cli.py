@@ -8,8 +8,10 @@
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
     navbench check-agent http://HOST:PORT [--task pointnav|objectnav] [--steps 200]
     navbench merge RUN_DIR... --out DIR
-    navbench table RUN_DIR... [--format markdown|csv|latex]
+    navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
+    navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
+    navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
@@ -35,6 +37,8 @@ from navbench.agents.registry import scan_config
 from navbench.agents.registry import agent_factory, make_oracle, make_pointnav  # noqa: F401  (importable from here too)
 from navbench.api import OBJECTNAV_SPLITS, OVON_SPLITS, POINTNAV_SPLITS, resolve_episodes, run_dir  # noqa: F401
 from navbench.paths import EPISODES_DIR, SCENES_DIR
+
+METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
 
 
 # ------------------------------------------------------------------------------------------ commands
@@ -165,13 +169,35 @@ def cmd_check_agent(args) -> int:
 
 
 def cmd_table(args) -> int:
-    from navbench.eval.table import render, runs_frame
-    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first), args.format))
+    from navbench.eval.table import group_frame, render, runs_frame
+    if args.by:
+        print(render(group_frame(args.run_dirs, args.by, args.first, args.mix_protocols), args.format))
+        return 0
+    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first, mix_protocols=args.mix_protocols),
+                 args.format))
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from navbench.eval.stats import compare_runs, format_comparison
+    results = compare_runs(args.base, args.others, tuple(dict.fromkeys(args.metric or ())) or METRIC_NAMES,
+                           mix_protocols=args.mix_protocols, per_scene=args.per_scene)
+    if args.json:
+        print(json.dumps(results[0] if len(results) == 1 else results, indent=1))
+    else:
+        print("\n\n".join(format_comparison(r) for r in results))
     return 0
 
 
 def cmd_generate(args) -> int:
-    if args.what == "scenes":
+    if args.what == "benchmark":
+        from navbench.episodes.benchmark import generate_benchmark
+        if not args.out:
+            raise ValueError("generate benchmark needs --out DIR")
+        m = generate_benchmark(Path(args.out), houses=args.houses, episodes_per_split=args.episodes_per_split,
+                               seed=args.seed)
+        print("run a split with: " + m["run"].replace("DIR", args.out))
+    elif args.what == "scenes":
         from navbench.scene.procedural import generate_dataset
         generate_dataset(Path(args.out or SCENES_DIR / "houses"), seed=args.seed)
     elif args.what == "policy-train":  # the PointNav policy's extra houses and its train_large episodes
@@ -370,14 +396,41 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--format", default="markdown", choices=("markdown", "csv", "latex"))
     t.add_argument("--long", action="store_true", help="one row per run instead of agent x split")
     t.add_argument("--first", type=_count, help="score every run on the first N episodes of its split only")
+    t.add_argument("--by", choices=("scene", "category"), help="one row per run and scene or object category")
+    t.add_argument("--mix-protocols", action="store_true", help="tabulate runs scored under different protocols "
+                                                                "(success distance, step limit...) anyway: a "
+                                                                "protocol column and a note mark the table")
     t.set_defaults(func=cmd_table)
+
+    c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
+                       description="Pairs OTHER with BASE on the episodes both scored and, per metric, prints "
+                       "both means, the difference OTHER - BASE, its 95%% interval (two-stage bootstrap: scenes, "
+                       "then episodes within each drawn scene; 2,000 resamples, seed 0), P(other better) (the "
+                       "share of resamples whose difference favours OTHER, ties half; lower is better for DTG) "
+                       "and the smallest difference this episode set could detect: 2.8 x the bootstrap "
+                       "standard error of the difference (80%% power, two-sided alpha 0.05). Runs under "
+                       "different protocols or on different episode files are refused.")
+    c.add_argument("base")
+    c.add_argument("others", nargs="+", metavar="other")
+    c.add_argument("--json", action="store_true", help="one JSON object (a list for several OTHER runs)")
+    c.add_argument("--metric", action="append", choices=METRIC_NAMES, help="only this metric (repeatable)")
+    c.add_argument("--per-scene", type=_count, metavar="K", help="only the first K episodes of each scene of "
+                                                                 "the episode file (as run --per-scene K)")
+    c.add_argument("--mix-protocols", action="store_true", help="compare runs under different protocols anyway "
+                                                                "(the output says so)")
+    c.set_defaults(func=cmd_compare)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
                                         "extra training houses and episodes (policy-train) or its houses and "
-                                        "episodes for choosing among policies (policy-select)")
-    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select"))
+                                        "episodes for choosing among policies (policy-select); or a larger "
+                                        "ObjectNav benchmark with houses of its own and checksums (benchmark "
+                                        "--out DIR)")
+    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select", "benchmark"))
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
+    g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")
+    g.add_argument("--episodes-per-split", type=_count, default=3000,
+                   help="benchmark: episodes in each of val_seen, val_seen_synonyms, val_unseen (default 3000)")
     g.set_defaults(func=cmd_generate)
 
     from navbench.policy.recipe import add_train_parser

@@ -1,4 +1,5 @@
-"""Per-category SR/SPL and a failure breakdown of ObjectNav runs, from their ``episodes.jsonl``.
+"""Per-category SR/SPL (with 95% intervals, :mod:`navbench.eval.stats`) and a failure breakdown of ObjectNav
+runs, from their ``episodes.jsonl``.
 
     python -m navbench.eval.failures results/runs/objectnav/val_unseen/memory [...] > results/objectnav_failures.md
 
@@ -19,6 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from navbench.eval.runner import read_records
+from navbench.eval.stats import intervals
 
 WRONG_INSTANCE_DISTANCE = 2.0
 
@@ -32,6 +34,10 @@ def failure_kind(r: dict) -> str | None:
     return "stuck" if events & {"stuck", "oscillating"} else "timeout"
 
 
+def _cell(mean: float, ci: list[float]) -> str:
+    return f"{100 * mean:.1f} [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
+
+
 def breakdown(run_dirs: list[Path]) -> str:
     rows, fails = [], []
     for d in run_dirs:
@@ -42,17 +48,16 @@ def breakdown(run_dirs: list[Path]) -> str:
         summary = Path(d) / "summary.json"  # its agent is the run's label (e.g. memory-norerank)
         agent = json.loads(summary.read_text())["agent"] if summary.is_file() else recs[0]["agent"]
         name = f"{agent} / {recs[0]['split']}"
-        per_cat = df.groupby("object_category").agg(episodes=("success", "size"), SR=("success", "mean"),
-                                                    SPL=("spl", "mean"))
-        per_cat[["SR", "SPL"]] *= 100
-        per_cat.insert(0, "run", name)
-        rows.append(per_cat.reset_index())
+        for cat, group in df.groupby("object_category"):
+            ci = intervals(group.to_dict("records"))
+            rows.append({"run": name, "object_category": cat, "episodes": len(group),
+                         **{k: _cell(group[m].mean(), ci[m]) for k, m in (("SR", "success"), ("SPL", "spl"))}})
         kinds = pd.Series([failure_kind(r) for r in recs]).value_counts()
         fails.append({"run": name, "episodes": len(recs), **{k: int(kinds.get(k, 0)) for k in
                       ("wrong instance", "stopped early", "stuck", "timeout")}})
     out = ["## Failure breakdown (episodes)\n", pd.DataFrame(fails).set_index("run").to_markdown(), "",
-           "## Per-category SR / SPL (%)\n", pd.concat(rows).set_index(["run", "object_category"])
-           .to_markdown(floatfmt=".1f"), ""]
+           "## Per-category SR / SPL (%) [95% interval]\n",
+           pd.DataFrame(rows).to_markdown(index=False), ""]
     return "\n".join(out)
 
 

@@ -3,8 +3,8 @@
     navbench merge runs/shards/* --out runs/pointnav/val/pointnav
 
 The shards must share their config apart from the shard itself and how they were run (workers, episodes
-per worker, navbench version, as ``--resume`` allows), and together hold every selected episode of the
-episode file exactly once; anything else is refused with a one-line error. The merged ``episodes.jsonl``
+per worker, navbench version, as ``--resume`` allows), share their protocol (provenance.json), and together
+hold every selected episode of the episode file exactly once; anything else is refused with a one-line error. The merged ``episodes.jsonl``
 lists the records in the episode file's order.
 """
 
@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from navbench.episodes.io import load_dataset
+from navbench.eval.provenance import check_same_protocol, merge_provenance
 from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.runner import RunConfig, config_diff, selector, summarize
 
@@ -47,6 +48,7 @@ def merge(run_dirs: list[Path], out: Path, overwrite: bool = False, note=print) 
         diff = config_diff(first, c, _MERGE_FREE_KEYS)
         if diff:
             raise RunError(f"{d / 'config.json'}: differs from {run_dirs[0] / 'config.json'} in {', '.join(diff)}")
+    check_same_protocol(run_dirs, hint="")
     shards = [c.get("shard") for c in configs]
     seen_shards: dict[str, Path] = {}
     for d, s in zip(run_dirs, shards):
@@ -85,6 +87,7 @@ def merge(run_dirs: list[Path], out: Path, overwrite: bool = False, note=print) 
         write_atomic(out / "episodes.jsonl", "".join(json.dumps(r) + "\n" for r in records))
         summary = summarize(records, cfg, complete=True)
         write_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
+        merge_provenance(run_dirs, out)
     finally:
         lock.release()
     return summary

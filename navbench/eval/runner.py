@@ -3,7 +3,9 @@
     navbench run --split val_unseen --agent oracle --out runs/oracle_val_unseen
 
 Writes ``OUT/episodes.jsonl`` (appended and synced as each episode finishes, so a killed run loses at
-most the episodes in flight), ``OUT/config.json`` (everything needed to rerun) and ``OUT/summary.json``.
+most the episodes in flight), ``OUT/config.json`` (everything needed to rerun), ``OUT/provenance.json``
+(versions, checksums, the protocol: :mod:`navbench.eval.provenance`) and ``OUT/summary.json`` (means with
+95% intervals: :mod:`navbench.eval.stats`).
 ``OUT/.lock`` keeps a second run out while one runs. ``resume=True`` keeps the episodes already in
 ``episodes.jsonl`` (each once) and reruns failed ones; it refuses a run directory whose config differs
 in anything that changes results, and a record of an episode the dataset does not have.
@@ -45,6 +47,8 @@ from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
 from navbench.env.objectnav import ObjectNavEnv
 from navbench.env.pointnav import PointNavEnv
+from navbench.eval.provenance import config_protocol, protocol_id, write_provenance
+from navbench.eval.stats import add_intervals
 from navbench.eval.trace import Trace
 from navbench.episodes.io import episode_keys, load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
@@ -509,10 +513,13 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> dict[str, Any]:
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the
     failed episodes with their reasons."""
-    summary = aggregate(records, by="object_category" if cfg.task == "objectnav" else None)
+    by = "object_category" if cfg.task == "objectnav" else None
+    summary = aggregate(records, by=by)
+    add_intervals(summary, records, by)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
     failed = sorted((r for r in records if r.get("failed")), key=lambda r: (str(r["scene_id"]), str(r["episode_id"])))
     summary.update(task=cfg.task, split=cfg.split, agent=cfg.label or cfg.agent, success_distance=cfg.success_distance,
-                   seed=cfg.seed, complete=complete, num_failed=len(failed),
+                   seed=cfg.seed, protocol_id=protocol_id(config_protocol(cfg)), complete=complete,
+                   num_failed=len(failed),
                    failed_episodes=[{"scene_id": r["scene_id"], "episode_id": r["episode_id"],
                                      "failure_reason": r.get("failure_reason", "")} for r in failed])
     if cfg.shard:
@@ -648,6 +655,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
     for n in notes:
         note(n)
     write_atomic(out / "config.json", json.dumps(cfg_json, indent=1) + "\n")
+    write_provenance(out, cfg, select_episodes(dataset, cfg.limit, cfg.per_scene, cfg.shard), resume)
     # Rewrite the kept records whole (atomically) so a torn line or a duplicate does not stay in the file.
     write_atomic(jsonl, "".join(json.dumps(r) + "\n" for r in records))
 

@@ -2,6 +2,12 @@
 
     navbench table runs/objectnav/val_seen/oracle runs/objectnav/val_unseen/oracle --format markdown|csv|latex
     navbench table runs/objectnav/val_unseen/frontier runs/objectnav/val_unseen/memory --first 20  # same 20 episodes
+    navbench table runs/objectnav/val_unseen/memory --by scene   # one row per scene (or --by category)
+
+Every figure carries its 95% interval, ``SR [lo, hi]`` (CSV: ``SR lo`` and ``SR hi`` columns): summary.json's
+``ci95``, or for a run written without it the same two-stage bootstrap of its records
+(:mod:`navbench.eval.stats`). Runs scored under different protocols (:mod:`navbench.eval.provenance`) are
+refused unless ``mix_protocols``, which adds a ``protocol`` column and a note under the table.
 
 Every row carries the run's identity from its ``config.json``: the checkpoint and decoding of agents
 that drive with the PointNav policy, the seed, and the perception of agents that localise objects
@@ -134,49 +140,163 @@ def run_identity(run_dir: str | Path) -> dict[str, Any]:
     return ident
 
 
-def summary_row(s: dict[str, Any], identity: dict[str, Any] | None = None) -> dict[str, Any]:
-    return {
-        "agent": s.get("agent"), **(identity or {}), "task": s.get("task"), "split": s.get("split") or "custom",
-        "episodes": s.get("num_episodes"),
-        "SR": 100 * s["success"], "SPL": 100 * s["spl"], "SoftSPL": 100 * s["soft_spl"],
-        "DTG": s["distance_to_goal"],
-    }
+COLUMNS = {"SR": ("success", 100), "SPL": ("spl", 100), "SoftSPL": ("soft_spl", 100), "DTG": ("distance_to_goal", 1)}
 
 
-def runs_frame(run_dirs: list[str | Path], wide: bool = True, first: int | None = None) -> pd.DataFrame:
+def _valid_ci(ci: Any) -> bool:
+    return isinstance(ci, dict) and all(
+        isinstance(ci.get(m), list) and len(ci[m]) == 2
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in ci[m]) for m in METRICS)
+
+
+def summary_row(s: dict[str, Any], identity: dict[str, Any] | None = None,
+                ci: dict[str, list[float]] | None = None) -> dict[str, Any]:
+    """A table row of a summary; with ``ci`` (``{metric: [lo, hi]}``) each figure's ``lo`` and ``hi`` too."""
+    row = {"agent": s.get("agent"), **(identity or {}), "task": s.get("task"), "split": s.get("split") or "custom",
+           "episodes": s.get("num_episodes")}
+    for col, (m, scale) in COLUMNS.items():
+        row[col] = scale * s[m]
+        if ci is not None:
+            row[f"{col} lo"], row[f"{col} hi"] = scale * ci[m][0], scale * ci[m][1]
+    return row
+
+
+def run_records(run_dir: str | Path, first: int | None = None) -> list[dict[str, Any]] | None:
+    """The run's records (of its first ``first`` episodes), or None when it has no episodes.jsonl."""
+    from navbench.eval.rundir import read_records
+
+    if first is not None:
+        return first_records(run_dir, first)
+    path = Path(run_dir) / "episodes.jsonl"
+    return read_records(path) if path.is_file() else None
+
+
+def run_intervals(run_dir: str | Path, summary: dict[str, Any], first: int | None = None) -> dict | None:
+    """summary.json's ``ci95`` (all episodes), else the two-stage bootstrap of the records the row scores."""
+    from navbench.eval.stats import StatsError, intervals
+
+    if first is None and _valid_ci(summary.get("ci95")):
+        return summary["ci95"]
+    recs = run_records(run_dir, first)
+    try:
+        return intervals(recs) if recs else None
+    except StatsError as exc:
+        raise TableError(f"{Path(run_dir) / 'episodes.jsonl'}: {exc}") from None
+
+
+def _protocols(run_dirs: list[str | Path], mix_protocols: bool) -> list[str] | None:
+    """Each run's protocol_id when they differ (and ``mix_protocols``), else None; refused otherwise."""
+    from navbench.eval.provenance import ProtocolError, check_same_protocol
+
+    try:
+        ids = check_same_protocol(run_dirs, allow_mixed=mix_protocols)
+    except ProtocolError as exc:
+        raise TableError(str(exc)) from None
+    return ids if len(set(ids)) > 1 else None
+
+
+def runs_frame(run_dirs: list[str | Path], wide: bool = True, first: int | None = None,
+               mix_protocols: bool = False) -> pd.DataFrame:
     """Long form (one row per run) or wide form (rows = agent, columns = (split, SR/SPL)); with
     ``first``, every run is scored on the first ``first`` episodes of its split only."""
-    df = pd.DataFrame([summary_row(load_summary(d) if first is None else first_summary(d, first), run_identity(d))
-                       for d in run_dirs])
+    summaries = [load_summary(d) if first is None else first_summary(d, first) for d in run_dirs]
+    protocols = _protocols(run_dirs, mix_protocols)
+    rows = []
+    for i, (d, s) in enumerate(zip(run_dirs, summaries)):
+        ident = {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})}
+        rows.append(summary_row(s, ident, run_intervals(d, s, first)))
+    df = pd.DataFrame(rows)
+    if protocols:
+        df.attrs["note"] = f"mixed protocols ({', '.join(dict.fromkeys(protocols))}): figures are not comparable"
     if not wide or df["split"].nunique() <= 1:
         return df
-    wide_df = df.pivot_table(index=["agent", *IDENTITY], columns="split", values=["SR", "SPL"], aggfunc="first",
-                             sort=False)
+    ident = [*IDENTITY, *(["protocol"] if protocols else [])]
+    metrics = [c for m in ("SR", "SPL") for c in (m, f"{m} lo", f"{m} hi") if c in df.columns]
+    wide_df = df.pivot_table(index=["agent", *ident], columns="split", values=metrics, aggfunc="first", sort=False)
     wide_df = wide_df.swaplevel(0, 1, axis=1)
     splits = list(dict.fromkeys(df["split"]))
-    return wide_df.reindex(columns=[(sp, m) for sp in splits for m in ("SR", "SPL")])
+    wide_df = wide_df.reindex(columns=[(sp, m) for sp in splits for m in metrics])
+    wide_df.attrs = df.attrs
+    return wide_df
+
+
+def group_frame(run_dirs: list[str | Path], by: str, first: int | None = None,
+                mix_protocols: bool = False) -> pd.DataFrame:
+    """One row per run and scene (``by="scene"``) or object category (``by="category"``), with intervals
+    (one scene: an episode bootstrap)."""
+    from navbench.eval.stats import intervals
+    from navbench.metrics import aggregate
+
+    key = {"scene": "scene_id", "category": "object_category"}[by]
+    summaries = [load_summary(d) for d in run_dirs]
+    protocols = _protocols(run_dirs, mix_protocols)
+    rows = []
+    for i, (d, s) in enumerate(zip(run_dirs, summaries)):
+        recs = run_records(d, first)
+        if recs is None:
+            raise TableError(f"{Path(d) / 'episodes.jsonl'}: missing (a table --by {by} reads the records)")
+        groups: dict[str, list[dict[str, Any]]] = {}
+        for r in recs:
+            groups.setdefault(str(r.get(key)), []).append(r)
+        for g, rs in sorted(groups.items()):
+            agg = aggregate(rs)
+            if not agg["num_episodes"]:
+                continue
+            row = summary_row({**s, **agg}, {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})},
+                              intervals(rs))
+            rows.append({**{k: v for k, v in row.items() if k != "task"}, by: g})
+    df = pd.DataFrame(rows)
+    cols = [c for c in df.columns if c not in (by, "episodes") and c not in COLUMNS and not c.endswith((" lo", " hi"))]
+    df = df[[*cols, by, "episodes", *[c for c in df.columns if c in COLUMNS or c.endswith((" lo", " hi"))]]]
+    if protocols:
+        df.attrs["note"] = f"mixed protocols ({', '.join(dict.fromkeys(protocols))}): figures are not comparable"
+    return df
+
+
+def _cell(v: Any, lo: Any, hi: Any, digits: int) -> str:
+    if pd.isna(v):
+        return ""
+    if pd.isna(lo) or pd.isna(hi):
+        return f"{v:.{digits}f}"
+    return f"{v:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
+
+
+def _with_intervals(df: pd.DataFrame) -> pd.DataFrame:
+    """Each figure with ``lo``/``hi`` columns beside it as one ``v [lo, hi]`` text cell."""
+    df = df.copy()
+    for c in list(df.columns):
+        if f"{c} lo" in df.columns and f"{c} hi" in df.columns:
+            df[c] = [_cell(v, lo, hi, 2 if str(c).endswith("DTG") else 1)
+                     for v, lo, hi in zip(df[c], df[f"{c} lo"], df[f"{c} hi"])]
+            df = df.drop(columns=[f"{c} lo", f"{c} hi"])
+    return df
 
 
 def render(df: pd.DataFrame, fmt: str = "markdown") -> str:
+    note = df.attrs.get("note")
     if isinstance(df.columns, pd.MultiIndex):  # wide form: flat "split SR" headers, identity as columns
         df = df.copy()
         df.columns = [f"{a} {b}" for a, b in df.columns]
         df = df.reset_index()
     if fmt == "markdown":
-        return df.to_markdown(floatfmt=".1f", index=False)
+        text = _with_intervals(df).to_markdown(floatfmt=".1f", index=False)
+        return text + (f"\n\n*{note}*" if note else "")
     if fmt == "csv":
-        return df.to_csv(float_format="%.2f", index=False)
+        text = df.to_csv(float_format="%.2f", index=False)
+        return text + (f"# {note}\n" if note else "")
     if fmt == "latex":
-        return df.style.hide(axis="index").format(precision=1).to_latex(hrules=True)
+        text = _with_intervals(df).style.hide(axis="index").format(precision=1).to_latex(hrules=True)
+        return text + (f"% {note}\n" if note else "")
     raise TableError(f"unknown format {fmt!r}: choose from {', '.join(FORMATS)}")
 
 
 def summary_markdown(summary: dict[str, Any]) -> str:
-    """The table ``navbench run`` prints: the overall row, then per-category rows for ObjectNav."""
-    rows = [dict(summary_row(summary), category="all")]
+    """The table ``navbench run`` prints: the overall row, then per-category rows for ObjectNav, each
+    figure with its 95% interval when the summary has one."""
+    ci = summary.get("ci95") if _valid_ci(summary.get("ci95")) else None
+    rows = [dict(summary_row(summary, ci=ci), category="all")]
     for cat, m in (summary.get("by_object_category") or {}).items():
-        rows.append({"agent": summary.get("agent"), "task": summary.get("task"), "split": summary.get("split"),
-                     "episodes": m["num_episodes"], "SR": 100 * m["success"], "SPL": 100 * m["spl"],
-                     "SoftSPL": 100 * m["soft_spl"], "DTG": m["distance_to_goal"], "category": cat})
-    df = pd.DataFrame(rows).set_index("category")[["agent", "split", "episodes", "SR", "SPL", "SoftSPL", "DTG"]]
-    return df.to_markdown(floatfmt=".1f")
+        cat_ci = m.get("ci95") if _valid_ci(m.get("ci95")) else None
+        rows.append(dict(summary_row({**summary, **m}, ci=cat_ci), category=cat))
+    df = pd.DataFrame(rows).set_index("category").drop(columns=["task"])
+    return _with_intervals(df).to_markdown(floatfmt=".1f")

@@ -1,5 +1,6 @@
-"""A self-contained HTML report of one or more runs: SR/SPL side by side, per category, failure breakdown, and a
-gallery of episodes (map thumbnail, outcome, video) filterable by run, outcome and category.
+"""A self-contained HTML report of one or more runs: SR/SPL side by side with their 95% intervals (the
+two-stage bootstrap of :mod:`navbench.eval.stats`), per category, failure breakdown, and a gallery of
+episodes (map thumbnail, outcome, video) filterable by run, outcome and category.
 
 Everything (styles, script, thumbnails, embedded videos) is inline, so the page works opened from disk
 with no server and no network. Every string from a run (labels, ids, categories, reasons) is escaped, and
@@ -18,6 +19,7 @@ from typing import Any
 
 import cv2
 
+from navbench.eval.stats import intervals
 from navbench.safeio import read_input, safe_name
 from navbench.viz.replay import Replayer, ReplayError, Run, outcome
 
@@ -62,6 +64,12 @@ def _mean(xs) -> float | None:
     return sum(xs) / len(xs) if xs else None
 
 
+def _pct_ci(recs, metric: str, ci: dict | None) -> str:
+    """The mean in percent with its 95% interval (the two-stage bootstrap of navbench.eval.stats)."""
+    mean = _pct(_mean([r.get(metric) for r in recs]))
+    return f"{mean} [{100 * ci[metric][0]:.1f}, {100 * ci[metric][1]:.1f}]" if ci and mean else mean
+
+
 def _table(head: list[str], rows: list[list[Any]]) -> str:
     h = "".join(f"<th>{html.escape(str(c))}</th>" for c in head)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
@@ -76,24 +84,26 @@ def summary_table(runs: list[Run]) -> str:
     rows = []
     for run in runs:
         s = _scored(run.records)
-        rows.append([run.label, run.cfg.task, run.cfg.split or "", len(s), _pct(_mean([r.get("success") for r in s])),
-                     _pct(_mean([r.get("spl") for r in s])), _pct(_mean([r.get("soft_spl") for r in s])),
+        ci = intervals(s)
+        rows.append([run.label, run.cfg.task, run.cfg.split or "", len(s), _pct_ci(s, "success", ci),
+                     _pct_ci(s, "spl", ci), _pct_ci(s, "soft_spl", ci),
                      f"{_mean([r.get('num_steps') for r in s]) or 0:.0f}",
                      f"{_mean([r.get('collisions') for r in s]) or 0:.1f}",
                      sum(1 for r in run.records if r.get("skipped"))])
-    return _table(["run", "task", "split", "episodes", "SR %", "SPL %", "soft SPL %", "steps", "collisions",
-                   "skipped"], rows)
+    return _table(["run", "task", "split", "episodes", "SR % [95% CI]", "SPL % [95% CI]", "soft SPL % [95% CI]",
+                   "steps", "collisions", "skipped"], rows)
 
 
 def category_table(runs: list[Run]) -> str:
     cats = sorted({r.get("object_category") or "(point goal)" for run in runs for r in _scored(run.records)})
-    head = ["category"] + [f"{run.label} {m}" for run in runs for m in ("n", "SR %", "SPL %")]
+    head = ["category"] + [f"{run.label} {m}" for run in runs for m in ("n", "SR % [95% CI]", "SPL % [95% CI]")]
     rows = []
     for c in cats:
         row: list[Any] = [c]
         for run in runs:
             s = [r for r in _scored(run.records) if (r.get("object_category") or "(point goal)") == c]
-            row += [len(s), _pct(_mean([r.get("success") for r in s])), _pct(_mean([r.get("spl") for r in s]))]
+            ci = intervals(s)
+            row += [len(s), _pct_ci(s, "success", ci), _pct_ci(s, "spl", ci)]
         rows.append(row)
     return _table(head, rows)
 

@@ -13,11 +13,12 @@ from navbench.cli import build_parser
 # (subcommand prefix, option) for every numeric option, with the smallest valid value.
 COUNTS = [(["run", "--split", "val_unseen"], "--limit"), (["run", "--split", "val_unseen"], "--per-scene"),
           (["run", "--split", "val_unseen"], "--workers"), (["run", "--split", "val_unseen"], "--envs-per-worker"),
-          (["localize"], "-k"), (["localize"], "--limit"), (["table", "runs/x"], "--first")]
+          (["localize"], "-k"), (["localize"], "--limit"), (["table", "runs/x"], "--first"),
+          (["generate", "benchmark"], "--houses"), (["generate", "benchmark"], "--episodes-per-split")]
 POSITIVE = [(["run", "--split", "val_unseen"], "--success-distance"), (["bench"], "--seconds")]
 SEEDS = [(["run", "--split", "val_unseen"], "--seed"), (["generate", "episodes"], "--seed")]
 CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
-           ["table", "x", "--format"], ["generate"], ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
+           ["table", "x", "--format"], ["table", "x", "--by"], ["compare", "x", "y", "--metric"], ["generate"], ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
            ["localize", "--rerank"]]
 
 bad_numbers = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0", "1e999", "abc", "", "1.5", "0x10", " "])
@@ -26,7 +27,7 @@ bad_numbers = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0", "1e999", "
 def test_parser_covers_every_subcommand():
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     assert set(sub.choices) == {"run", "table", "generate", "train", "memory", "localize", "bench", "merge", "viz",
-                                "report", "agents", "serve-agent"}
+                                "report", "agents", "serve-agent", "compare"}
 
 
 @given(case=st.sampled_from(COUNTS + POSITIVE + SEEDS), value=bad_numbers)
@@ -49,7 +50,7 @@ def test_unknown_choices(prefix):
 
 
 @pytest.mark.parametrize("argv", [[], ["nosuch"], ["run", "--nosuch"], ["table"], ["memory", "build"], ["merge"],
-                                  ["merge", "x"], ["viz"], ["report"], ["serve-agent"], ["agents", "extra"],
+                                  ["merge", "x"], ["compare"], ["compare", "x"], ["viz"], ["report"], ["serve-agent"], ["agents", "extra"],
                                   ["run", "--limit"], ["run", "--split", "val_unseen", "extra-positional"]],
                          ids=repr)
 def test_usage_errors(argv):
@@ -79,6 +80,7 @@ def test_bad_names(argv):
     ["memory", "build", "--scene", "{}"],
     ["bench", "--scene", "{}", "--seconds", "0.1"],
     ["table", "{}"],
+    ["compare", "{}", "{}"],
     ["train", "--config", "{}"],
     ["merge", "{}", "--out", "{}-merged"],
     ["viz", "{}"],

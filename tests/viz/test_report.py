@@ -8,6 +8,7 @@ import pytest
 
 from navbench.cli import main
 from navbench.eval.runner import read_records
+from navbench.eval.stats import intervals
 
 
 def test_report_tables_gallery_and_no_external_resources(oracle_run, tmp_path):
@@ -19,6 +20,9 @@ def test_report_tables_gallery_and_no_external_resources(oracle_run, tmp_path):
     assert page.count("data:image/png;base64,") == 2 * len(recs)
     for table in ("summary", "categories", "failures"):
         assert f'<div id="{table}"><table>' in page
+    ci = intervals(recs)["spl"]
+    spl = sum(r["spl"] for r in recs) / len(recs)
+    assert f"<td>{100 * spl:.1f} [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]</td>" in page  # SPL with its interval
     cats = {r["object_category"] for r in recs}
     assert all(f'<option value="{c}">' in page for c in cats)
     # nothing the page would fetch: no http(s) URLs, no external scripts or stylesheets

@@ -1,0 +1,286 @@
+"""What produced a run: its protocol (what makes two runs' numbers comparable) and its provenance.
+
+``OUT/provenance.json`` holds
+
+- ``protocol``: the task, success distance, step limit, action set and step sizes, sensor size, HFOV and
+  depth range, the agent's body (height, radius, climb), the start snapping and the navigability grid's
+  cell size: every rule that changes a score given the same agent. ``protocol_id`` is the first 12 hex
+  digits of the sha256 of its canonical JSON. The policy's decoding is the agent's choice, not the
+  protocol's: it is recorded in config.json's ``agent_options`` and shown by ``navbench table``.
+- ``navbench``: version, and the git commit with a dirty flag when run from a checkout;
+  ``versions`` of Python, torch, numpy, gymnasium, pyrender and trimesh; ``opengl_renderer``; ``cpu``
+  (model and flags); it is rewritten when a run is resumed (the records may then come from two machines);
+- ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
+  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to
+  navbench's data root when it lies under it (``"root": "navbench"``), else as given.
+
+A run directory without provenance.json (written before it existed) gets its protocol derived from
+config.json and the EnvConfig defaults of the navbench reading it; ``derived: true`` says so.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import json
+import platform
+import subprocess
+import sys
+from functools import lru_cache
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from navbench import __version__
+from navbench.env.config import ACTION_NAMES, SUCCESS_DISTANCE, EnvConfig
+from navbench.paths import ROOT
+
+PROVENANCE = "provenance.json"
+PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
+# EnvConfig fields that do not change a score: which images are rendered (each agent's own) and the GL platform.
+_NOT_PROTOCOL = ("rgb", "depth", "semantic", "gl_platform")
+
+
+class ProtocolError(ValueError):
+    """Runs under different protocols, or a protocol that cannot be read; the message says which."""
+
+
+def protocol(task: str, success_distance: float | None, env: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The protocol of a run of ``task`` with ``success_distance`` and these EnvConfig overrides."""
+    if not isinstance(env or {}, dict):
+        raise ProtocolError(f"'env' must be an object, got {env!r}"[:200])
+    try:
+        cfg = EnvConfig(**(env or {}))
+    except TypeError as exc:
+        raise ProtocolError(f"'env' is not EnvConfig's ({exc})") from None
+    fields = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in _NOT_PROTOCOL}
+    fields["success_distance"] = success_distance if success_distance is not None else SUCCESS_DISTANCE.get(task)
+    return {"task": task, "actions": list(ACTION_NAMES), **dict(sorted(fields.items()))}
+
+
+def protocol_id(proto: dict[str, Any]) -> str:
+    try:
+        text = json.dumps({k: v for k, v in proto.items() if k != "derived"}, sort_keys=True, separators=(",", ":"))
+    except (TypeError, ValueError, RecursionError) as exc:
+        raise ProtocolError(f"protocol cannot be hashed ({type(exc).__name__})") from None
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def config_protocol(cfg: Any) -> dict[str, Any]:
+    """The protocol of a RunConfig."""
+    return protocol(cfg.task, cfg.success_distance, cfg.env)
+
+
+def run_protocol(run_dir: str | Path) -> dict[str, Any]:
+    """A run directory's protocol: provenance.json's, else derived from config.json (``derived: true``)."""
+    run_dir = Path(run_dir)
+    path = run_dir / PROVENANCE
+    if path.is_file():
+        try:
+            doc = json.loads(path.read_bytes())
+            proto = doc["protocol"]
+            if not isinstance(proto, dict) or not isinstance(proto.get("task"), str):
+                raise TypeError
+        except (OSError, ValueError, KeyError, TypeError, RecursionError):
+            raise ProtocolError(f"{path}: corrupt provenance (no readable 'protocol')") from None
+        return proto
+    path = run_dir / "config.json"
+    try:
+        cfg = json.loads(path.read_bytes())
+        if not isinstance(cfg, dict):
+            raise TypeError
+    except FileNotFoundError:
+        raise ProtocolError(f"{path}: no config.json (is this a navbench run directory?)") from None
+    except (OSError, ValueError, TypeError, RecursionError):
+        raise ProtocolError(f"{path}: corrupt config") from None
+    task, sd = cfg.get("task"), cfg.get("success_distance")
+    if not isinstance(task, str) or not (sd is None or (isinstance(sd, (int, float)) and not isinstance(sd, bool))):
+        raise ProtocolError(f"{path}: corrupt config ('task' must be a string, 'success_distance' a number)")
+    try:
+        return {**protocol(task, sd, cfg.get("env")), "derived": True}
+    except ProtocolError as exc:
+        raise ProtocolError(f"{path}: corrupt config ({exc})") from None
+
+
+def protocol_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
+    """``key a vs b`` for each protocol field that differs (``derived`` aside)."""
+    keys = sorted((set(a) | set(b)) - {"derived"})
+    return [f"{k} {a.get(k)!r} vs {b.get(k)!r}" for k in keys if a.get(k) != b.get(k)]
+
+
+MIX_HINT = "; --mix-protocols to show them together anyway"
+
+
+def check_same_protocol(run_dirs: list[str | Path], allow_mixed: bool = False, hint: str = MIX_HINT) -> list[str]:
+    """Each run's protocol_id; a ProtocolError naming the first difference unless ``allow_mixed``."""
+    protos = [run_protocol(d) for d in run_dirs]
+    for d, p in zip(run_dirs[1:], protos[1:]):
+        diff = protocol_diff(protos[0], p)
+        if diff and not allow_mixed:
+            raise ProtocolError(f"{d}: scored under another protocol than {run_dirs[0]} ({'; '.join(diff[:3])}){hint}")
+    return [protocol_id(p) for p in protos]
+
+
+# ----------------------------------------------------------------------------------------- provenance
+def sha256(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def data_path(path: str | Path) -> dict[str, str]:
+    """``{"path": ..., "root": "navbench"}`` for a file under navbench's data root, else the path as given."""
+    p = Path(path)
+    try:
+        return {"path": p.resolve().relative_to(ROOT.resolve()).as_posix(), "root": "navbench"}
+    except ValueError:
+        return {"path": str(p), "root": "absolute" if p.is_absolute() else "cwd"}
+
+
+def file_entry(path: str | Path) -> dict[str, str]:
+    return {**data_path(path), "sha256": sha256(path)}
+
+
+def _git(*args: str) -> str | None:
+    try:
+        res = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return res.stdout if res.returncode == 0 else None
+
+
+@lru_cache(maxsize=1)
+def navbench_origin() -> dict[str, Any]:
+    """navbench's version, and its git commit and dirty flag (tracked files changed) in a checkout."""
+    out: dict[str, Any] = {"version": __version__}
+    if (ROOT / ".git").exists():
+        commit = _git("rev-parse", "HEAD")
+        status = _git("status", "--porcelain", "--untracked-files=no")
+        if commit:
+            out.update(git_commit=commit.strip(), git_dirty=bool(status and status.strip()))
+    return out
+
+
+def versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:  # a fork installed under another name (pyrender-maintained)
+            try:
+                out[name] = str(importlib.import_module(name).__version__)
+            except Exception:
+                out[name] = "not installed"
+    return out
+
+
+@lru_cache(maxsize=1)
+def cpu() -> dict[str, Any]:
+    model, flags = platform.processor() or platform.machine(), []
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if key.strip() == "model name" and model in ("", platform.machine(), platform.processor()):
+                model = value.strip()
+            elif key.strip() in ("flags", "Features") and not flags:
+                flags = value.split()
+    except OSError:
+        pass
+    return {"model": model, "flags": " ".join(sorted(flags)), "machine": platform.machine(), "system": sys.platform}
+
+
+@lru_cache(maxsize=1)
+def opengl_renderer() -> str:
+    """The OpenGL renderer string of the context the renderer would use (e.g. ``llvmpipe (LLVM 15...)``)."""
+    try:
+        import navbench.render.renderer  # noqa: F401  (binds PyOpenGL's platform first)
+        import pyrender
+        from OpenGL import GL
+
+        gl = pyrender.OffscreenRenderer(1, 1)
+        try:
+            gl._platform.make_current()
+            name = GL.glGetString(GL.GL_RENDERER).decode()
+            version = GL.glGetString(GL.GL_VERSION).decode()
+        finally:
+            gl.delete()
+        return f"{name}; OpenGL {version}"
+    except Exception as exc:  # no GL here: say so rather than fail the run
+        return f"unavailable ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+
+
+def _checkpoint(cfg: Any) -> str | Path | None:
+    ckpt = (cfg.agent_options or {}).get("checkpoint")
+    if ckpt:
+        return ckpt
+    if cfg.agent in ("pointnav", "memory", "frontier"):
+        from navbench.agents.pointnav import DEFAULT_CHECKPOINT
+        return DEFAULT_CHECKPOINT
+    return None
+
+
+def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
+    """provenance.json's content for a RunConfig whose selected episodes are ``episodes``."""
+    from navbench.scene.datasets import resolve_scene
+
+    proto = config_protocol(cfg)
+    files: dict[str, Any] = {"episodes": file_entry(cfg.episodes), "scene_dir": data_path(cfg.scene_dir),
+                             "scenes": {}}
+    for scene_id in sorted({e.scene_id for e in episodes or []}):
+        try:
+            path = resolve_scene(scene_id, Path(cfg.scene_dir))
+        except (OSError, ValueError):  # a missing scene fails its episodes, as the env reports it
+            files["scenes"][scene_id] = {"sha256": None}
+            continue
+        entry: dict[str, Any] = {"sha256": sha256(path)}
+        stem = path.name.split(".")[0]
+        # its annotations beside it (navbench's NAME.semantic.json, HM3D's NAME.semantic.glb / .txt)
+        sidecars = {p.name: sha256(p) for p in sorted(path.parent.glob(f"{stem}.*")) if p != path and p.is_file()}
+        if sidecars:
+            entry["sidecars"] = sidecars
+        files["scenes"][scene_id] = entry
+    ckpt = _checkpoint(cfg)
+    if ckpt is not None and Path(ckpt).is_file():
+        files["checkpoint"] = file_entry(ckpt)
+    return {"protocol": proto, "protocol_id": protocol_id(proto), "navbench": navbench_origin(),
+            "versions": versions(), "opengl_renderer": opengl_renderer(), "cpu": cpu(), "files": files}
+
+
+def write_provenance(out: Path, cfg: Any, episodes: list | None = None, resume: bool = False) -> dict[str, Any]:
+    """Write ``out/provenance.json``; resuming, a run recorded under another protocol is refused."""
+    from navbench.eval.rundir import RunError, write_atomic
+
+    doc = provenance(cfg, episodes)
+    old = Path(out) / PROVENANCE
+    if resume and old.is_file():
+        try:
+            before = json.loads(old.read_text()).get("protocol_id")
+        except (ValueError, AttributeError):
+            before = None
+        if before is not None and before != doc["protocol_id"]:
+            raise RunError(f"{old}: cannot --resume, the run was scored under protocol {before}, this one is "
+                           f"{doc['protocol_id']} (use another --out, or --overwrite to start over)")
+    write_atomic(Path(out) / PROVENANCE, json.dumps(doc, indent=1) + "\n")
+    return doc
+
+
+def merge_provenance(run_dirs: list[Path], out: Path) -> None:
+    """The merged run's provenance.json: the first shard's, with each shard's origin and machine listed
+    under ``shards`` (merge checks first that they share the protocol)."""
+    from navbench.eval.rundir import write_atomic
+
+    docs = []
+    for d in run_dirs:
+        try:
+            docs.append(json.loads((Path(d) / PROVENANCE).read_text()))
+        except (OSError, ValueError):
+            docs.append(None)
+    if docs[0] is None or not isinstance(docs[0], dict):
+        return
+    merged = dict(docs[0])
+    merged["shards"] = [{k: doc.get(k) for k in ("navbench", "versions", "opengl_renderer")} | {
+        "cpu_model": (doc.get("cpu") or {}).get("model")} if isinstance(doc, dict) else None for doc in docs]
+    write_atomic(Path(out) / PROVENANCE, json.dumps(merged, indent=1) + "\n")

@@ -1,0 +1,139 @@
+"""provenance.json: the protocol and its id, versions and checksums; tables, compare and merge refuse to mix
+protocols."""
+
+import hashlib
+import json
+import shutil
+
+import pytest
+
+from navbench.agents.pointnav import DEFAULT_CHECKPOINT
+from navbench.cli import main, make_oracle
+from navbench.episodes.io import load_dataset
+from navbench.eval.merge import merge
+from navbench.eval.provenance import (PROVENANCE, ProtocolError, config_protocol, protocol_id, provenance,
+                                      run_protocol)
+from navbench.eval.runner import RunConfig, RunError, read_records, run
+from navbench.eval.stats import intervals
+from navbench.eval.table import TableError, group_frame, render, runs_frame
+from navbench.paths import RESULTS_DIR, SCENES_DIR, split_file
+
+VAL = split_file("pointnav", "val")
+RUNS = RESULTS_DIR / "runs"
+
+
+def _cfg(**kw):
+    base = dict(task="pointnav", split="val", agent="oracle", episodes=str(VAL), scene_dir=str(SCENES_DIR),
+                success_distance=0.2, limit=3)
+    return RunConfig(**{**base, **kw})
+
+
+def _sha(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_protocol_id_is_stable_and_changes_with_the_rules():
+    a = protocol_id(config_protocol(_cfg()))
+    assert a == protocol_id(config_protocol(_cfg(seed=5, workers=2, agent="pointnav")))  # not protocol
+    assert a != protocol_id(config_protocol(_cfg(success_distance=0.36)))
+    assert a != protocol_id(config_protocol(_cfg(env={"max_steps": 200})))
+    assert a != protocol_id(config_protocol(_cfg(env={"forward_step": 0.1})))
+    assert a == protocol_id(config_protocol(_cfg(env={"rgb": False})))  # which images render is the agent's
+    with pytest.raises(ProtocolError, match="EnvConfig"):
+        config_protocol(_cfg(env={"no_such_field": 1}))
+
+
+def test_provenance_checksums_versions_and_relative_paths():
+    eps = load_dataset(VAL).episodes[:60]
+    doc = provenance(_cfg(agent="pointnav"), eps)
+    files = doc["files"]
+    assert files["episodes"] == {"path": "episodes/pointnav/val/val.json.gz", "root": "navbench", "sha256": _sha(VAL)}
+    assert files["checkpoint"]["sha256"] == _sha(DEFAULT_CHECKPOINT)
+    assert files["checkpoint"]["path"] == "policies/pointnav_navbench.pth"
+    assert set(files["scenes"]) == {e.scene_id for e in eps} and len(files["scenes"]) == 2
+    sid = eps[0].scene_id
+    assert files["scenes"][sid]["sha256"] == _sha(SCENES_DIR / sid)
+    semantic = (SCENES_DIR / sid).with_suffix(".semantic.json")
+    assert files["scenes"][sid]["sidecars"] == {semantic.name: _sha(semantic)}
+    assert set(doc["versions"]) == {"python", "torch", "numpy", "gymnasium", "pyrender", "trimesh"}
+    assert doc["cpu"]["model"] and doc["opengl_renderer"] and doc["navbench"]["version"]
+    assert doc["protocol_id"] == protocol_id(doc["protocol"])
+    assert "checkpoint" not in provenance(_cfg(), eps)["files"]  # the oracle has none
+
+
+def test_a_run_records_provenance_and_intervals_that_reproduce(tmp_path):
+    a = run(_cfg(), make_oracle, tmp_path / "a")
+    b = run(_cfg(), make_oracle, tmp_path / "b")
+    pa, pb = (json.loads((tmp_path / d / PROVENANCE).read_text()) for d in ("a", "b"))
+    assert pa["protocol_id"] == pb["protocol_id"] == a["protocol_id"] == b["protocol_id"]
+    assert pa["files"]["episodes"]["sha256"] == _sha(VAL)
+    assert a["ci95"] == intervals(read_records(tmp_path / "a" / "episodes.jsonl"))
+    assert a["ci95"]["spl"][0] <= a["spl"] <= a["ci95"]["spl"][1]
+    c = run(_cfg(success_distance=0.3), make_oracle, tmp_path / "c")
+    assert c["protocol_id"] != a["protocol_id"]
+    # a resumed run scored under another protocol than its provenance says is refused
+    doc = dict(pa, protocol_id="0" * 12)
+    (tmp_path / "a" / PROVENANCE).write_text(json.dumps(doc))
+    with pytest.raises(RunError, match="protocol"):
+        run(_cfg(), make_oracle, tmp_path / "a", resume=True)
+
+
+def test_committed_runs_without_provenance_get_a_derived_protocol():
+    d = RUNS / "objectnav" / "val_unseen" / "memory"
+    proto = run_protocol(d)
+    cfg = json.loads((d / "config.json").read_text())
+    assert proto.pop("derived") is True
+    assert proto == config_protocol(RunConfig(**{k: v for k, v in cfg.items() if k in RunConfig.__dataclass_fields__}))
+
+
+def _copy(tmp_path, rel, name, **config):
+    d = tmp_path / name
+    shutil.copytree(RUNS / rel, d, ignore=shutil.ignore_patterns("videos"))
+    cfg = json.loads((d / "config.json").read_text())
+    (d / "config.json").write_text(json.dumps({**cfg, **config}))
+    return d
+
+
+def test_table_refuses_mixed_protocols_unless_told_and_then_marks_it(tmp_path, capsys):
+    mem = RUNS / "objectnav" / "val_unseen" / "memory"
+    far = _copy(tmp_path, "objectnav/val_unseen/frontier", "frontier", success_distance=1.0)
+    with pytest.raises(TableError, match="success_distance"):
+        runs_frame([mem, far])
+    text = render(runs_frame([mem, far], mix_protocols=True))
+    assert "protocol" in text.splitlines()[0] and "mixed protocols" in text
+    assert main(["table", str(mem), str(far)]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_table_shows_intervals_from_summary_or_records_in_every_format(tmp_path):
+    old = RUNS / "objectnav" / "val_unseen" / "frontier"  # a summary.json written without ci95
+    new = _copy(tmp_path, "objectnav/val_unseen/memory", "memory")
+    s = json.loads((new / "summary.json").read_text())
+    s["ci95"] = intervals(read_records(new / "episodes.jsonl"))
+    (new / "summary.json").write_text(json.dumps(s))
+    df = runs_frame([old, new], wide=False)
+    want = intervals(read_records(old / "episodes.jsonl"))["spl"]
+    assert [df.loc[0, "SPL lo"], df.loc[0, "SPL hi"]] == pytest.approx([100 * want[0], 100 * want[1]])
+    assert f"{df.loc[1, 'SPL']:.1f} [{df.loc[1, 'SPL lo']:.1f}, {df.loc[1, 'SPL hi']:.1f}]" in render(df)
+    assert "SPL lo,SPL hi" in render(df, "csv").splitlines()[0]
+    assert "[" in render(df, "latex")
+    by_scene = group_frame([old], "scene")
+    assert len(by_scene) == 4 and set(by_scene["episodes"]) == {40}
+    by_cat = group_frame([old], "category")
+    assert by_cat["episodes"].sum() == 160 and "SR lo" in by_cat.columns
+
+
+def test_merge_refuses_shards_under_different_protocols(tmp_path):
+    dirs = []
+    for i in (1, 2):
+        d = tmp_path / f"s{i}"
+        run(_cfg(shard=f"{i}/2"), make_oracle, d)
+        dirs.append(d)
+    merge(dirs, tmp_path / "ok")
+    assert json.loads((tmp_path / "ok" / PROVENANCE).read_text())["protocol_id"] == \
+        json.loads((dirs[0] / PROVENANCE).read_text())["protocol_id"]
+    doc = json.loads((dirs[1] / PROVENANCE).read_text())
+    doc["protocol"]["max_steps"] = 100
+    (dirs[1] / PROVENANCE).write_text(json.dumps(doc))
+    with pytest.raises(ProtocolError, match="max_steps 500 vs 100"):
+        merge(dirs, tmp_path / "bad")

@@ -1,0 +1,186 @@
+"""Intervals and paired comparisons: reproduced from records, checked against independent implementations,
+and the committed val_unseen runs compared as the README describes."""
+
+import json
+import math
+import random
+import shutil
+
+import numpy as np
+import pytest
+
+from navbench.cli import main
+from navbench.episodes.io import load_dataset
+from navbench.eval.rundir import read_records
+from navbench.eval.runner import select_episodes
+from navbench.eval.stats import (CI_METHOD, N_RESAMPLES, SEED, StatsError, add_intervals, compare_records,
+                                 intervals, resample_means)
+from navbench.metrics import aggregate
+from navbench.paths import RESULTS_DIR, split_file
+
+VAL_UNSEEN = RESULTS_DIR / "runs" / "objectnav" / "val_unseen"
+METRICS = ("success", "spl", "soft_spl", "distance_to_goal")
+
+
+def _records(name):
+    return read_records(VAL_UNSEEN / name / "episodes.jsonl")
+
+
+def loop_bootstrap(records, metric, draw_scenes, draw_uniforms, n=N_RESAMPLES):
+    """The two-stage bootstrap written out as plain loops: scenes drawn with replacement, then for each
+    drawn scene as many episodes as it has, episode floor(u * n_s); the mean over all drawn episodes.
+    ``draw_scenes(k)`` and ``draw_uniforms(m)`` supply the random numbers."""
+    by_scene = {}
+    for r in sorted(records, key=lambda r: (r["scene_id"], r["episode_id"])):
+        if not r.get("skipped"):
+            by_scene.setdefault(r["scene_id"], []).append(float(r[metric]))
+    scenes = [by_scene[s] for s in sorted(by_scene)]
+    means = []
+    for _ in range(n):
+        drawn = draw_scenes(len(scenes)) if len(scenes) > 1 else [0]
+        sizes = [len(scenes[j]) for j in drawn]
+        u = draw_uniforms(sum(sizes))
+        total, i = 0.0, 0
+        for j, size in zip(drawn, sizes):
+            for _ in range(size):
+                total += scenes[j][int(math.floor(u[i] * size))]
+                i += 1
+        means.append(total / i)
+    means.sort()
+
+    def pct(q):  # numpy's default (linear) percentile
+        pos = q / 100 * (len(means) - 1)
+        lo = int(math.floor(pos))
+        return means[lo] + (means[min(lo + 1, len(means) - 1)] - means[lo]) * (pos - lo)
+    return [pct(2.5), pct(97.5)]
+
+
+def test_intervals_match_a_loop_implementation_with_the_documented_draws():
+    recs = _records("frontier")
+    rng = np.random.default_rng(SEED)
+    want = loop_bootstrap(recs, "spl", lambda k: [int(x) for x in rng.integers(0, k, size=k)],
+                          lambda m: [float(x) for x in rng.random(m)])
+    got = intervals(recs)["spl"]
+    assert got == pytest.approx(want, abs=1e-12)
+    assert got[0] < aggregate(recs)["spl"] < got[1]
+
+
+def test_intervals_agree_with_the_same_bootstrap_on_another_generator():
+    # Python's Mersenne twister instead of numpy's PCG64: the same bootstrap, other draws; percentile
+    # intervals from 2,000 resamples agree to Monte Carlo error (a few tenths of a point here).
+    recs = _records("frontier")
+    py = random.Random(12345)
+    other = loop_bootstrap(recs, "success", lambda k: [py.randrange(k) for _ in range(k)],
+                           lambda m: [py.random() for _ in range(m)])
+    ours = intervals(recs)["success"]
+    assert ours == pytest.approx(other, abs=0.015)
+    # and it is wider than the binomial interval that treats the 160 episodes as independent
+    p, n = aggregate(recs)["success"], len(recs)
+    assert ours[1] - ours[0] > 2 * 1.96 * math.sqrt(p * (1 - p) / n)
+
+
+def test_one_scene_resamples_episodes_only():
+    recs = [{"scene_id": "a", "episode_id": str(i), **{m: float(i % 3 == 0) for m in METRICS}} for i in range(30)]
+    rng = np.random.default_rng(SEED)
+    idx_means = [np.mean([recs_sorted["success"] for recs_sorted in
+                          [sorted(recs, key=lambda r: r["episode_id"])[int(u * 30)] for u in rng.random(30)]])
+                 for _ in range(N_RESAMPLES)]
+    assert intervals(recs)["success"] == pytest.approx(list(np.percentile(idx_means, [2.5, 97.5])), abs=1e-12)
+
+
+def test_summary_intervals_reproduce_exactly_from_the_records_in_any_order():
+    recs = _records("memory")
+    a, b = aggregate(recs, by="object_category"), aggregate(recs[::-1], by="object_category")
+    add_intervals(a, recs, "object_category")
+    add_intervals(b, list(reversed(recs)), "object_category")
+    assert a == b and a["ci_method"] == CI_METHOD
+    assert set(a["ci95"]) == set(METRICS) and all(lo <= a[m] <= hi for m, (lo, hi) in a["ci95"].items())
+    lamp = a["by_object_category"]["lamp"]
+    assert lamp["ci95"] == intervals([r for r in recs if r["object_category"] == "lamp"])
+
+
+def test_skipped_episodes_are_left_out_and_no_records_give_no_interval():
+    recs = _records("frontier")[:20]
+    skipped = dict(recs[0], skipped=True, spl=123.0)
+    assert intervals(recs[1:] + [skipped]) == intervals(recs[1:])
+    assert intervals([]) is None
+
+
+def test_a_run_against_itself_is_zero_and_a_shifted_run_is_detected():
+    recs = _records("memory")
+    same = compare_records(recs, recs)
+    assert all(m["diff"] == 0 and m["ci95"] == [0, 0] and m["p_better"] == 0.5 for m in same["metrics"].values())
+    better = [dict(r, spl=r["spl"] + 0.05) for r in recs]
+    res = compare_records(recs, better)["metrics"]["spl"]
+    assert res["diff"] == pytest.approx(0.05) and res["ci95"] == pytest.approx([0.05, 0.05])
+    assert res["p_better"] == 1.0
+
+
+def test_paired_interval_matches_a_loop_bootstrap_of_the_differences():
+    base, other = _records("frontier"), _records("memory")
+    o = {(r["scene_id"], r["episode_id"]): r for r in other}
+    diffs = [dict(b, spl=o[(b["scene_id"], b["episode_id"])]["spl"] - b["spl"]) for b in base]
+    rng = np.random.default_rng(SEED)
+    want = loop_bootstrap(diffs, "spl", lambda k: [int(x) for x in rng.integers(0, k, size=k)],
+                          lambda m: [float(x) for x in rng.random(m)])
+    res = compare_records(base, other)
+    assert res["metrics"]["spl"]["ci95"] == pytest.approx(want, abs=1e-12)
+    boot = resample_means(np.array([d["spl"] for d in sorted(diffs, key=lambda r: (r["scene_id"], r["episode_id"]))]),
+                          sorted(d["scene_id"] for d in diffs))
+    assert res["metrics"]["spl"]["mde"] == pytest.approx(2.8 * boot[:, 0].std(ddof=1))
+
+
+def test_memory_leads_frontier_in_spl_on_40_val_unseen_episodes(capsys):
+    keep = {(e.scene_id, e.episode_id)
+            for e in select_episodes(load_dataset(split_file("objectnav", "val_unseen")), None, per_scene=10)}
+    sub = lambda name: [r for r in _records(name) if (r["scene_id"], r["episode_id"]) in keep]
+    res = compare_records(sub("frontier"), sub("memory"))
+    assert res["episodes"] == 40 and res["scenes"] == 4
+    assert res["metrics"]["spl"]["ci95"][0] > 0
+    assert main(["compare", str(VAL_UNSEEN / "frontier"), str(VAL_UNSEEN / "memory"), "--per-scene", "10",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["metrics"] == res["metrics"]
+
+
+def test_pairing_drops_episodes_one_run_lacks_and_says_which():
+    base, other = _records("frontier"), _records("memory")[5:]
+    res = compare_records(base, other)
+    assert res["episodes"] == 155 and len(res["dropped"]) == 5
+    assert {d["reason"] for d in res["dropped"]} == {"only in base"}
+    with pytest.raises(StatsError, match="share no"):
+        compare_records(base[:3], [])
+
+
+def _copy_run(tmp_path, name, **config):
+    d = tmp_path / name
+    shutil.copytree(VAL_UNSEEN / name, d, ignore=shutil.ignore_patterns("videos"))
+    cfg = json.loads((d / "config.json").read_text())
+    (d / "config.json").write_text(json.dumps({**cfg, **config}))
+    return d
+
+
+def test_cli_compare_json_self_and_refusals(tmp_path, capsys):
+    mem = VAL_UNSEEN / "memory"
+    assert main(["compare", str(mem), str(mem), "--json", "--metric", "spl"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["episodes"] == 160 and doc["scenes"] == 4 and list(doc["metrics"]) == ["spl"]
+    assert doc["metrics"]["spl"]["diff"] == 0 and doc["metrics"]["spl"]["ci95"] == [0, 0]
+    far = _copy_run(tmp_path, "frontier", success_distance=1.0)
+    assert main(["compare", str(mem), str(far)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "success_distance 0.25 vs 1.0" in err[0]
+    assert main(["compare", str(mem), str(far), "--mix-protocols"]) == 0
+    assert "MIXED PROTOCOLS" in capsys.readouterr().out
+    seen = RESULTS_DIR / "runs" / "objectnav" / "val_seen" / "memory"
+    assert main(["compare", str(mem), str(seen)]) == 2
+    assert "another episode file" in capsys.readouterr().err
+
+
+def test_cli_compare_text_names_the_dropped_episodes(tmp_path, capsys):
+    short = _copy_run(tmp_path, "memory")
+    lines = (short / "episodes.jsonl").read_text().splitlines()
+    (short / "episodes.jsonl").write_text("\n".join(lines[3:]) + "\n")
+    assert main(["compare", str(VAL_UNSEEN / "frontier"), str(short)]) == 0
+    out = capsys.readouterr().out
+    assert "paired on 157 episodes in 4 scenes; dropped 3: 3 only in base" in out
+    assert "SPL %" in out and "P(other better)" in out
