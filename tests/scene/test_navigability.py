@@ -289,6 +289,7 @@ def test_save_load_round_trip(wall_grid, tmp_path):
     assert np.array_equal(g.free, wall_grid.free)
     assert np.allclose(g.origin, wall_grid.origin)
     assert g.config == wall_grid.config and g.floor_height == wall_grid.floor_height
+    assert g.storey_top == wall_grid.storey_top
     a, b = P(1.5, 1.5), P(4.5, 1.5)
     assert g.geodesic_distance(a, b) == pytest.approx(wall_grid.geodesic_distance(a, b))
     corrupt = tmp_path / "corrupt.npz"
