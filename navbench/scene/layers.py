@@ -261,3 +261,104 @@ class LayeredNav:
     def levels(self) -> np.ndarray:
         """Distinct heights (to 5 cm) of the navigable spans, bottom-up: the storeys, landings and treads."""
         return np.unique(np.round(self.height[self.navigable] / 0.05) * 0.05)
+
+    # ------------------------------------------------------------------ the env's interface (NavGrid's)
+
+    def is_navigable(self, p) -> bool:
+        """Whether ``p`` stands on a navigable span of its own cell (within half the agent's height)."""
+        return self.span_of(p, max_dist=0.0) >= 0
+
+    def snap_point(self, p, max_dist: float | None = None) -> np.ndarray:
+        """The navigable span centre ``span_of`` finds for ``p`` (its surface height as y); NaN if none."""
+        s = self.span_of(p, math.inf if max_dist is None else max_dist)
+        return self.position(s) if s >= 0 else np.full(3, np.nan)
+
+    def distance_field(self, goals) -> LayeredField:
+        g = _points(goals, "goals").reshape(-1, 3)
+        key = np.round(g * 1000.0).astype(np.int64).tobytes()
+        cache = self.__dict__.setdefault("_fields", {})
+        if key not in cache:
+            if len(cache) >= self.config.field_cache_size:
+                cache.pop(next(iter(cache)))
+            cache[key] = LayeredField(self, g)
+        return cache[key]
+
+    def _step_span(self, span: int, x: float, z: float) -> int:
+        """The navigable span of the cell at (x, z) the agent on ``span`` can step onto (-1: none)."""
+        i = int(math.floor((z - self.origin[1]) / self.cell_size + 0.5))
+        j = int(math.floor((x - self.origin[0]) / self.cell_size + 0.5))
+        if not (0 <= i < self.shape[0] and 0 <= j < self.shape[1]):
+            return -1
+        c = i * self.shape[1] + j
+        if c == self.cell[span]:
+            return span
+        own = np.arange(self._start[c], self._start[c] + self._count[c])
+        dh = np.abs(self.height[own] - self.height[span])
+        ok = self.navigable[own] & (dh <= self.config.max_climb + 1e-9)
+        return int(own[ok][np.argmin(dh[ok])]) if ok.any() else -1
+
+    def _straight(self, span: int, x0: float, z0: float, x1: float, z1: float) -> tuple[int, float, float, bool]:
+        length = math.hypot(x1 - x0, z1 - z0)
+        n = max(1, int(math.ceil(length / (0.25 * self.cell_size))))
+        for k in range(1, n + 1):
+            t = k / n
+            nxt = self._step_span(span, x0 + t * (x1 - x0), z0 + t * (z1 - z0))
+            if nxt < 0:
+                t0 = (k - 1) / n
+                return span, x0 + t0 * (x1 - x0), z0 + t0 * (z1 - z0), True
+            span = nxt
+        return span, x1, z1, False
+
+    def try_step(self, position, target, sliding: bool = False) -> tuple[np.ndarray, bool]:
+        """Move from ``position`` towards ``target`` (xz) over the joined surface, up and down steps within
+        ``max_climb``; returns (new position, its y the surface height there, collided). With sliding the
+        rest of a blocked step is re-tried along each axis; the candidate that gets furthest is taken."""
+        p, q = _points(position, "position"), _points(target, "target")
+        span = self.span_of(p, max_dist=self.cell_size)
+        if span < 0:
+            return p.copy(), True
+        span, x, z, collided = self._straight(span, float(p[0]), float(p[2]), float(q[0]), float(q[2]))
+        if collided and sliding:
+            best, best_d = (span, x, z), 0.0
+            for dx, dz in ((float(q[0]) - x, 0.0), (0.0, float(q[2]) - z)):
+                s2, x2, z2, _ = self._straight(span, x, z, x + dx, z + dz)
+                d = math.hypot(x2 - x, z2 - z)
+                if d > best_d + 1e-12:
+                    best, best_d = (s2, x2, z2), d
+            span, x, z = best
+        return np.array([x, self.height[span], z]), collided
+
+
+class LayeredField:
+    """Geodesic distance over a :class:`LayeredNav` to the nearest of a goal set (``inf`` off its surfaces).
+
+    Values are shortest lattice paths between span centres (see the module docstring); a query point is
+    joined to the best of its span's lattice neighbours by a straight segment, and within two cells of a
+    goal on its own surface the straight 3-D distance to the goal is used, so success is decided exactly.
+    """
+
+    def __init__(self, nav: LayeredNav, goals: np.ndarray):
+        self.nav = nav
+        spans = np.array([nav.span_of(g) for g in goals], np.int64)
+        keep = spans >= 0
+        self.goals = goals[keep].reshape(-1, 3)  # goals on a navigable surface (or within snapping of one)
+        self._goal_spans = spans[keep]
+        self.values = nav.distances(goals) if keep.any() else np.full(len(nav.cell), np.inf)
+
+    def distance(self, p) -> float:
+        p = _points(p, "point")
+        nav = self.nav
+        s = nav.span_of(p, max_dist=nav.cell_size)
+        if s < 0:
+            return math.inf
+        row = nav.graph.indices[nav.graph.indptr[s]:nav.graph.indptr[s + 1]]
+        cand = np.concatenate([[s], row])
+        xz = nav.xz(nav.cell[cand])
+        legs = np.sqrt((xz[:, 0] - p[0]) ** 2 + (xz[:, 1] - p[2]) ** 2 + (nav.smooth[cand] - nav.smooth[s]) ** 2)
+        best = float(np.min(self.values[cand] + legs))
+        if math.isfinite(best) and len(self.goals):
+            near = np.linalg.norm(self.goals[:, [0, 2]] - p[[0, 2]], axis=1) <= 2 * nav.cell_size
+            comp = nav.component[self._goal_spans] == nav.component[s]
+            if (near & comp).any():
+                best = min(best, float(np.min(np.linalg.norm(self.goals[near & comp] - p, axis=1))))
+        return best
