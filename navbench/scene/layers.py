@@ -317,16 +317,21 @@ class LayeredNav:
         span = self.span_of(p, max_dist=self.cell_size)
         if span < 0:
             return p.copy(), True
-        span, x, z, collided = self._straight(span, float(p[0]), float(p[2]), float(q[0]), float(q[2]))
+        span, x, z, collided = self._move(span, float(p[0]), float(p[2]), float(q[0]), float(q[2]), sliding)
+        return np.array([x, self.height[span], z]), collided
+
+    def _move(self, span: int, x0: float, z0: float, x1: float, z1: float,
+              sliding: bool) -> tuple[int, float, float, bool]:
+        span, x, z, collided = self._straight(span, x0, z0, x1, z1)
         if collided and sliding:
             best, best_d = (span, x, z), 0.0
-            for dx, dz in ((float(q[0]) - x, 0.0), (0.0, float(q[2]) - z)):
+            for dx, dz in ((x1 - x, 0.0), (0.0, z1 - z)):
                 s2, x2, z2, _ = self._straight(span, x, z, x + dx, z + dz)
                 d = math.hypot(x2 - x, z2 - z)
                 if d > best_d + 1e-12:
                     best, best_d = (s2, x2, z2), d
             span, x, z = best
-        return np.array([x, self.height[span], z]), collided
+        return span, x, z, collided
 
 
 class LayeredField:
@@ -347,8 +352,11 @@ class LayeredField:
 
     def distance(self, p) -> float:
         p = _points(p, "point")
+        return self.distance_on(self.nav.span_of(p, max_dist=self.nav.cell_size), p)
+
+    def distance_on(self, s: int, p: np.ndarray) -> float:
+        """Distance from point ``p`` standing on span ``s`` (inf if ``s`` < 0)."""
         nav = self.nav
-        s = nav.span_of(p, max_dist=nav.cell_size)
         if s < 0:
             return math.inf
         row = nav.graph.indices[nav.graph.indptr[s]:nav.graph.indptr[s + 1]]
@@ -362,3 +370,72 @@ class LayeredField:
             if (near & comp).any():
                 best = min(best, float(np.min(np.linalg.norm(self.goals[near & comp] - p, axis=1))))
         return best
+
+
+class LayerView:
+    """A :class:`LayeredNav` seen through the xz interface the geodesic follower plans with.
+
+    The follower knows the agent's xz (GPS), not which surface it stands on; the view keeps that: the agent's
+    span is the one of its cell nearest in height to where it last stood (storeys over one another are at
+    least the agent's height apart, a step at most ``max_climb``), and every position the follower simulates
+    remembers the span it reached, so look-ahead over stairs follows the surface.
+    """
+
+    def __init__(self, nav: LayeredNav, start):
+        self.nav = nav
+        self.config = nav.config
+        self.cell_size = nav.cell_size
+        self._y = float(_points(start, "start")[1])
+        self._at: dict[tuple[float, float], int] = {}
+
+    def track(self, position) -> None:
+        """Take in the agent's reported position (its y is ignored): the span under it becomes the context."""
+        p = _points(position, "position")
+        s = self._nearest(float(p[0]), float(p[2]))
+        if s >= 0:
+            self._y = float(self.nav.height[s])
+        self._at.clear()
+
+    def _nearest(self, x: float, z: float) -> int:
+        return self.nav.span_of((x, self._y, z), max_dist=self.nav.cell_size)
+
+    def locate(self, x: float, z: float) -> int:
+        s = self._at.get((x, z))
+        return self._nearest(x, z) if s is None else s
+
+    def _straight(self, x: float, z: float, tx: float, tz: float) -> tuple[float, float, bool]:
+        s = self.locate(x, z)
+        if s < 0:
+            return x, z, True
+        s, x1, z1, stopped = self.nav._straight(s, x, z, tx, tz)
+        self._at[(x1, z1)] = s
+        return x1, z1, stopped
+
+    def try_step(self, position, target, sliding: bool = False) -> tuple[np.ndarray, bool]:
+        p, q = _points(position, "position"), _points(target, "target")
+        s = self.locate(float(p[0]), float(p[2]))
+        if s < 0:
+            return p.copy(), True
+        s, x, z, collided = self.nav._move(s, float(p[0]), float(p[2]), float(q[0]), float(q[2]), sliding)
+        self._at[(x, z)] = s
+        return np.array([x, self.nav.height[s], z]), collided
+
+    def distance_field(self, goals, margin: float = 0.0) -> _FieldView:
+        """The layered field of ``goals`` seen in xz (``margin`` is not supported on layered surfaces: 0)."""
+        return _FieldView(self, self.nav.distance_field(goals))
+
+
+class _FieldView:
+    def __init__(self, view: LayerView, field: LayeredField):
+        self._view, self._field = view, field
+        self.goals = field.goals
+
+    def _distance_xz(self, x: float, z: float) -> float:
+        s = self._view.locate(x, z)
+        if s < 0:
+            return math.inf
+        return self._field.distance_on(s, np.array([x, self._view.nav.height[s], z]))
+
+    def distance(self, p) -> float:
+        p = _points(p, "point")
+        return self._distance_xz(float(p[0]), float(p[2]))

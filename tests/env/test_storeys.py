@@ -60,3 +60,26 @@ def test_goal_on_a_storey_nothing_joins_is_unreachable(tmp_path):
     assert env.agent_position[1] == pytest.approx(0.0)  # the ground floor's edge stops it
     _, _, _, _, info = env.step(STOP)
     assert info["success"] == 0.0
+
+
+@pytest.mark.parametrize("join", ["stairs", "ramp"])
+@pytest.mark.parametrize(("start", "goal"), [([1.0, 0.0, 1.0], [8.5, UPPER, 5.0]), ([9.0, UPPER, 1.0], [1.0, 0.0, 5.0])])
+def test_oracle_climbs_to_a_goal_upstairs_and_back_down(tmp_path, join, start, goal):
+    from navbench.agents.oracle import OracleAgent
+
+    house(join).export(tmp_path / f"{join}.glb")
+    data = {"episodes": [{"episode_id": "0", "scene_id": f"{join}.glb", "start_position": start,
+                          "start_rotation": [0.0, 0.0, 0.0, 1.0], "goals": [{"position": goal, "radius": None}],
+                          "info": {}}]}
+    (tmp_path / "eps.json").write_text(json.dumps(data))
+    config = EnvConfig(rgb=False, depth=False)
+    env = PointNavEnv(tmp_path / "eps.json", scene_dir=tmp_path, config=config)
+    obs, info = env.reset(options={"episode": 0})
+    agent = OracleAgent(tmp_path, env.success_distance, config)
+    agent.reset(env.episode)
+    d0, done = info["distance_to_goal"], False
+    assert math.isfinite(d0) and d0 > 8.0
+    while not done:
+        obs, _, term, trunc, info = env.step(agent.act(obs))
+        done = term or trunc
+    assert info["success"] == 1.0 and info["spl"] > 0.9, info
