@@ -63,7 +63,8 @@ def test_goal_on_a_storey_nothing_joins_is_unreachable(tmp_path):
 
 
 @pytest.mark.parametrize("join", ["stairs", "ramp"])
-@pytest.mark.parametrize(("start", "goal"), [([1.0, 0.0, 1.0], [8.5, UPPER, 5.0]), ([9.0, UPPER, 1.0], [1.0, 0.0, 5.0])])
+@pytest.mark.parametrize(("start", "goal"), [([1.0, 0.0, 1.0], [8.5, UPPER, 5.0]),
+                                           ([9.0, UPPER, 1.0], [1.0, 0.0, 5.0])])
 def test_oracle_climbs_to_a_goal_upstairs_and_back_down(tmp_path, join, start, goal):
     from navbench.agents.oracle import OracleAgent
 
