@@ -235,12 +235,23 @@ class LayeredNav:
 
     def distances(self, goals) -> np.ndarray:
         """Geodesic distance (m) from every span to the nearest of ``goals`` ((3,) or (N, 3)); inf where none
-        is reachable. A goal off the navigable surface counts from its snapped span (nothing added)."""
+        is reachable. A goal counts from its own point: its span starts at the straight distance to it (a
+        goal off the navigable surface counts from its snapped span, with nothing added)."""
         g = _points(goals, "goals").reshape(-1, 3)
-        spans = sorted({s for s in (self.span_of(p) for p in g) if s >= 0})
-        if not spans:
-            return np.full(len(self.cell), np.inf)
-        return csgraph.dijkstra(self.graph, indices=spans, min_only=True)
+        spans = np.array([self.span_of(p) for p in g], np.int64)
+        keep = spans >= 0
+        n = len(self.cell)
+        if not keep.any():
+            return np.full(n, np.inf)
+        spans, g = spans[keep], g[keep]
+        xz = self.xz(self.cell[spans])
+        on = np.hypot(xz[:, 0] - g[:, 0], xz[:, 1] - g[:, 1]) <= self.cell_size  # the goal's own cell
+        offset = np.where(on, np.hypot(xz[:, 0] - g[:, 0], xz[:, 1] - g[:, 1]), 0.0)
+        # A virtual source joined to each goal's span by its offset (Dijkstra's weights must be > 0).
+        src = sparse.csr_matrix((np.maximum(offset, 1e-12), (np.full(len(spans), n, np.int64), spans)),
+                                shape=(n + 1, n + 1))
+        graph = sparse.bmat([[self.graph, None], [None, sparse.csr_matrix((1, 1))]], format="csr") + src
+        return csgraph.dijkstra(graph, indices=n, directed=True)[:n]
 
     def geodesic_distance(self, start, goals) -> float:
         """Shortest path length on the walkable surface from ``start`` to the nearest of ``goals``; ``inf`` if
@@ -338,8 +349,9 @@ class LayeredField:
     """Geodesic distance over a :class:`LayeredNav` to the nearest of a goal set (``inf`` off its surfaces).
 
     Values are shortest lattice paths between span centres (see the module docstring); a query point is
-    joined to the best of its span's lattice neighbours by a straight segment, and within two cells of a
-    goal on its own surface the straight 3-D distance to the goal is used, so success is decided exactly.
+    joined to the best of its span's lattice neighbours by a straight segment, and within twice the agent's
+    radius of a goal on its own surface (joined, and within a step's height) the straight xz distance to the
+    goal is used, as the NavGrid's field does near its goals, so success is decided exactly.
     """
 
     def __init__(self, nav: LayeredNav, goals: np.ndarray):
@@ -365,10 +377,15 @@ class LayeredField:
         legs = np.sqrt((xz[:, 0] - p[0]) ** 2 + (xz[:, 1] - p[2]) ** 2 + (nav.smooth[cand] - nav.smooth[s]) ** 2)
         best = float(np.min(self.values[cand] + legs))
         if math.isfinite(best) and len(self.goals):
-            near = np.linalg.norm(self.goals[:, [0, 2]] - p[[0, 2]], axis=1) <= 2 * nav.cell_size
-            comp = nav.component[self._goal_spans] == nav.component[s]
+            # Two navigable points this close have nothing between them (an obstacle and the clearance on
+            # either side of it span more), so the straight distance is the geodesic one.
+            near = np.linalg.norm(self.goals[:, [0, 2]] - p[[0, 2]], axis=1) <= 2 * nav.config.agent_radius
+            # On the agent's own surface: joined to it, and not a storey above or below the same xz.
+            comp = (nav.component[self._goal_spans] == nav.component[s]) & \
+                (np.abs(nav.height[self._goal_spans] - nav.height[s]) <= nav.config.max_climb)
             if (near & comp).any():
-                best = min(best, float(np.min(np.linalg.norm(self.goals[near & comp] - p, axis=1))))
+                g = self.goals[near & comp]
+                best = float(np.min(np.hypot(g[:, 0] - p[0], g[:, 2] - p[2])))
         return best
 
 

@@ -84,3 +84,38 @@ def test_oracle_climbs_to_a_goal_upstairs_and_back_down(tmp_path, join, start, g
         obs, _, term, trunc, info = env.step(agent.act(obs))
         done = term or trunc
     assert info["success"] == 1.0 and info["spl"] > 0.9, info
+
+
+@pytest.mark.parametrize("join", ["stairs", None])
+def test_objectnav_category_on_two_storeys_scores_against_the_reachable_instance(tmp_path, join):
+    """Chairs on both storeys: one 0.3 m (in xz) above the start, one upstairs beyond the flight, one far
+    away on the ground floor. With stairs the one beyond the flight is nearest by path; without, neither
+    upstairs chair counts and the ground floor's is the goal."""
+    from navbench.agents.oracle import OracleAgent
+    from navbench.env.objectnav import ObjectNavEnv
+
+    name = join or "none"
+    house(join).export(tmp_path / f"{name}.glb")
+    chairs = [[1.3, UPPER, 2.6], [8.5, UPPER, 2.6], [9.5, 0.0, 5.5]]
+    goals = [{"object_id": i, "object_category": "chair", "position": [p[0], p[1] + 0.5, p[2]],
+              "view_points": [{"agent_state": {"position": p, "rotation": [0.0, 0.0, 0.0, 1.0]}, "iou": 1.0}]}
+             for i, p in enumerate(chairs)]
+    data = {"episodes": [{"episode_id": "0", "scene_id": f"{name}.glb", "start_position": START,
+                          "start_rotation": FACING_PLUS_X, "object_category": "chair", "goals": goals, "info": {}}]}
+    (tmp_path / "eps.json").write_text(json.dumps(data))
+    config = EnvConfig(rgb=False, depth=False)
+    env = ObjectNavEnv(tmp_path / "eps.json", scene_dir=tmp_path, config=config)
+    obs, info = env.reset(options={"episode": 0})
+    if join == "stairs":
+        pts = np.array([START, [X0, RISE / 2, 2.6], [X1, UPPER - RISE / 2, 2.6], chairs[1]])
+        expected, end_y = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()), UPPER
+    else:
+        expected, end_y = math.dist(START, chairs[2]), 0.0
+    assert info["distance_to_goal"] == pytest.approx(expected, rel=0.03)
+    agent = OracleAgent(tmp_path, env.success_distance, config)
+    agent.reset(env.episode)
+    done = False
+    while not done:
+        obs, _, term, trunc, info = env.step(agent.act(obs))
+        done = term or trunc
+    assert info["success"] == 1.0 and env.agent_position[1] == pytest.approx(end_y), info

@@ -101,3 +101,11 @@ def test_radius_applies_on_the_stairs(stairs):
     for z, ok in ((2.6, True), (Z0 + r + 0.05, True), (Z0 + r - 0.08, False), (Z1 - r + 0.08, False)):
         s = stairs.span_of((5.0, 1.4, z), max_dist=0.0)
         assert (s >= 0) == ok, z
+
+
+def test_field_under_a_goal_upstairs_is_the_path_not_the_drop(stairs):
+    field = stairs.distance_field([(1.3, UPPER, 2.6)])
+    below = field.distance((1.3, 0.0, 2.6))
+    assert below == pytest.approx(stairs.geodesic_distance((1.3, 0.0, 2.6), (1.3, UPPER, 2.6)), rel=0.01)
+    assert below > 10.0 and field.distance((1.3, UPPER, 2.7)) == pytest.approx(0.1, abs=1e-9)
+    assert field.distance((1.3, UPPER, 2.83)) == pytest.approx(0.23, abs=1e-9)  # success is decided exactly
