@@ -54,11 +54,15 @@ class OracleAgent:
         env moves such an episode on them)."""
         grid = self._navgrid(episode)
         self._view = None
-        if grid.on_storey(episode.goal_positions()).all():
+        goals = episode.goal_positions()
+        off = ~grid.on_storey(goals)
+        if not off.any():
             return grid
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if self._layered is None or self._layered[0] != path:
             self._layered = (path, LayeredNav.from_mesh(load_scene(path).mesh, self.nav_config))
+        if not self._layered[1].reaches_any(episode.start_position, goals[off]):
+            return grid
         self._view = LayerView(self._layered[1], episode.start_position)
         return self._view
 

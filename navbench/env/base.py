@@ -142,16 +142,16 @@ class NavEnv(gym.Env):
         self._goals = self._goal_points(episode)
         self._motion = self.navgrid
         self._position = np.array([start[0], self.navgrid.floor_height, start[2]])
-        if not self.navgrid.on_storey(self._goals).all():
-            # A goal on another storey: the episode runs on the joined surfaces (stairs, ramps) instead.
+        off = ~self.navgrid.on_storey(self._goals)
+        if off.any():
+            # A goal on another storey that stairs or a ramp join to the start's: the episode runs on the
+            # joined surfaces instead (goals on storeys nothing joins never count, on either engine).
             if self.layered is None:
                 self.layered = LayeredNav.from_mesh(self.asset.mesh, self.nav_config)
-            on = self.layered.snap_point(np.asarray(episode.start_position, np.float64),
-                                         self.config.start_snap_tolerance)
-            if not np.isfinite(on).all():
-                raise EpisodeError(f"episode {episode.episode_id} ({episode.scene_id}): start position "
-                                   f"{[round(v, 3) for v in episode.start_position]} is not navigable")
-            self._motion, self._position = self.layered, on
+            declared = np.asarray(episode.start_position, np.float64)
+            on = self.layered.snap_point(declared, self.config.start_snap_tolerance)
+            if np.isfinite(on).all() and self.layered.reaches_any(on, self._goals[off]):
+                self._motion, self._position = self.layered, on
         self._yaw = yaw_from_quat(np.asarray(episode.start_rotation, np.float64))
         # GPS is measured from the episode's declared start (not the snapped one), so agents that add
         # GPS to the declared start pose recover their true world position.

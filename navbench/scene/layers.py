@@ -233,6 +233,15 @@ class LayeredNav:
         sa, sb = self.span_of(a), self.span_of(b)
         return sa >= 0 and sb >= 0 and self.component[sa] == self.component[sb]
 
+    def reaches_any(self, start, points) -> bool:
+        """Whether any of ``points`` ((N, 3)) stands on the surface ``start`` stands on."""
+        s = self.span_of(start)
+        if s < 0:
+            return False
+        comp = self.component[s]
+        return any(t >= 0 and self.component[t] == comp for t in (self.span_of(p) for p in _points(points, "points")
+                                                                 .reshape(-1, 3)))
+
     def distances(self, goals) -> np.ndarray:
         """Geodesic distance (m) from every span to the nearest of ``goals`` ((3,) or (N, 3)); inf where none
         is reachable. A goal counts from its own point: its span starts at the straight distance to it (a
