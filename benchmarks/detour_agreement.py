@@ -9,7 +9,9 @@ a goal is on another one), so the script measures what the checkout builds, not 
 episode file; ``--changed`` also lists the episodes whose live d0 differs from the file's
 ``info.geodesic_distance``, and an episode the env refuses (a start off the navigable area) is listed.
 ``--storeys DIR`` writes the two-storey houses of the tests (joined by stairs, by a ramp, and by nothing)
-with cross-storey PointNav and ObjectNav episodes into DIR and measures those too.
+with cross-storey PointNav and ObjectNav episodes into DIR and measures those too. ``--gaps`` holds the
+reachability verdict through one gap in a wall (0.38-0.60 m wide, at four sub-cell alignments) against
+Detour's: the narrowest passage each admits.
 
     npm install --prefix ~/.cache/recast @recast-navigation/core@0.43.1 @recast-navigation/generators@0.43.1
     PYTHONPATH=$PWD python benchmarks/detour_agreement.py                  # bundled val + val_unseen
@@ -165,6 +167,34 @@ def write_storeys(out: Path) -> list[Path]:
     return files
 
 
+def gaps(anchor: Path, recast: Path) -> None:
+    """A wall across a 6 x 6 m room with one gap: is the far side reachable, for navbench and for Detour?"""
+    import trimesh
+
+    from navbench.scene.navigability import NavGrid
+
+    def box(lo, hi):
+        b = trimesh.creation.box(np.subtract(hi, lo))
+        b.apply_translation(np.add(lo, hi) / 2)
+        return b
+
+    agree = total = 0
+    print("gap (m)  offset (m)  navbench  detour")
+    for off in (0.0, 0.013, 0.025, 0.037):
+        for gap in (0.38, 0.42, 0.44, 0.46, 0.48, 0.50, 0.52, 0.56, 0.60):
+            x, z = 3.0 + off, 2.8 + off
+            mesh = trimesh.util.concatenate([box((0, -0.1, 0), (6, 0, 6)), box((x - 0.05, 0, 0), (x + 0.05, 2.5, z)),
+                                             box((x - 0.05, 0, z + gap), (x + 0.05, 2.5, 6))])
+            a, b = [1.5, 0.0, 1.5], [4.5, 0.0, 1.5]
+            d_nav = NavGrid.from_mesh(mesh).geodesic_distance(a, b)
+            d_det = detour_d0(anchor, recast, mesh, [{"id": "0", "start": a, "goals": [b]}], 0.05, 0.05)[0]["d"]
+            same = math.isfinite(d_nav) == (d_det is not None)
+            agree, total = agree + same, total + 1
+            print(f"{gap:7.2f}  {off:10.3f}  {d_nav:8.3f}  {d_det if d_det is None else round(d_det, 3)}"
+                  + ("" if same else "  (verdicts differ)"))
+    print(f"same reachability verdict on {agree}/{total} gaps")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("episodes", nargs="*", help="episode files (default: the bundled val and val_unseen)")
@@ -179,12 +209,16 @@ def main(argv=None) -> None:
     ap.add_argument("--changed", action="store_true", help="list episodes whose live d0 differs from the file's")
     ap.add_argument("--json", type=Path, help="write every episode's row here")
     ap.add_argument("--storeys", type=Path, help="write the two-storey fixtures here and measure them too")
+    ap.add_argument("--gaps", action="store_true", help="only the gap-width table (see above)")
     ap.add_argument("-v", "--verbose", action="store_true", help="print every episode")
     args = ap.parse_args(argv)
     if not (args.anchor / "detour.cjs").is_file():
         sys.exit(f"{args.anchor}/detour.cjs not found: pass --anchor DIR (or set NAVBENCH_DETOUR_ANCHOR)")
     if not (args.recast / "node_modules" / "@recast-navigation" / "core").is_dir():
         sys.exit(f"@recast-navigation is not installed under {args.recast}: see this script's docstring")
+    if args.gaps:
+        gaps(args.anchor, args.recast)
+        return
     files = [(Path(p), args.scene_dir) for p in args.episodes] or \
         ([] if args.storeys else [(REPO / p, args.scene_dir) for p in BUNDLED])
     if args.storeys:
