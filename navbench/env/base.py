@@ -230,6 +230,11 @@ class NavEnv(gym.Env):
     def goal_points(self) -> np.ndarray:
         return self._goals
 
+    @property
+    def crosses_storeys(self) -> bool:
+        """Whether the episode runs on the joined surfaces of several storeys (a goal on another one)."""
+        return self._motion is not None and self._motion is self.layered
+
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
         return self._position + np.array([0.0, self.config.agent_height, 0.0]), quat_from_yaw(self._yaw)
 
