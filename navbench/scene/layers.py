@@ -64,6 +64,13 @@ def _unit_path(di: int, dj: int) -> list[int]:
     return [_UNIT.index((b[0] - a[0], b[1] - a[1])) for a, b in itertools.pairwise(cells)]
 
 
+def _csr(dst: np.ndarray, wt: np.ndarray, n: int) -> sparse.csr_matrix:
+    """(n, n) sparse matrix from a per-row table of targets (-1: none) and weights, built row by row."""
+    mask = dst >= 0
+    indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
+    return sparse.csr_matrix((np.asarray(wt)[mask], dst[mask], indptr), shape=(n, n))
+
+
 class LayeredNav:
     """Walkable spans of every level of a mesh and the surface joining them (see :meth:`from_mesh`)."""
 
@@ -152,13 +159,8 @@ class LayeredNav:
             nbr[:, d] = np.where((via_a >= 0) & (via_a == via_b), via_a, -1)
 
         # 3. clearance along the surface from the spans missing an orthogonal neighbour
-        src, dst, wt = [], [], []
-        for d, (di, dj) in enumerate(_UNIT):
-            has = np.flatnonzero(nbr[:, d] >= 0)
-            src.append(has)
-            dst.append(nbr[has, d])
-            wt.append(np.full(len(has), cs * math.hypot(di, dj)))
-        unit = sparse.csr_matrix((np.concatenate(wt), (np.concatenate(src), np.concatenate(dst))), shape=(n, n))
+        unit_w = np.array([cs * math.hypot(di, dj) for di, dj in _UNIT])
+        unit = _csr(nbr, np.broadcast_to(unit_w, nbr.shape), n)
         boundary = np.flatnonzero((nbr[:, :4] < 0).any(axis=1))
         if len(boundary):
             dist = csgraph.dijkstra(unit, indices=boundary, min_only=True)
@@ -167,8 +169,7 @@ class LayeredNav:
         navigable = dist + 0.5 * cs >= config.agent_radius - 0.5 * cs - 1e-9
 
         # 4. heights smoothed over the joined surface (a flight of steps becomes the ramp through it)
-        orth = np.flatnonzero((nbr[:, :4] >= 0).ravel())
-        adj = sparse.csr_matrix((np.ones(len(orth)), (orth // 4, nbr[:, :4].ravel()[orth])), shape=(n, n))
+        adj = _csr(nbr[:, :4], np.ones((n, 4)), n)  # orthogonal joins
         deg = np.asarray(adj.sum(axis=1)).ravel()
         smooth = height.copy()
         for _ in range(_SMOOTH_ITERS):
@@ -177,17 +178,19 @@ class LayeredNav:
         # 5. geodesic steps: 32 directions over navigable spans, through navigable joined cells only
         nav_nbr = np.where(navigable[:, None] & (nbr >= 0), nbr, -1)
         nav_nbr[nav_nbr >= 0] = np.where(navigable[nav_nbr[nav_nbr >= 0]], nav_nbr[nav_nbr >= 0], -1)
-        src, dst, wt = [], [], []
-        for di, dj in _directions():
-            cur = np.arange(n)
+        dirs = _directions()
+        dst = np.full((n, len(dirs)), -1, np.int64)
+        wt = np.zeros((n, len(dirs)))
+        nav_idx = np.flatnonzero(navigable)
+        for k, (di, dj) in enumerate(dirs):
+            cur = nav_idx
             for d in _unit_path(di, dj):
                 cur = np.where(cur >= 0, nav_nbr[np.maximum(cur, 0), d], -1)
-            has = np.flatnonzero((cur >= 0) & navigable)
-            t = cur[has]
-            src.append(has)
-            dst.append(t)
-            wt.append(np.sqrt((cs * di) ** 2 + (cs * dj) ** 2 + (smooth[t] - smooth[has]) ** 2))
-        graph = sparse.csr_matrix((np.concatenate(wt), (np.concatenate(src), np.concatenate(dst))), shape=(n, n))
+            ok = cur >= 0
+            src, t = nav_idx[ok], cur[ok]
+            dst[src, k] = t
+            wt[src, k] = np.sqrt((cs * di) ** 2 + (cs * dj) ** 2 + (smooth[t] - smooth[src]) ** 2)
+        graph = _csr(dst, wt, n)
         return cls(origin, cs, (h, w), cell, height, smooth, navigable, graph, config)
 
     # ------------------------------------------------------------------ queries
