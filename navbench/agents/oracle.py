@@ -20,8 +20,10 @@ from navbench.agents.base import PoseTracker
 from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
 from navbench.episodes.types import Episode
+from navbench.scene.asset import load_scene
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.follower import GreedyFollower
+from navbench.scene.layers import LayeredNav, LayerView
 from navbench.scene.optimistic import OptimisticFollower
 from navbench.scene.pose import quat_from_yaw
 
@@ -36,6 +38,8 @@ class OracleAgent:
         self.nav_config = env_config.nav_grid_config()
         self._pose = PoseTracker()
         self._grids: dict[tuple[Path, float], object] = {}
+        self._layered: tuple[Path, LayeredNav] | None = None
+        self._view: LayerView | None = None
 
     def _navgrid(self, episode: Episode):
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
@@ -45,14 +49,33 @@ class OracleAgent:
                                                        floor_hint=float(episode.start_position[1]))[1]}
         return self._grids[key]
 
+    def _motion(self, episode: Episode):
+        """The start storey's grid, or, when a goal is on another storey, the scene's joined surfaces (as the
+        env moves such an episode on them)."""
+        grid = self._navgrid(episode)
+        self._view = None
+        goals = episode.goal_positions()
+        off = ~grid.on_storey(goals)
+        if not off.any():
+            return grid
+        path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        if self._layered is None or self._layered[0] != path:
+            self._layered = (path, LayeredNav.from_mesh(load_scene(path).mesh, self.nav_config))
+        if not self._layered[1].reaches_any(episode.start_position, goals[off]):
+            return grid
+        self._view = LayerView(self._layered[1], episode.start_position)
+        return self._view
+
     def reset(self, episode: Episode) -> None:
         self._pose.reset(episode)
-        self._follower = GreedyFollower(self._navgrid(episode), episode.goal_positions(), self.success_distance,
+        self._follower = GreedyFollower(self._motion(episode), episode.goal_positions(), self.success_distance,
                                         forward_step=self.env_config.forward_step,
                                         turn_angle_deg=self.env_config.turn_angle_deg)
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
         position, yaw = self._pose(observations)
+        if self._view is not None:
+            self._view.track(position)
         return int(self._follower.next_action(position, quat_from_yaw(yaw)))
 
 

@@ -24,6 +24,7 @@ from navbench.render.renderer import Renderer
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, navgrid_for
 from navbench.scene.datasets import resolve_scene
+from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat
 
@@ -61,6 +62,10 @@ class NavEnv(gym.Env):
         self._scene_path: Path | None = None
         self.asset: SceneAsset | None = None
         self.navgrid: NavGrid | None = None
+        # The joined walkable surfaces of the scene (storeys, stairs, ramps), built for the first episode
+        # with a goal off the start's storey; that episode moves and is measured on them.
+        self.layered: LayeredNav | None = None
+        self._motion: NavGrid | LayeredNav | None = None
         self._renderer: Renderer | None = None
         self.episode: Episode | None = None
         self._done = True
@@ -96,6 +101,7 @@ class NavEnv(gym.Env):
             self._renderer.close()
             self._renderer = None
         self.asset, self.navgrid = load_scene_and_navgrid(path, self.nav_config, floor_hint=start_y)
+        self.layered = None
         self._scene_path = path
         if self.config.rgb or self.config.depth or self.config.semantic or self.render_mode == "rgb_array":
             self._renderer = Renderer(self.asset, self.camera, platform=self.config.gl_platform)
@@ -134,15 +140,26 @@ class NavEnv(gym.Env):
                                    f"{[round(v, 3) for v in start]} is not navigable")
             start = snapped
         self.episode = episode
+        self._goals = self._goal_points(episode)
+        self._motion = self.navgrid
         self._position = np.array([start[0], self.navgrid.floor_height, start[2]])
+        off = ~self.navgrid.on_storey(self._goals)
+        if off.any():
+            # A goal on another storey that stairs or a ramp join to the start's: the episode runs on the
+            # joined surfaces instead (goals on storeys nothing joins never count, on either engine).
+            if self.layered is None:
+                self.layered = LayeredNav.from_mesh(self.asset.mesh, self.nav_config)
+            declared = np.asarray(episode.start_position, np.float64)
+            on = self.layered.snap_point(declared, self.config.start_snap_tolerance)
+            if np.isfinite(on).all() and self.layered.reaches_any(on, self._goals[off]):
+                self._motion, self._position = self.layered, on
         self._yaw = yaw_from_quat(np.asarray(episode.start_rotation, np.float64))
         # GPS is measured from the episode's declared start (not the snapped one), so agents that add
         # GPS to the declared start pose recover their true world position.
         declared = np.asarray(episode.start_position, np.float64)
-        self._start_position = np.array([declared[0], self.navgrid.floor_height, declared[2]])
+        self._start_position = np.array([declared[0], self._position[1], declared[2]])
         self._start_yaw = self._yaw
-        self._goals = self._goal_points(episode)
-        self._field = self.navgrid.distance_field(self._goals)
+        self._field = self._motion.distance_field(self._goals)
         self._d0 = float(self._field.distance(self._position))
         self._num_steps = 0
         self._collisions = 0
@@ -168,9 +185,11 @@ class NavEnv(gym.Env):
             self._stop_called = True
         elif action == MOVE_FORWARD:
             fwd = heading_vector(self._yaw)
-            new, collided = self.navgrid.try_step(self._position, self._position + self.config.forward_step * fwd,
+            new, collided = self._motion.try_step(self._position, self._position + self.config.forward_step * fwd,
                                                   sliding=self.config.allow_sliding)
-            self._path_length += float(np.linalg.norm((new - self._position)[[0, 2]]))
+            # Habitat's path length sums 3-D displacements (y changes on stairs and ramps only).
+            step = new - self._position if self._motion is self.layered else (new - self._position)[[0, 2]]
+            self._path_length += float(np.linalg.norm(step))
             self._position = np.asarray(new, np.float64)
             self._collisions += int(collided)
         elif action in (TURN_LEFT, TURN_RIGHT):
@@ -211,6 +230,11 @@ class NavEnv(gym.Env):
     @property
     def goal_points(self) -> np.ndarray:
         return self._goals
+
+    @property
+    def crosses_storeys(self) -> bool:
+        """Whether the episode runs on the joined surfaces of several storeys (a goal on another one)."""
+        return self._motion is not None and self._motion is self.layered
 
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
         return self._position + np.array([0.0, self.config.agent_height, 0.0]), quat_from_yaw(self._yaw)

@@ -8,7 +8,8 @@ with and without wall sliding.
 Grid layout: ``navigable[i, j]`` is the cell whose centre is at world
 ``x = origin[0] + j * cell_size``, ``z = origin[1] + i * cell_size`` (rows follow +z, columns +x);
 a world point belongs to the cell whose centre is nearest. All positions returned have
-``y = floor_height``; the y of query points is ignored (one floor per grid).
+``y = floor_height``; the y of query points is ignored (one floor per grid), except that goals on another
+storey of a multi-storey mesh never count (:meth:`NavGrid.on_storey`).
 """
 
 from __future__ import annotations
@@ -145,12 +146,14 @@ class NavGrid:
     """Walkable cells of one floor of a mesh, eroded by the agent radius (see :meth:`from_mesh`)."""
 
     def __init__(self, free: np.ndarray, navigable: np.ndarray, origin, cell_size: float,
-                 floor_height: float, config: NavGridConfig = NavGridConfig()):
+                 floor_height: float, config: NavGridConfig = NavGridConfig(), storey_top: float = math.inf):
         self.free = np.asarray(free, dtype=bool)  # walkable floor with headroom, before erosion
         self.navigable = np.asarray(navigable, dtype=bool)
         self.origin = np.asarray(origin, dtype=float).reshape(2)  # (x, z) of the centre of cell [0, 0]
         self.cell_size = float(cell_size)
         self.floor_height = float(floor_height)
+        # The next walkable level up (another storey's floor, or a roof); inf on a single-storey mesh.
+        self.storey_top = float(storey_top)
         self.config = config
         if self.free.shape != self.navigable.shape or self.free.ndim != 2:
             raise ValueError(f"free {self.free.shape} and navigable {self.navigable.shape} must be equal 2-D shapes")
@@ -192,6 +195,8 @@ class NavGrid:
            grid's boundary on the radius contour: a point belongs to its nearest cell, so the
            navigable area reaches half a cell past the outermost navigable centres, and geodesics
            (computed through navigable centres) are neither shortened nor lengthened on average.
+           Of those, only cells near the area Recast's erosion keeps stay (see :meth:`_navmesh_topology`):
+           a passage or pocket too narrow for Habitat's navmesh is not navigable here either.
         """
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise SceneError(f"navigability needs a non-empty trimesh.Trimesh, got {type(mesh).__name__}")
@@ -243,7 +248,7 @@ class NavGrid:
 
         # 4. erosion by the agent radius, islands
         clearance = cls._clearance(free, blocked, surface, outline, cs, config.agent_radius)
-        navigable = free & (clearance >= config.agent_radius - 0.5 * cs - 1e-9)
+        navigable = free & (clearance >= config.agent_radius - 0.5 * cs - 1e-9) & cls._navmesh_topology(free, config)
         if not navigable.any():
             raise SceneError(f"no floor space at height {floor:.3f} is wide enough for an agent of radius {config.agent_radius} m")
         if config.largest_island:
@@ -252,7 +257,7 @@ class NavGrid:
                 sizes = np.bincount(labels.ravel())
                 sizes[0] = 0
                 navigable = labels == int(np.argmax(sizes))
-        grid = cls(free, navigable, origin, cs, floor, config)
+        grid = cls(free, navigable, origin, cs, floor, config, cls.storey_top_for(mesh, floor, config))
         grid._clearance = clearance
         return grid
 
@@ -297,6 +302,24 @@ class NavGrid:
         among levels holding at least 5% of the largest one's hits, the highest at most ``max_climb``
         above ``y`` wins, else the nearest; its median height is returned.
         """
+        medians = cls._levels(mesh, config)
+        if medians is None:
+            return cls._floor_level(mesh, np.asarray(mesh.face_normals)[:, 1], config)
+        below = medians[medians <= y + config.max_climb]
+        return float(below.max()) if len(below) else float(medians[np.argmin(np.abs(medians - y))])
+
+    @classmethod
+    def storey_top_for(cls, mesh: trimesh.Trimesh, floor: float, config: NavGridConfig = NavGridConfig()) -> float:
+        """Height of the lowest walkable level more than ``agent_height`` above ``floor`` (the next storey's
+        floor, or a roof), ``inf`` if there is none: points from there up belong to another storey."""
+        medians = cls._levels(mesh, config)
+        above = medians[medians > floor + config.agent_height] if medians is not None else np.zeros(0)
+        return float(above.min()) if len(above) else math.inf
+
+    @staticmethod
+    def _levels(mesh: trimesh.Trimesh, config: NavGridConfig) -> np.ndarray | None:
+        """Median heights of the walkable levels holding at least 5% of the largest one's hits (bottom-up);
+        None if the mesh is too small for the coarse ray grid."""
         normals_y = np.asarray(mesh.face_normals)[:, 1]
         lo, hi = mesh.bounds
         extent = max(hi[0] - lo[0], hi[2] - lo[2])
@@ -304,7 +327,7 @@ class NavGrid:
         gx, gz = np.meshgrid(np.arange(lo[0] + step / 2, hi[0], step), np.arange(lo[2] + step / 2, hi[2], step))
         origins = np.column_stack([gx.ravel(), np.full(gx.size, hi[1] + 1.0), gz.ravel()])
         if len(origins) == 0:
-            return cls._floor_level(mesh, normals_y, config)
+            return None
         locs, ray_idx, tri_idx = mesh.ray.intersects_location(
             origins, np.tile([0.0, -1.0, 0.0], (len(origins), 1)), multiple_hits=True)
         order = np.lexsort((-locs[:, 1], ray_idx))
@@ -317,9 +340,24 @@ class NavGrid:
             raise SceneError(f"mesh has no walkable floor: no horizontal surface with {config.agent_height} m headroom")
         levels = np.split(heights, np.flatnonzero(np.diff(heights) > config.max_climb / 2) + 1)
         counts = np.array([len(lv) for lv in levels])
-        medians = np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
-        below = medians[medians <= y + config.max_climb]
-        return float(below.max()) if len(below) else float(medians[np.argmin(np.abs(medians - y))])
+        return np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
+
+    @staticmethod
+    def _navmesh_topology(free: np.ndarray, config: NavGridConfig) -> np.ndarray:
+        """Cells within ``k - 1`` cells of one Recast's erosion keeps, ``k = ceil(agent_radius / cell_size)``.
+
+        Habitat's navmesh (Recast, ``walkableRadius = ceil(radius / cs)`` voxels on the same lattice) keeps
+        a walkable voxel only if it is ``k`` voxel steps from every voxel bordering an obstacle voxel, i.e.
+        ``k + 1`` cells from every non-free cell; obstacle voxels are every cell a triangle touches, so a
+        passage needs ~0.45 m of free floor where the exact clearance admits 0.36 m. Keeping the cells
+        within ``k - 1`` cells of that eroded area leaves the boundary along walls where the exact
+        clearance puts it and removes only the passages and pockets the navmesh does not have.
+        """
+        k = int(math.ceil(config.agent_radius / config.cell_size - 1e-9))
+        core = ndimage.distance_transform_edt(free) >= k + 1
+        if not core.any():
+            return core
+        return ndimage.distance_transform_edt(~core) <= k - 1 + 1e-9
 
     @staticmethod
     def _clearance(free: np.ndarray, blocked: np.ndarray, surface: np.ndarray, outline: np.ndarray,
@@ -418,7 +456,7 @@ class NavGrid:
         np.savez_compressed(
             Path(path), free=self.free, navigable=self.navigable, origin=self.origin,
             cell_size=np.float64(self.cell_size), floor_height=np.float64(self.floor_height),
-            config=np.array(json.dumps(dataclasses.asdict(self.config))))
+            storey_top=np.float64(self.storey_top), config=np.array(json.dumps(dataclasses.asdict(self.config))))
 
     @classmethod
     def load(cls, path: str | Path) -> "NavGrid":
@@ -427,7 +465,7 @@ class NavGrid:
             with np.load(path, allow_pickle=False) as data:
                 config = NavGridConfig(**json.loads(str(data["config"])))
                 return cls(data["free"], data["navigable"], data["origin"], float(data["cell_size"]),
-                           float(data["floor_height"]), config)
+                           float(data["floor_height"]), config, float(data["storey_top"]))
         except FileNotFoundError:
             raise SceneError(f"{path}: navigation grid file not found") from None
         except (OSError, ValueError, KeyError, TypeError) as exc:
@@ -576,8 +614,9 @@ class NavGrid:
 
         Goals on a navigable cell are used exactly. A goal off the navigable area is replaced by
         its snapped point (nearest navigable cell centre), with nothing added for the snap, as
-        Habitat's path finder does; goals more than ``config.max_goal_snap`` from any navigable cell
-        are ignored (all ignored: the field is inf everywhere).
+        Habitat's path finder does; goals more than ``config.max_goal_snap`` from any navigable cell,
+        and goals on another storey (see :meth:`on_storey`), are ignored (all ignored: the field is inf
+        everywhere).
 
         The field is ``skfmm.distance`` (second order) on the grid with non-navigable cells masked.
         The zero level set is made exact at the goals: phi = |x - g| - r with r = 1.5 cells around
@@ -599,7 +638,7 @@ class NavGrid:
         cs = self.cell_size
         h, w = self.navigable.shape
         used = []
-        for x, z in goals[:, [0, 2]]:
+        for x, z in goals[self.on_storey(goals)][:, [0, 2]]:
             snapped = self._snap_xz(float(x), float(z), self.config.max_goal_snap)
             if snapped is not None:
                 used.append(snapped)
@@ -652,6 +691,14 @@ class NavGrid:
         reachable = np.isin(self.islands, np.unique(goal_island))
         values = np.where(reachable & self.navigable & np.isfinite(d), d, np.inf)
         return GeodesicField(self, goal_pts, values, near_goal)
+
+    def on_storey(self, points) -> np.ndarray:
+        """Per point (N, 3), whether its height puts it on this grid's storey: no more than half the agent's
+        height below the floor, and below the next walkable level up (less ``max_climb``). Goals elsewhere
+        (a view point of the same category on another storey) are not on this grid and never count."""
+        y = _points(points, "points").reshape(-1, 3)[:, 1]
+        return (y >= self.floor_height - self.config.agent_height / 2) & \
+            (y < self.storey_top - self.config.max_climb)
 
     def geodesic_distance(self, start, goals) -> float:
         """Shortest navigable path length from ``start`` to the nearest of ``goals``; ``math.inf`` if unreachable.

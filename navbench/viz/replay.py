@@ -189,6 +189,29 @@ class Replayer:
             d.poses = np.array([[start[0], start[2], env.agent_yaw]])
         return d, ep
 
+    def storeys(self, r: dict[str, Any]) -> list[tuple[Any, np.ndarray]] | None:
+        """For an episode the env ran over several storeys (a goal on another one), each storey's grid that
+        the replayed path touches and which of its poses stand on it (on a flight of steps: the storey
+        below); None for an episode on one storey."""
+        from navbench.scene.cache import navgrid_for
+        from navbench.scene.navigability import NavGrid
+
+        env = self.env()
+        env.reset(options={"episode": self.episode(r)})
+        if not env.crosses_storeys:
+            return None
+        ys = [float(self.env().agent_position[1]) for _ in self.steps(r)] if r.get("trace") \
+            else [float(env.agent_position[1])]
+        config = env.nav_config
+        levels = NavGrid._levels(env.asset.mesh, config)
+        levels = np.array([env.navgrid.floor_height]) if levels is None else levels
+        floors = [float(levels[levels <= y + config.max_climb].max(initial=levels.min())) for y in ys]
+        out = []
+        for f in sorted(set(floors)):
+            grid = navgrid_for(env.asset, config, floor_hint=f)
+            out.append((grid, np.array([abs(g - f) < 1e-9 for g in floors])))
+        return out
+
     def view(self, max_side: int = 640) -> TopDown:
         return TopDown.fit(self.env().navgrid, max_side=max_side)
 

@@ -135,6 +135,8 @@ class EpisodeDrawing:
     goal_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # view points / goal positions
     candidates: list = field(default_factory=list)  # memory agent: localised candidate centres [x, y, z]
     decisions: list = field(default_factory=list)  # [step, mode, ..., x, z] from the record's trace
+    starts: bool = True  # poses[0] is the episode's start (a storey's panel may hold a later part of the path)
+    ends: bool = True  # poses[-1] is where the episode ended
 
 
 def time_colours(n: int) -> np.ndarray:
@@ -168,9 +170,12 @@ def draw_episode(img: np.ndarray, view: TopDown, d: EpisodeDrawing, upto: int | 
         n = len(poses) - 1
         for k in np.flatnonzero(d.collisions[:n]):
             cv2.circle(img, tuple(px[k + 1]), 3, COLLISION, -1)
-        _agent(img, view, d.poses[0], START, 6)
+        if d.starts:
+            _agent(img, view, d.poses[0], START, 6)
         if upto is not None:
             _agent(img, view, poses[-1], (255, 255, 255), 5, outline=(0, 0, 0))
+        elif not d.ends:
+            pass
         elif d.stopped:
             cv2.drawMarker(img, tuple(px[-1]), STOP_MARK, cv2.MARKER_SQUARE, 10, 2)
         else:

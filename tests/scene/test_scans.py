@@ -3,6 +3,7 @@ annotations, scene_id resolution, multi-floor grids. Every fixture is written he
 
 from __future__ import annotations
 
+import math
 import sys
 
 import numpy as np
@@ -15,7 +16,7 @@ import scanfix as F  # noqa: E402
 from navbench.render import CameraConfig, Renderer, intrinsics  # noqa: E402
 from navbench.scene.asset import SceneError, load_scene  # noqa: E402
 from navbench.scene.datasets import resolve_scene  # noqa: E402
-from navbench.scene.navigability import NavGrid  # noqa: E402
+from navbench.scene.navigability import NavGrid, NavGridConfig  # noqa: E402
 
 ORIGIN, IDENTITY = np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
 
@@ -193,6 +194,24 @@ def test_floor_of_the_episode_start_on_a_two_storey_scan(tmp_path):
     assert abs(ground.floor_height) < 0.01 and abs(upper.floor_height - 3.0) < 0.01
     assert abs(NavGrid.floor_for(mesh, 2.5)) < 0.01  # the floor below the point, not the one above its head
     assert abs(NavGrid.floor_for(mesh, 2.9) - 3.0) < 0.01  # within a step of the upper floor
+
+
+def test_a_goal_on_another_storey_never_counts():
+    """Two stacked 8 x 8 m storeys (floors at 0 and 2.8 m): a view point 2.8 m below the agent, 1.15 m
+    away in xz, is not on the agent's storey; the same category's view point 3 m away upstairs is."""
+    parts = [trimesh.creation.box(extents=(8, 0.1, 8), transform=trimesh.transformations.translation_matrix(
+        (0, -0.05 + 2.8 * k, 0))) for k in range(2)]
+    mesh = trimesh.util.concatenate(parts)
+    ground = NavGrid.from_mesh(mesh)
+    upper = NavGrid.from_mesh(mesh, NavGridConfig(floor_height=NavGrid.floor_for(mesh, 2.8)))
+    assert ground.storey_top == pytest.approx(2.8, abs=0.01) and upper.storey_top == math.inf
+    start = [0.0, 2.8, 0.0]
+    below, same = [1.15, 0.0, 0.0], [0.0, 2.8, 3.0]
+    assert upper.geodesic_distance(start, [below, same]) == pytest.approx(3.0, rel=0.01)
+    assert upper.geodesic_distance(start, [below]) == math.inf
+    assert ground.geodesic_distance([0.0, 0.0, 0.0], [below, same]) == pytest.approx(1.15, rel=0.01)
+    assert list(ground.on_storey([below, same, [0.0, 1.8, 0.0]])) == [True, False, True]  # an object centre counts
+    assert list(upper.on_storey([below, same, [0.0, 3.9, 0.0]])) == [False, True, True]
 
 
 def test_stairs_between_storeys_are_not_navigable():
