@@ -15,10 +15,11 @@ from navbench.policy.recipe import bundled_recipes, load_recipe, recipe_path
 PROJECT = Path(__file__).resolve().parents[1]
 
 
-def test_checkout_data_root_holds_the_bundled_directories():
+def test_checkout_data_root_holds_the_bundled_directories(monkeypatch):
+    monkeypatch.delenv("NAVBENCH_DATA", raising=False)
     assert paths.data_root() == PROJECT
     for name in paths.DATA_DIRS:
-        assert (paths.ROOT / name).is_dir(), name
+        assert (PROJECT / name).is_dir(), name
 
 
 def test_installed_package_data_wins_over_the_checkout_and_navbench_data_over_both(tmp_path, monkeypatch):
@@ -68,3 +69,16 @@ def test_unknown_recipe_is_a_one_line_error(tmp_path, monkeypatch, capsys):
     assert main(["train", "--config", "nosuch"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "nosuch: recipe file not found" in err and "pointnav/2h" in err
+
+
+def test_bundled_checkpoint_paths_resolve_from_any_directory(tmp_path, monkeypatch):
+    from navbench.policy.checkpoint import CheckpointError, checkpoint_path, read_checkpoint
+
+    monkeypatch.chdir(tmp_path)
+    assert checkpoint_path("policies/pointnav_2h.pth") == paths.ROOT / "policies" / "pointnav_2h.pth"
+    assert read_checkpoint("policies/pointnav_2h.pth").state_dict
+    (tmp_path / "policies").mkdir()
+    (tmp_path / "policies" / "pointnav_2h.pth").write_bytes(b"x")
+    assert checkpoint_path("policies/pointnav_2h.pth") == Path("policies/pointnav_2h.pth")  # a local file first
+    with pytest.raises(CheckpointError, match="^nosuch.pth: no such checkpoint file"):
+        read_checkpoint("nosuch.pth")
