@@ -13,7 +13,7 @@ LIMIT ?=
 LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
-	figures
+	figures wheel-check
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing.
@@ -32,10 +32,12 @@ test: setup
 	$(BIN)/python -m pytest
 test-slow: setup  # slow end-to-end checks, e.g. the committed reference runs reproduce to the last digit
 	$(BIN)/python -m pytest -m slow
+wheel-check: setup  # sdist + wheel (dist/), then the wheel alone in a fresh venv: both tasks from an empty dir
+	bash tests/wheel_check.sh $(BIN)/python $(PY)
 bench: setup
 	$(NB) bench
 clean:
-	rm -rf $(VENV) .pytest_cache
+	rm -rf $(VENV) .pytest_cache dist build
 
 # Reference tables in results/ (results/README.md says what each holds). Runs land in
 # results/runs/<task>/<split>/<label>/; LIMIT=N runs the first N episodes of each.
@@ -64,14 +66,12 @@ results-pointnav-2h: setup
 	for s in 0 1 2 3 4; do $(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --seed $$s $(LIMIT_ARG) || exit 1; done
 	$(RUN) --task pointnav --split select --checkpoint policies/pointnav_2h.pth $(LIMIT_ARG)
 	$(NB) table --long $(RUNS)/pointnav/*/pointnav-pointnav_2h* > results/pointnav_2h.md
-
 results-objectnav: setup
 	for s in $(OBJNAV_SPLITS); do \
 	  for a in "memory" "memory --rerank none" "frontier"; do $(RUN) --split $$s --agent $$a $(LIMIT_ARG) || exit 1; done; \
 	done
 	$(RUN) --split val_unseen --agent memory --noise default $(LIMIT_ARG)
 	$(MAKE) tables-objectnav
-
 tables-objectnav: setup
 	{ echo "## All agents, SR / SPL (%)"; echo; \
 	  $(NB) table $(foreach a,frontier memory-norerank memory oracle,$(foreach s,$(OBJNAV_SPLITS),$(RUNS)/objectnav/$(s)/$(a))); \

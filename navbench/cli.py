@@ -309,6 +309,8 @@ def _positive(text: str) -> float:
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="navbench", description=__doc__.split("\n\n")[0])
+    from navbench import __version__
+    p.add_argument("--version", action="version", version=f"navbench {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="evaluate an agent on a split and print SR/SPL")

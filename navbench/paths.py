@@ -1,19 +1,39 @@
-"""Where the bundled data lives: ``envs/`` (scenes), ``episodes/``, ``policies/`` beside the package.
+"""Where the bundled data lives: ``envs/`` (scenes), ``episodes/``, ``policies/`` and ``configs/`` (training
+recipes).
 
-``NAVBENCH_DATA`` overrides the root (for a non-editable install, point it at a checkout);
-``NAVBENCH_CACHE`` moves the cache (navigability grids, keyframe memories; default ~/.cache/navbench).
+In a checkout (and an editable install) they are the top-level directories beside the package. An installed
+wheel carries them as package data, ``navbench/_data/``, found through :mod:`importlib.resources`.
+``NAVBENCH_DATA`` overrides the root (a directory holding ``envs/``, ``episodes/``, ``policies/``,
+``configs/``); ``NAVBENCH_CACHE`` moves the cache (navigability grids, keyframe memories; default
+~/.cache/navbench).
+
+    python -c "from navbench.paths import ROOT; print(ROOT)"
 """
 
 from __future__ import annotations
 
 import os
+from importlib.resources import files
 from pathlib import Path
 
-ROOT = Path(os.environ.get("NAVBENCH_DATA", Path(__file__).resolve().parents[1]))
+DATA_DIRS = ("configs", "envs", "episodes", "policies")  # what a wheel carries as navbench/_data/
+CHECKOUT = Path(__file__).resolve().parents[1]
+
+
+def data_root() -> Path:
+    """``NAVBENCH_DATA``, else the installed package data, else the checkout the package was imported from."""
+    if os.environ.get("NAVBENCH_DATA"):
+        return Path(os.environ["NAVBENCH_DATA"])
+    packaged = Path(str(files("navbench").joinpath("_data")))
+    return packaged if packaged.is_dir() else CHECKOUT
+
+
+ROOT = data_root()
 SCENES_DIR = ROOT / "envs"
 EPISODES_DIR = ROOT / "episodes"
 POLICIES_DIR = ROOT / "policies"
-RESULTS_DIR = ROOT / "results"
+CONFIGS_DIR = ROOT / "configs"
+RESULTS_DIR = ROOT / "results"  # the reference runs and tables: in a checkout only
 
 
 def cache_dir(*parts: str) -> Path:

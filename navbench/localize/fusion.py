@@ -15,16 +15,24 @@
 Before subsampling, the cloud is reduced to one centroid per ``voxel_size`` voxel: sklearn's HDBSCAN
 builds its spanning tree with Prim's algorithm over all point pairs (O(n^2)), and the views of one
 object repeat the same surface, so voxels keep the shape while cutting the points several-fold. ``voxel_size=0`` restores the plain reference behaviour.
+
+The clusters are the same on every CPU: sklearn orders the spanning tree's edges by weight with numpy's
+default (unstable) argsort, whose order among equal weights - common, since a mutual-reachability
+distance is often a point's core distance - depends on the vector width numpy dispatches to (AVX-512
+or AVX2), and that order decides which points a cluster keeps. :func:`largest_cluster` has sklearn sort
+those edges stably, so equal weights keep the spanning tree's own order.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
 from sklearn.cluster import HDBSCAN
+from sklearn.cluster._hdbscan import hdbscan as _sklearn_hdbscan
 
 from navbench.localize.geometry import PIXEL_CENTRE, project, voxel_downsample, world_to_camera
 from navbench.localize.grouping import Cluster, ViewCloud, overlap_fraction
@@ -105,6 +113,21 @@ def confirm_views(seed_points: np.ndarray, views: Sequence[ViewCloud], config: F
             >= config.min_overlap]
 
 
+@contextmanager
+def stable_edge_order() -> Iterator[None]:
+    """Within the block, sklearn's HDBSCAN sorts spanning-tree edges stably (see the module docstring)."""
+    original = _sklearn_hdbscan._process_mst
+
+    def process_mst(mst: np.ndarray) -> np.ndarray:
+        return _sklearn_hdbscan.make_single_linkage(mst[np.argsort(mst["distance"], kind="stable")])
+
+    _sklearn_hdbscan._process_mst = process_mst
+    try:
+        yield
+    finally:
+        _sklearn_hdbscan._process_mst = original
+
+
 def largest_cluster(points: np.ndarray, config: FusionConfig = FusionConfig()) -> np.ndarray:
     """HDBSCAN outlier removal over a seeded subsample: the largest cluster, or the whole subsample when
     clustering finds nothing that holds at least ``min_cluster_fraction`` of it."""
@@ -115,7 +138,8 @@ def largest_cluster(points: np.ndarray, config: FusionConfig = FusionConfig()) -
     if len(points) < max(config.min_cluster_size, config.min_samples + 1):
         return points
     hdbscan = HDBSCAN(min_cluster_size=config.min_cluster_size, min_samples=config.min_samples, copy=True)
-    labels = hdbscan.fit_predict(points)
+    with stable_edge_order():
+        labels = hdbscan.fit_predict(points)
     if not (labels >= 0).any():
         return points
     counts = np.bincount(labels[labels >= 0])

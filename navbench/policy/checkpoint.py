@@ -28,6 +28,7 @@ from typing import Any, Mapping
 import numpy as np
 import torch
 
+from navbench.paths import ROOT
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.safeio import write_private
 
@@ -205,11 +206,20 @@ def _torch_load(path: Path) -> tuple[Any, bool]:
         ) from None
 
 
+def checkpoint_path(path: str | Path) -> Path:
+    """``path`` as given, or, when it is relative and not found here, the bundled file it names
+    (``policies/pointnav_2h.pth`` from any directory, also with an installed wheel)."""
+    path = Path(path)
+    if path.is_file() or path.is_absolute() or not (ROOT / path).is_file():
+        return path
+    return ROOT / path
+
+
 def read_checkpoint(path: str | Path) -> CheckpointData:
     """Read a checkpoint's state_dict (``actor_critic.`` prefix removed) and config, without a policy."""
-    path = Path(path)
+    given, path = path, checkpoint_path(path)
     if not path.is_file():
-        raise CheckpointError(f"{path}: no such checkpoint file")
+        raise CheckpointError(f"{given}: no such checkpoint file")
     obj, stubbed = _torch_load(path)
     if not isinstance(obj, Mapping):
         raise CheckpointError(f"{path}: holds a {type(obj).__name__}, not a checkpoint dict or state_dict")

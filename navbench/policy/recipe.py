@@ -1,6 +1,7 @@
 """``navbench train``: one trainer run from the command line, or a recipe of stages read from a TOML file.
 
     navbench train --config configs/pointnav/2h.toml                       # every stage, in order
+    navbench train --config 2h                                             # the same bundled recipe, by name
     navbench train --config configs/pointnav/full.toml --resume            # continue after a kill
     navbench train --config configs/pointnav/2h.toml --only dagger_cosine  # one stage (its init must exist)
     navbench train --config configs/pointnav/2h.toml --out policies/pointnav_2h.pth   # also copy the result
@@ -13,6 +14,9 @@ A recipe names itself and lists its stages::
     name = "encoder"
     trainer = "encoder"     # encoder | dagger | ppo
     bf16 = true             # any field of that trainer's config (navbench.policy.config), else its default
+
+``--config`` takes a recipe file, or a bundled recipe (``navbench.paths.CONFIGS_DIR``) by name (``2h``,
+``pointnav/full``) or by its path in the project (``configs/pointnav/2h.toml``, found from any directory).
 
 Each stage starts from the previous stage's output and writes ``<out-dir>/<stage>.pth`` (default out-dir
 ``runs/pointnav/<name>``), its log beside it and its resumable state in ``<out-dir>/<stage>_state``. Nothing is
@@ -30,6 +34,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
+from navbench.paths import CONFIGS_DIR, ROOT
 from navbench.policy.config import CONFIGS
 
 RUNS_DIR = Path("runs/pointnav")
@@ -89,15 +94,33 @@ def build_config(trainer: str, options: dict[str, Any], where: str = "options") 
     return cls(**values)
 
 
+def bundled_recipes() -> list[str]:
+    """The bundled recipes' names, e.g. ``pointnav/2h``."""
+    return sorted(p.relative_to(CONFIGS_DIR).with_suffix("").as_posix() for p in CONFIGS_DIR.rglob("*.toml"))
+
+
+def recipe_path(spec: str | Path) -> Path:
+    """The recipe file ``spec`` names: an existing file as given; else a bundled recipe by its name (``2h``,
+    ``pointnav/2h``) or by its path in the project (``configs/pointnav/2h.toml``); else ``spec`` unchanged."""
+    path = Path(spec)
+    if path.is_file() or path.is_absolute():
+        return path
+    text = str(spec).removesuffix(".toml")
+    candidates = [ROOT / path, CONFIGS_DIR / f"{text}.toml", *(CONFIGS_DIR / f"{n}.toml" for n in bundled_recipes()
+                                                                if n.rsplit("/", 1)[-1] == text)]
+    return next((c for c in candidates if c.is_file()), path)
+
+
 def load_recipe(path: str | Path) -> Recipe:
-    """Parse a recipe file: a ``name`` and a list of ``[[stage]]`` tables, each with ``name``, ``trainer`` and
-    that trainer's options."""
-    path = Path(path)
+    """Parse a recipe file (or a bundled recipe: :func:`recipe_path`): a ``name`` and a list of ``[[stage]]``
+    tables, each with ``name``, ``trainer`` and that trainer's options."""
+    given, path = path, recipe_path(path)
     try:
         with open(path, "rb") as f:
             data = tomllib.load(f)
     except FileNotFoundError:
-        raise FileNotFoundError(f"{path}: recipe file not found") from None
+        raise FileNotFoundError(f"{given}: recipe file not found (bundled recipes: "
+                                f"{', '.join(bundled_recipes()) or 'none'})") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ValueError(f"{path}: unreadable recipe ({type(exc).__name__}: {exc})") from None
     unknown = set(data) - {"name", "description", "stage"}
@@ -196,7 +219,8 @@ def add_train_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
     tr = sub.add_parser("train", help="train the PointNav policy: a recipe (--config) or one trainer "
                                       "(encoder, dagger, ppo)",
                         description="Run a training recipe (--config FILE) or one trainer.")
-    tr.add_argument("--config", help="recipe file, e.g. configs/pointnav/2h.toml")
+    tr.add_argument("--config", help="recipe file, e.g. configs/pointnav/2h.toml, or a bundled recipe's name: "
+                                     "2h, full")
     tr.add_argument("--out-dir", help=f"where a recipe's stages write (default {RUNS_DIR}/<recipe name>)")
     tr.add_argument("--only", metavar="STAGE", help="run only this stage of the recipe")
     tr.add_argument("--resume", action="store_true", help="continue each stage from its resumable state")

@@ -140,3 +140,31 @@ def test_neighbour_keyframes():
     many = [look_at_pose([np.cos(a) * r, 0.88, np.sin(a) * r], target)
             for a, r in zip(np.linspace(0, 6, 9), np.linspace(0.5, 2.9, 9))]
     assert neighbour_keyframes(target, many, INTR) == [0, 1, 2, 3, 4]
+
+
+def test_largest_cluster_does_not_depend_on_how_sklearn_orders_equal_edges(monkeypatch):
+    # Points on a regular grid (as voxel centroids of a flat surface are): many spanning-tree edges of equal
+    # weight, whose order numpy's unstable argsort leaves to the vector width it dispatches to. Reversing
+    # equal edges in sklearn's own sort must not change what is kept.
+    from sklearn.cluster._hdbscan import hdbscan as sk
+
+    rng = np.random.default_rng(2)
+    n = rng.integers(8, 16)
+    grid = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2) * 0.03
+    grid = grid[rng.random(len(grid)) < 0.7]
+    plane = np.c_[grid, np.zeros(len(grid))]
+    shifted = plane[: rng.integers(20, 60)] + [rng.uniform(0.1, 0.6), 0, 0.03 * rng.integers(0, 3)]
+    points = np.concatenate([plane, shifted])
+    config = FusionConfig(voxel_size=0.0)
+    expected = largest_cluster(points, config)
+
+    class TiesReversed:
+        def __getattr__(self, name):
+            return getattr(np, name)
+
+        @staticmethod
+        def argsort(a, *args, **kwargs):
+            return np.lexsort((-np.arange(len(a)), np.asarray(a)))  # by value, equal values last-first
+
+    monkeypatch.setattr(sk, "np", TiesReversed())
+    np.testing.assert_array_equal(largest_cluster(points, config), expected)
