@@ -160,8 +160,13 @@ def compare_records(base: Iterable[Mapping[str, Any]], other: Iterable[Mapping[s
 
 # ------------------------------------------------------------------------------------------ run dirs
 def _episode_set(run_dir: Path) -> str:
-    """What names a run's episode file: its sha256 from provenance.json, else its split or file name."""
+    """What names a run's episode file: its sha256 from provenance.json; for a run written before
+    provenance.json, the sha256 of the file its config.json names (a bundled split as this checkout
+    keeps it), else its split or file name."""
     import json
+
+    from navbench.eval.provenance import sha256
+    from navbench.paths import split_file
 
     try:
         return json.loads((run_dir / "provenance.json").read_text())["files"]["episodes"]["sha256"]
@@ -169,9 +174,13 @@ def _episode_set(run_dir: Path) -> str:
         pass
     try:
         cfg = json.loads((run_dir / "config.json").read_text())
-        return str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
+        name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
     except (OSError, ValueError, AttributeError):
         return "?"
+    try:
+        return sha256(split_file(cfg["task"], cfg["split"]) if cfg.get("split") else Path(str(cfg["episodes"])))
+    except (OSError, ValueError, KeyError, TypeError):
+        return name
 
 
 def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:

@@ -11,6 +11,7 @@ import pytest
 
 from navbench.cli import main
 from navbench.episodes.io import load_dataset
+from navbench.eval.provenance import run_protocol, sha256
 from navbench.eval.rundir import read_records
 from navbench.eval.runner import select_episodes
 from navbench.eval.stats import (CI_METHOD, N_RESAMPLES, SEED, StatsError, add_intervals, compare_records,
@@ -184,3 +185,17 @@ def test_cli_compare_text_names_the_dropped_episodes(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "paired on 157 episodes in 4 scenes; dropped 3: 3 only in base" in out
     assert "SPL %" in out and "P(other better)" in out
+
+
+def test_a_run_with_provenance_pairs_with_one_written_before_it(tmp_path, capsys):
+    old = _copy_run(tmp_path, "frontier")
+    (old / "provenance.json").unlink(missing_ok=True)
+    new = _copy_run(tmp_path, "memory")
+    proto = {k: v for k, v in run_protocol(old).items() if k != "derived"}
+    doc = {"protocol": proto, "files": {"episodes": {"sha256": sha256(split_file("objectnav", "val_unseen"))}}}
+    (new / "provenance.json").write_text(json.dumps(doc))
+    assert main(["compare", str(old), str(new), "--metric", "spl"]) == 0
+    assert "paired on 160 episodes" in capsys.readouterr().out
+    (new / "provenance.json").write_text(json.dumps({**doc, "files": {"episodes": {"sha256": "0" * 64}}}))
+    assert main(["compare", str(old), str(new)]) == 2
+    assert "another episode file" in capsys.readouterr().err
