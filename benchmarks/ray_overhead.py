@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from navbench.agents.plugins import resolve_agent
-from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
+from navbench.agents.registry import AGENTS, prebuild_memories
 from navbench.api import resolve_episodes
 from navbench.episodes.io import load_dataset
 from navbench.eval.runner import RunConfig, comparable, read_records, run, select_episodes
@@ -40,7 +40,7 @@ def main() -> None:
     agent = resolve_agent("memory", {}, 0)
     cfg = RunConfig(task=task, split=split, agent="memory", episodes=str(episodes), scene_dir=str(SCENES_DIR),
                     success_distance=sd, limit=args.episodes, workers=args.workers,
-                    envs_per_worker=DEFAULT_ENVS_PER_WORKER["memory"], agent_options=agent.options)
+                    envs_per_worker=AGENTS["memory"].envs_per_worker, agent_options=agent.options)
     prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit))
     per: dict[str, list[float]] = {"local": [], "ray": []}
     fixed: dict[str, list[float]] = {"local": [], "ray": []}

@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER
+from navbench.agents.registry import AGENTS
 from navbench.episodes.io import load_dataset, save_dataset
 from navbench.episodes.types import EpisodeDataset
 from navbench.paths import SCENES_DIR, split_file
@@ -131,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--warmup", type=int, default=500, help="RSS growth is measured from this episode of each "
                    "worker on (a quarter of the worker's episodes if it runs fewer than 4x this)")
-    p.add_argument("--envs-per-worker", type=int, default=DEFAULT_ENVS_PER_WORKER["memory"],
+    p.add_argument("--envs-per-worker", type=int, default=AGENTS["memory"].envs_per_worker,
                    help="episodes a worker steps in lockstep (default: navbench run's)")
     p.add_argument("--csv", default="soak.csv")
     args = p.parse_args(argv)

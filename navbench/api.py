@@ -88,8 +88,7 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     memory and frontier agents). ``resume``, ``overwrite``, ``retries``, ``step_timeout`` and ``fail_fast`` are
     ``navbench run``'s options of the same names.
     """
-    from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
-    from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
+    from navbench.agents.plugins import ResolvedAgent, can_batch, check_options, plugin_label, resolve_agent
     from navbench.eval.runner import RunConfig, run, select_episodes
 
     options = dict(options or {})
@@ -103,19 +102,23 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
             factory: Any = PluginFactory(spec, options)  # workers re-import it by name
         else:
             factory = _Bound(agent, options)
-        resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), False)
+        resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), batches=can_batch(agent))
     elif callable(getattr(agent, "act", None)) or callable(getattr(agent, "act_batch", None)):
         if options:
             raise ValueError("options apply to an agent class or factory, not to an agent instance")
         spec = _spec_of(type(agent))
-        resolved = ResolvedAgent(spec, _Instance(agent), {}, plugin_label(spec, {}, seed), False)
+        resolved = ResolvedAgent(spec, _Instance(agent), {}, plugin_label(spec, {}, seed),
+                                 batches=callable(getattr(agent, "act_batch", None)))
         envs_per_worker = envs_per_worker or getattr(agent, "num_envs", None)
     else:
         raise ValueError(f"agent {agent!r}: expected an agent spec string, class, factory or instance "
                          f"(with act or act_batch)")
+    if envs_per_worker is not None and envs_per_worker > 1 and resolved.batches is False:
+        raise ValueError(f"--envs-per-worker applies to agents that step episodes in batches (act_batch), "
+                         f"not {resolved.spec!r}, which steps one at a time")
     if envs_per_worker is None:
         n = getattr(agent, "num_envs", 1)
-        envs_per_worker = DEFAULT_ENVS_PER_WORKER.get(resolved.spec) or (n if isinstance(n, int) and n > 0 else 1)
+        envs_per_worker = resolved.envs_per_worker if resolved.builtin else (n if isinstance(n, int) and n > 0 else 1)
 
     task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
@@ -126,9 +129,9 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
     cfg.label = label or resolved.label
     out = Path(out) if out is not None else run_dir(task, split or episodes_path.name.split(".")[0], cfg.label,
                                                     runs_dir)
-    if resolved.spec == "memory":
+    if resolved.prepare is not None:
         from navbench.eval.runner import run_dataset
-        prebuild_memories(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene))
+        resolved.prepare(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene))
     return run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
 

@@ -11,9 +11,9 @@ its episode ends and the driver appends it to ``episodes.jsonl``, so ``--resume`
 backend, either way round: the records are the same.
 
 No shared file system is needed: the driver puts the episode file, the files of the scenes the run
-needs (the mesh and its same-name side files, and the nearest ``*.scene_dataset_config.json``), the
-PointNav checkpoint of the policy agents and, for the memory agent, the keyframe memories it built before
-the run into Ray's object store once. Each actor copies what its tasks need into
+needs (the mesh and its same-name side files, and the nearest ``*.scene_dataset_config.json``) and the
+files the agent's spec names (the PointNav checkpoint of the policy agents; the keyframe memories the
+memory agent built before the run) into Ray's object store once. Each actor copies what its tasks need into
 ``$NAVBENCH_CACHE/ray/DIGEST`` on its machine (DIGEST names the files' contents, so the copy is shared by
 the actors of a machine and reused by later runs) and runs there. Shipping the driver's memories means no
 two actors ever build one, and the records equal a local run's, whose memory statistics they quote.
@@ -85,16 +85,6 @@ def scene_files(scene_id: str, scene_dir: Path) -> list[tuple[str, Path]]:
     return out
 
 
-def _memory_files(cfg: R.RunConfig, scene_path: Path) -> list[tuple[str, Path]]:
-    """The memory agent's keyframe memory of a scene, as the driver has it (built now if missing)."""
-    from navbench.agents.perceive import scene_memory
-    from navbench.agents.registry import _perception_config
-
-    directory = scene_memory(scene_path, _perception_config(cfg)).directory
-    return [(str(Path(directory.name) / f.relative_to(directory)), f)
-            for f in sorted(directory.rglob("*")) if f.is_file()]
-
-
 class _Shipper:
     """Puts each file into the object store once; ``digest`` then names the whole set of contents."""
 
@@ -115,43 +105,45 @@ class _Shipper:
 class Shipment:
     """What an actor needs to run tasks away from the driver's disk."""
     digest: str
-    base: list[File]  # the episode file and the checkpoint
-    scenes: dict[str, list[File]]  # scene_id -> its scene files and memory
+    base: list[File]  # the episode file and the agent's run-wide files
+    scenes: dict[str, list[File]]  # scene_id -> its scene files and the agent's files of the scene
     episodes: str  # path of the episode file under the copy
-    checkpoint: str | None  # path of the checkpoint under the copy
+    # agent option -> path under the copy it names there (a run-wide file, or the directory of per-scene files)
+    options: dict[str, str] = dataclasses.field(default_factory=dict)
 
 
 def ship(ray, cfg: R.RunConfig, scene_ids: list[str]) -> Shipment:
-    from navbench.agents.registry import POLICY_AGENTS
+    """Put the run's files into the object store: the episode file, the scenes of ``scene_ids`` and what
+    the agent's spec says it reads (:class:`~navbench.agents.registry.AgentSpec` ``run_files`` and
+    ``scene_files``; a plug-in agent ships nothing)."""
+    from navbench.agents.registry import AGENTS
     from navbench.env.base import resolve_scene_path
 
+    spec = AGENTS.get(cfg.agent)
     s = _Shipper(ray)
     episodes = f"episodes/{Path(cfg.episodes).name}"
     base = [s.put(episodes, Path(cfg.episodes))]
-    checkpoint = None
-    if cfg.agent in POLICY_AGENTS:
-        from navbench.agents.pointnav import DEFAULT_CHECKPOINT
-        src = Path(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT)
-        checkpoint = f"checkpoint/{src.name}"
-        base.append(s.put(checkpoint, src))
+    options: dict[str, str] = {}
+    for option, src in (spec.run_files(cfg) if spec is not None and spec.run_files else {}).items():
+        options[option] = f"{option}/{src.name}"
+        base.append(s.put(options[option], src))
+    per_scene = spec.scene_files if spec is not None and spec.scene_option else None
+    if per_scene is not None:
+        options[spec.scene_option] = spec.scene_option
     scene_dir = Path(cfg.scene_dir)
     scenes: dict[str, list[File]] = {}
     for scene_id in dict.fromkeys(scene_ids):
         files = [s.put(f"scenes/{rel}", p) for rel, p in scene_files(scene_id, scene_dir)]
-        if cfg.agent == "memory":
+        if per_scene is not None:
             mesh = resolve_scene_path(scene_id, scene_dir)
-            files += [s.put(f"memory/{rel}", p) for rel, p in _memory_files(cfg, mesh)]
+            files += [s.put(f"{spec.scene_option}/{rel}", p) for rel, p in per_scene(cfg, mesh)]
         scenes[scene_id] = files
-    return Shipment(s.digest(), base, scenes, episodes, checkpoint)
+    return Shipment(s.digest(), base, scenes, episodes, options)
 
 
 def worker_config(cfg: R.RunConfig, root: Path, shipment: Shipment) -> R.RunConfig:
-    """``cfg`` reading the actor's copy under ``root``: the episode file, scenes, checkpoint and memories."""
-    options = dict(cfg.agent_options)
-    if shipment.checkpoint is not None:
-        options["checkpoint"] = str(root / shipment.checkpoint)
-    if cfg.agent == "memory":
-        options["memory_root"] = str(root / "memory")
+    """``cfg`` reading the actor's copy under ``root``: the episode file, the scenes and the agent's files."""
+    options = {**cfg.agent_options, **{k: str(root / rel) for k, rel in shipment.options.items()}}
     return dataclasses.replace(cfg, episodes=str(root / shipment.episodes), scene_dir=str(root / "scenes"),
                                agent_options=options)
 

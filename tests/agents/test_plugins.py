@@ -100,8 +100,9 @@ def test_batched_agents_are_stepped_batched(agent_dir, pointnav_file, tmp_path):
      "agent 'walkmod:WalkAgent' takes no option 'speed' (it takes: stop_after, turn, wall)"),
     (["--agent", "walkmod:Nope"], "agent 'walkmod:Nope': module 'walkmod' has no 'Nope'"),
     (["--agent", "nomod_xyz:Agent"], "agent 'nomod_xyz:Agent'"),
-    (["--agent", "walkmod:WalkAgent", "--decoding", "argmax"], "--decoding apply to the built-in policy agents"),
-    (["--agent", "oracle", "--agent-opt", "fusion=false"], "agent option 'fusion' does not apply to agent 'oracle'"),
+    (["--agent", "walkmod:WalkAgent", "--decoding", "argmax"], "--decoding: not read by agent 'walkmod:WalkAgent'"),
+    (["--agent", "walkmod:WalkAgent", "--perception", "oracle"], "--perception: not read by agent"),
+    (["--agent", "oracle", "--agent-opt", "fusion=false"], "agent 'oracle' takes no option 'fusion'"),
 ])
 def test_bad_plugin_input_is_one_line_and_exit_2(agent_dir, pointnav_file, argv, needle, capsys):
     assert _cli("--episodes", pointnav_file, *argv) == 2

@@ -1,6 +1,7 @@
 """The runner's robustness: failed episodes recorded (not fatal), dying workers retried, shards and merge,
 the run directory's lock, refusals and repairs, progress."""
 
+import dataclasses
 import errno
 import io
 import json
@@ -144,9 +145,9 @@ def test_a_hung_agent_call_is_killed_and_fails_its_episode(pointnav_file, tmp_pa
 def test_failures_exit_3_and_fail_fast_stops_with_exit_2(pointnav_file, tmp_path, monkeypatch, capsys):
     from navbench.agents import registry
     ids = _ids(pointnav_file)
-    monkeypatch.setitem(registry.AGENTS, "oracle", lambda cfg: Misbehaving(
-        type("C", (), {"scene_dir": cfg.scene_dir, "success_distance": cfg.success_distance,
-                       "agent_options": {"modes": {ids[2]: "raise"}}})))
+    monkeypatch.setitem(registry.AGENTS, "oracle", dataclasses.replace(registry.AGENTS["oracle"], factory=lambda cfg: (
+        Misbehaving(type("C", (), {"scene_dir": cfg.scene_dir, "success_distance": cfg.success_distance,
+                                   "agent_options": {"modes": {ids[2]: "raise"}}})))))
     argv = ["run", "--episodes", str(pointnav_file), "--agent", "oracle", "--workers", "1", "-q"]
     assert main(argv + ["--out", str(tmp_path / "a")]) == 3
     assert "1 episode(s) failed" in capsys.readouterr().err

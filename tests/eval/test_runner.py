@@ -8,7 +8,8 @@ import time
 
 import pytest
 
-from navbench.cli import main, make_oracle
+from navbench.agents.registry import make_oracle
+from navbench.cli import main
 from navbench.episodes.io import load_dataset, save_dataset
 from navbench.eval.runner import RunConfig, RunError, comparable, read_records, run
 from navbench.eval.table import render, runs_frame
@@ -203,7 +204,7 @@ def test_batched_policy_records_equal_one_at_a_time(pointnav_file, tmp_path):
     """Stepping several episodes with one batched forward pass changes nothing in any episode's record
     (each slot keeps its own recurrent state); 3 slots over 6 episodes also exercises slot refills.
     With sampled actions too: each episode draws from a generator seeded by the run's seed and the episode."""
-    from navbench.cli import make_pointnav
+    from navbench.agents.registry import make_pointnav
 
     # 30-step episodes keep it cheap; their different lengths (STOPs) still refill slots unevenly.
     records = {}
