@@ -39,13 +39,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from navbench import __version__
-from navbench.eval import runner as R
-from navbench.eval.rundir import RunError
+from navbench._version import __version__
 from navbench.episodes.types import EpisodeError
+from navbench.eval.config import RunConfig
+from navbench.eval.rundir import RunError
+from navbench.eval.worker import (AgentFactory, Clock, EpisodeWorker, Key, Msg, RetryLedger, Tracker, base_record,
+                                  failed_record, failure_reason, run_dataset, start_distance, task_size)
 from navbench.scene.asset import SceneError
 
-Key = tuple[str, str]
 File = tuple[str, str, Any]  # (path under the actor's copy, sha1 of the bytes, ObjectRef of the bytes)
 
 EXTRA = "pip install navbench[ray]"
@@ -112,7 +113,7 @@ class Shipment:
     options: dict[str, str] = dataclasses.field(default_factory=dict)
 
 
-def ship(ray, cfg: R.RunConfig, scene_ids: list[str]) -> Shipment:
+def ship(ray, cfg: RunConfig, scene_ids: list[str]) -> Shipment:
     """Put the run's files into the object store: the episode file, the scenes of ``scene_ids`` and what
     the agent's spec says it reads (:class:`~navbench.agents.registry.AgentSpec` ``run_files`` and
     ``scene_files``; a plug-in agent ships nothing)."""
@@ -141,7 +142,7 @@ def ship(ray, cfg: R.RunConfig, scene_ids: list[str]) -> Shipment:
     return Shipment(s.digest(), base, scenes, episodes, options)
 
 
-def worker_config(cfg: R.RunConfig, root: Path, shipment: Shipment) -> R.RunConfig:
+def worker_config(cfg: RunConfig, root: Path, shipment: Shipment) -> RunConfig:
     """``cfg`` reading the actor's copy under ``root``: the episode file, the scenes and the agent's files."""
     options = {**cfg.agent_options, **{k: str(root / rel) for k, rel in shipment.options.items()}}
     return dataclasses.replace(cfg, episodes=str(root / shipment.episodes), scene_dir=str(root / "scenes"),
@@ -162,12 +163,12 @@ def materialize(ray, root: Path, files: list[File]) -> None:
 
 
 # ------------------------------------------------------------------------------------------- actors
-def warm_scene(cfg: R.RunConfig) -> str:
+def warm_scene(cfg: RunConfig) -> str:
     """The scene a new env loads when ``make_env`` resets it with the run's seed: the episode that
     ``NavEnv.reset`` draws without one (gymnasium's seeded generator)."""
     from gymnasium.utils import seeding
 
-    episodes = R.run_dataset(cfg.episodes).episodes
+    episodes = run_dataset(cfg.episodes).episodes
     rng, _ = seeding.np_random(cfg.seed)
     return episodes[int(rng.integers(len(episodes)))].scene_id
 
@@ -178,34 +179,46 @@ def _portable(exc: BaseException) -> BaseException:
         pickle.loads(pickle.dumps(exc))
         return exc
     except Exception:
-        return RunError(f"ray worker: {R.failure_reason(exc)}")
+        return RunError(f"ray worker: {failure_reason(exc)}")
+
+
+class _QueueTracker(Tracker):
+    """Tells the driver, through the run's record queue, which episodes begin (so a dead actor's retries
+    are charged only to those)."""
+
+    def __init__(self, queue: Any) -> None:
+        self.queue = queue
+
+    def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
+        self.queue.put((Msg.BEGIN, (record["scene_id"], record["episode_id"])))
 
 
 class NavbenchWorker:
-    """A Ray actor: one agent and its envs (``runner._worker_init``) over the actor's copy of the files.
+    """A Ray actor: an :class:`~navbench.eval.worker.EpisodeWorker` over the actor's copy of the files.
     Errors come back as values so the driver raises them as the local backend would."""
 
-    def __init__(self, cfg: R.RunConfig, make_agent: R.AgentFactory, shipment: Shipment,
+    def __init__(self, cfg: RunConfig, make_agent: AgentFactory, shipment: Shipment,
                  step_timeout: float | None) -> None:
         import ray
 
         from navbench.paths import cache_dir
 
         self.error: BaseException | None = None
-        self.shipment, self.clock = shipment, R.Clock(step_timeout)
+        self.shipment, self.clock = shipment, Clock(step_timeout)
         self.root = cache_dir("ray", shipment.digest)
         self.have: set[str] = set()
         self.episodes = ("", "")
+        self.worker: EpisodeWorker | None = None
         try:
             materialize(ray, self.root, shipment.base)
             local = worker_config(cfg, self.root, shipment)
             self.episodes = (local.episodes, cfg.episodes)  # (this copy's, the driver's) episode file
             self._fetch([warm_scene(local)])
             try:
-                R._worker_init(local, make_agent, single_thread=True)
+                self.worker = EpisodeWorker(local, make_agent, single_thread=True)
             except SceneError:  # the envs warmed up on another scene than expected: fetch them all
                 self._fetch(shipment.scenes)
-                R._worker_init(local, make_agent, single_thread=True)
+                self.worker = EpisodeWorker(local, make_agent, single_thread=True)
         except Exception as exc:
             self.error = _portable(exc)
 
@@ -220,16 +233,17 @@ class NavbenchWorker:
         return __version__, os.getpid(), self.error
 
     def run(self, keys: list[Key], queue: Any) -> tuple[list[dict[str, Any]], BaseException | None]:
-        """Run ``keys``, putting each record into the driver's ``queue`` as its episode ends (so an actor
-        that dies mid-task loses only its episodes in flight); returns them all too."""
+        """Run ``keys``, putting where each episode begins and its record into the driver's ``queue`` as it
+        ends (so an actor that dies mid-task loses only its episodes in flight); returns the records too."""
         records: list[dict[str, Any]] = []
 
         def finish(rec: dict[str, Any]) -> None:
-            queue.put(rec)
+            queue.put((Msg.RECORD, rec))
             records.append(rec)
         try:
             self._fetch(k[0] for k in keys)
-            R._run_keys(keys, finish, self.clock)
+            assert self.worker is not None, "run() on an actor that did not start"
+            self.worker.run(keys, finish, self.clock, _QueueTracker(queue))
         except (EpisodeError, SceneError) as exc:  # bad input ends the run; name the user's file, not the copy
             return records, type(exc)(str(exc).replace(*self.episodes))
         except Exception as exc:  # a bug: ends the run
@@ -280,12 +294,12 @@ class _Slot:
         self.task_started = 0.0
 
 
-def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
+def run_ray(cfg: RunConfig, make_agent: AgentFactory, keys: list[Key],
             finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
             step_timeout: float | None = None) -> None:
     """Run the episodes ``keys`` on Ray actors, handing every record (run or failed) to ``finish`` as its
     episode ends; the contract of :func:`navbench.eval.pool.run_pool`, with tasks sized
-    (:func:`~navbench.eval.runner.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots."""
+    (:func:`~navbench.eval.worker.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots."""
     ray = require_ray()
     if not keys:
         return
@@ -296,21 +310,24 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
     from ray.util.queue import Queue as RayQueue
 
     dying = _death_errors(ray)
-    by_key = {(e.scene_id, e.episode_id): e for e in R.run_dataset(cfg.episodes).episodes}
+    by_key = {(e.scene_id, e.episode_id): e for e in run_dataset(cfg.episodes).episodes}
     slots: list[_Slot] = []
     try:
         shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for k in keys])
         Actor = ray.remote(num_cpus=1, max_restarts=0)(NavbenchWorker)
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        size = R.task_size(len(keys), cpus, cfg.envs_per_worker)
+        size = task_size(len(keys), cpus, cfg.envs_per_worker)
         tasks = [keys[i:i + size] for i in range(0, len(keys), size)]
         n_actors = min(cpus, len(tasks))
         queue: deque[list[Key]] = deque(tasks)
-        records = RayQueue(actor_options={"num_cpus": 0})  # each finished record, as it ends, from any actor
+        # (Msg.BEGIN, key) as an episode begins, (Msg.RECORD, record) as it ends, from any actor
+        records = RayQueue(actor_options={"num_cpus": 0})
         finished: set[Key] = set()
+        began: set[Key] = set()  # began and not finished (an actor's retry of an episode begins it again)
 
         def take(rec: dict[str, Any]) -> None:
             key = (rec["scene_id"], rec["episode_id"])
+            began.discard(key)
             if key not in finished:  # an episode a dead actor sent and its retry ran again counts once
                 finished.add(key)
                 finish(rec)
@@ -318,13 +335,15 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
         def drain() -> None:
             while True:
                 try:
-                    rec = records.get_nowait()
+                    kind, value = records.get_nowait()
                 except Empty:
                     return
-                take(rec)
+                if kind is Msg.BEGIN:
+                    began.add(value)
+                else:
+                    take(value)
 
-        attempts: dict[Key, int] = {}
-        startup_deaths = 0
+        ledger = RetryLedger(retries, cfg.episodes)
         pending: dict[Any, _Slot] = {}  # ObjectRef of a ready() or run() call -> its actor
 
         def spawn() -> _Slot:
@@ -335,24 +354,20 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
 
         def lost(slot: _Slot, exc: BaseException) -> None:
             """``slot``'s actor is gone: retry or fail the episodes of its task, requeue the retried."""
-            nonlocal startup_deaths
             reason = f"ray worker died ({type(exc).__name__})"
             _kill(ray, slot.handle)
             if not slot.ready:
-                startup_deaths += 1
-                if startup_deaths > retries:
-                    raise RunError(f"{cfg.episodes}: a Ray worker could not start ({reason})")
+                ledger.startup_death(reason, "a Ray worker")
             drain()  # records the actor sent before it died are kept
-            rest: list[Key] = []
-            for key in [k for k in slot.task or [] if k not in finished]:
-                attempts[key] = attempts.get(key, 0) + 1
-                if attempts[key] <= retries:
-                    rest.append(key)
-                    continue
+            task = slot.task or []
+            rest, failed = ledger.settle(task, finished, began & set(task))
+            began.difference_update(task)  # a retried episode is charged again only if it begins again
+            for key in failed:
                 ep = by_key[key]
                 finished.add(key)
-                finish(R.failed_record(R._base_record(ep, cfg), reason, R.start_distance(ep), None, 0,
-                                       time.monotonic() - slot.task_started))
+                began.discard(key)
+                finish(failed_record(base_record(ep, cfg), reason, start_distance(ep), None, 0,
+                                     time.monotonic() - slot.task_started))
             if rest:
                 queue.appendleft(rest)
             if queue:

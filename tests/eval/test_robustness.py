@@ -119,7 +119,7 @@ def test_an_agent_that_raises_or_returns_7_fails_its_episodes_not_the_run(pointn
 
 
 def test_a_step_slower_than_the_limit_fails_its_episode(pointnav_file, tmp_path):
-    from navbench.eval.runner import Clock, make_env, run_episode
+    from navbench.eval.worker import Clock, make_env, run_episode
     ds = load_dataset(pointnav_file)
     cfg = _cfg(pointnav_file, agent_options={"modes": {ds.episodes[0].episode_id: "slow"}})
     rec = run_episode(make_env(cfg, ds, ()), Misbehaving(cfg), ds.episodes[0], cfg, Clock(0.5))

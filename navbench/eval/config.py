@@ -1,0 +1,94 @@
+"""What decides a run's records: :class:`RunConfig` (the task, the episodes, the agent and its options,
+the seed) and which episodes a run selects. How the records are produced (workers, backend, retries)
+is not part of it: see :mod:`navbench.eval.runner`.
+
+    >>> select_episodes(EpisodeDataset(), limit=3)
+    []
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+from navbench.env.config import EnvConfig
+from navbench.episodes.types import Episode, EpisodeDataset
+from navbench.eval.rundir import RunError
+
+__all__ = ["RunConfig", "parse_shard", "select_episodes", "shard_of"]
+
+
+@dataclass
+class RunConfig:
+    """A run as ``config.json`` records it: everything its records depend on (``workers`` and
+    ``envs_per_worker`` are recorded too, but records do not depend on them, so a run may resume with
+    others). Built-in agents' factories read it (``agent_options``, ``env_config(sensors)``)."""
+    task: str  # "pointnav" | "objectnav"
+    split: str | None  # bundled split name, or None for a user's file
+    agent: str
+    episodes: str  # dataset file
+    scene_dir: str
+    success_distance: float
+    seed: int = 0
+    limit: int | None = None
+    # The first per_scene episodes of each scene (file order) before limit applies: a small run that
+    # still covers every scene of a split whose file lists its episodes scene by scene.
+    per_scene: int | None = None
+    workers: int = 1
+    env: dict[str, Any] = field(default_factory=dict)  # EnvConfig overrides
+    agent_options: dict[str, Any] = field(default_factory=dict)  # e.g. {"checkpoint": ...}
+    label: str = ""  # the row name in tables (default: the agent's name)
+    # Episodes each worker steps at once with one batched policy forward pass (agents with act_batch,
+    # e.g. pointnav; others run one episode at a time). Outcomes do not depend on it.
+    envs_per_worker: int = 1
+    # "I/N": this run is shard I (1-based) of N, the I-th of N contiguous blocks of the selected episodes
+    # in file order (see select_episodes); None: all of them.
+    shard: str | None = None
+
+    def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
+        base = EnvConfig(success_distance=self.success_distance, **self.env)
+        # Render only what the agent reads: the oracle needs no images, a PointNav policy only depth.
+        return dataclasses.replace(base, rgb="rgb" in sensors, depth="depth" in sensors,
+                                   semantic="semantic" in sensors)
+
+
+def parse_shard(shard: str | None) -> tuple[int, int] | None:
+    """``"I/N"`` as (I, N) with 1 <= I <= N; a ValueError saying what is wrong otherwise."""
+    if shard is None:
+        return None
+    try:
+        i, n = (int(x) for x in str(shard).split("/"))
+    except ValueError:
+        raise RunError(f"--shard {shard!r}: expected I/N, e.g. 2/8") from None
+    if not 1 <= i <= n:
+        raise RunError(f"--shard {shard!r}: I must be between 1 and N")
+    return i, n
+
+
+def shard_of(episodes: list, shard: str | None) -> list:
+    """Shard I of N: the I-th of N contiguous blocks of ``episodes`` (sizes differ by at most one). Blocks
+    keep a scene's episodes together (episode files list them scene by scene), so a shard loads few scenes;
+    the N shards are disjoint and together hold every episode once."""
+    parsed = parse_shard(shard)
+    if parsed is None:
+        return episodes
+    i, n = parsed
+    return episodes[(i - 1) * len(episodes) // n: i * len(episodes) // n]
+
+
+def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int | None = None,
+                    shard: str | None = None) -> list[Episode]:
+    """The first ``limit`` episodes in file order (Habitat's convention for partial evaluation), after
+    keeping only the first ``per_scene`` episodes of each scene when that is set; then shard ``shard``
+    ("I/N") of those."""
+    episodes = list(dataset.episodes)
+    if per_scene is not None:
+        seen: dict[str, int] = {}
+        kept = []
+        for e in episodes:
+            seen[e.scene_id] = seen.get(e.scene_id, 0) + 1
+            if seen[e.scene_id] <= per_scene:
+                kept.append(e)
+        episodes = kept
+    return shard_of(episodes[:limit] if limit is not None else episodes, shard)
