@@ -32,56 +32,32 @@ from typing import Any
 from navbench.agents.options import add_flags, flag_of, given_flags
 from navbench.agents.plugins import parse_options, resolve_agent
 from navbench.agents.registry import AGENTS, agent_options, default_agent, scan_config
-from navbench.api import resolve_episodes, run_dir
+from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
 from navbench.paths import EPISODES_DIR, SCENES_DIR
 
 
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
+    """``navbench run``: the flags as :func:`navbench.evaluate`'s arguments, then the summary printed."""
+    from navbench.api import evaluate
     from navbench.eval.progress import Progress
-    from navbench.eval.runner import RunConfig, parse_shard, run, run_dataset, select_episodes
     from navbench.eval.table import summary_markdown
 
-    task, split, episodes, default_sd = resolve_episodes(args.task, args.split, args.episodes)
+    task, split, _, _ = resolve_episodes(args.task, args.split, args.episodes)
     args.agent = args.agent or default_agent(task)
-    agent = resolve_agent(args.agent, _agent_request(args), args.seed)
-    if args.workers is not None and args.address is not None:
-        raise ValueError("--workers does not apply with --address: the Ray cluster's CPUs are the workers")
-    if args.envs_per_worker is not None and args.envs_per_worker > 1 and agent.batches is False:
-        raise ValueError(f"--envs-per-worker applies to agents that step episodes in batches, not "
-                         f"{args.agent!r}, which steps one at a time")
-    cfg = RunConfig(
-        task=task, split=split, agent=args.agent, episodes=str(episodes),
-        scene_dir=str(args.scene_dir or SCENES_DIR),
-        success_distance=args.success_distance if args.success_distance is not None else default_sd,
-        seed=args.seed, limit=args.limit, per_scene=args.per_scene,
-        workers=args.workers if args.workers is not None else 2,
-        envs_per_worker=args.envs_per_worker or agent.envs_per_worker,
-        agent_options=agent.options, shard=args.shard,
-    )
-    cfg.label = agent.label
-    shard = parse_shard(args.shard)
-    out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label, args.runs_dir))
-    if args.out is None and shard:
-        out = out / f"shard{shard[0]}of{shard[1]}"
-    if args.resume and args.overwrite:
-        raise ValueError("--resume and --overwrite: choose one")
-    if args.address is not None and args.backend != "ray":
-        raise ValueError("--address applies to --backend ray only")
-    if args.backend == "ray":  # before the memories are built: a missing extra is a one-line error
-        from navbench.eval.ray_backend import require_ray
-        require_ray()
-
-    if agent.prepare is not None:
-        agent.prepare(cfg, select_episodes(run_dataset(episodes), cfg.limit, cfg.per_scene, cfg.shard))
-    summary = run(cfg, agent.factory, out, resume=args.resume, progress=None if args.quiet else Progress(),
-                  overwrite=args.overwrite, retries=args.retries, step_timeout=args.step_timeout,
-                  fail_fast=args.fail_fast, backend=args.backend, address=args.address)
+    options = _agent_request(args)
+    workers = args.workers if args.workers is not None or args.address is not None else 2
+    where: list[Path] = []
+    summary = evaluate(
+        args.agent, task, split, args.episodes, options=options, limit=args.limit, per_scene=args.per_scene,
+        shard=args.shard, seed=args.seed, scene_dir=args.scene_dir, success_distance=args.success_distance,
+        out=args.out, runs_dir=args.runs_dir, resume=args.resume, overwrite=args.overwrite, workers=workers,
+        envs_per_worker=args.envs_per_worker, backend=args.backend, address=args.address, retries=args.retries,
+        step_timeout=args.step_timeout, fail_fast=args.fail_fast, progress=None if args.quiet else Progress(),
+        video=args.video, on_run_dir=where.append)
+    out = where[0]
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
-    if args.video != "none":  # drawn from the finished records, so the run itself is the same without
-        from navbench.viz.cli import write_videos
-        write_videos(out, args.video, quiet=args.quiet)
     if summary["num_failed"]:
         print(f"navbench: {summary['num_failed']} episode(s) failed (listed in {out}/summary.json), e.g. "
               f"{summary['failed_episodes'][0]['episode_id']}: {summary['failed_episodes'][0]['failure_reason']}",

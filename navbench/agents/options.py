@@ -69,6 +69,10 @@ class AgentOptions:
             value, kind = options[f.name], types[f.name]
             if kind is bool and not isinstance(value, bool):
                 raise ValueError(f"agent {agent!r}: option {f.name!r} must be true or false, got {value!r}")
+            if kind in (str, str | None) and not isinstance(value, str):
+                raise ValueError(f"agent {agent!r}: option {f.name!r} must be a string, got {value!r}")
+            if kind in (float, float | None) and (isinstance(value, bool) or not isinstance(value, (int, float))):
+                raise ValueError(f"agent {agent!r}: option {f.name!r} must be a number, got {value!r}")
             choices = f.metadata.get("choices")
             if choices and value not in choices:
                 raise ValueError(f"agent {agent!r}: unknown {f.name} {value!r}: choose from {', '.join(choices)}")

@@ -35,6 +35,7 @@ from typing import Any
 from navbench._version import __version__
 from navbench.episodes.types import EpisodeDataset
 from navbench.eval.config import RunConfig, parse_shard, select_episodes, shard_of
+from navbench.eval.records import RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
 from navbench.metrics import aggregate
@@ -60,7 +61,7 @@ def comparable(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
-              extra: dict[str, Any] | None = None) -> dict[str, Any]:
+              extra: dict[str, Any] | None = None) -> RunSummary:
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the
     failed episodes with their reasons."""
     summary = aggregate(records, by="object_category" if cfg.task == "objectnav" else None)
@@ -148,7 +149,7 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
         progress: Callable[[dict[str, Any], int, int], None] | None = None, *, overwrite: bool = False,
         retries: int = 2, step_timeout: float | None = None, fail_fast: bool = False,
         note: Callable[[str], None] = _note_stderr, backend: str = "local", address: str | None = None
-        ) -> dict[str, Any]:
+        ) -> RunSummary:
     """Run ``cfg``'s episodes into ``out`` and return the summary.
 
     ``resume`` keeps the records already there (each episode once; failed episodes are rerun); without it
