@@ -35,7 +35,8 @@ for _id, _entry in (("navbench/PointNav-v0", "navbench.env.pointnav:PointNavEnv"
 _EXPORTS = {
     "evaluate": "navbench.api", "Agent": "navbench.agents.base", "BatchAgent": "navbench.agents.base",
     "Action": "navbench.env.config", "EnvConfig": "navbench.env.config", "Episode": "navbench.episodes.types",
-    "RunConfig": "navbench.eval.config", "EpisodeRecord": "navbench.eval.records", "RunSummary": "navbench.eval.records",
+    "RunConfig": "navbench.eval.config", "EpisodeRecord": "navbench.eval.records",
+    "RunSummary": "navbench.eval.records",
 }
 __all__ = ["Action", "Agent", "BatchAgent", "EnvConfig", "Episode", "EpisodeRecord", "RunConfig", "RunSummary",
            "__version__", "evaluate"]

@@ -147,15 +147,15 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     """
     from navbench.agents.plugins import ResolvedAgent, can_batch, check_options, plugin_label, resolve_agent
     from navbench.agents.registry import default_agent
-    from navbench.eval.config import RunConfig, parse_shard, select_episodes
+    from navbench.eval.config import Execution, RunConfig, parse_shard, select_episodes
     from navbench.eval.runner import run, run_dataset
 
     if resume and overwrite:
         raise ValueError("--resume and --overwrite: choose one")
-    if address is not None and backend != "ray":
-        raise ValueError("--address applies to --backend ray only")
     if address is not None and workers is not None:
         raise ValueError("--workers does not apply with --address: the Ray cluster's CPUs are the workers")
+    execution = Execution(workers=workers or 1, backend=backend, address=address, retries=retries,
+                          step_timeout=step_timeout, fail_fast=fail_fast)
     if video not in VIDEOS:
         raise ValueError(f"--video {video!r}: choose from {', '.join(VIDEOS)}")
     task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
@@ -191,8 +191,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
                     scene_dir=str(scene_dir or SCENES_DIR),
                     success_distance=success_distance if success_distance is not None else default_sd,
-                    seed=seed, limit=limit, per_scene=per_scene, workers=workers or 1,
-                    envs_per_worker=envs_per_worker, agent_options=resolved.options, shard=shard)
+                    seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=envs_per_worker,
+                    agent_options=resolved.options, shard=shard)
     cfg.label = label or resolved.label
     parsed_shard = parse_shard(shard)
     if out is None:
@@ -207,8 +207,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         require_ray()
     if resolved.prepare is not None:
         resolved.prepare(cfg, select_episodes(run_dataset(episodes_path), cfg.limit, cfg.per_scene, cfg.shard))
-    summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite, retries=retries,
-                  step_timeout=step_timeout, fail_fast=fail_fast, backend=backend, address=address)
+    summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
+                  execution=execution)
     if video != "none":  # drawn from the finished records, so the run itself is the same without
         from navbench.viz.cli import write_videos
         write_videos(out, video, quiet=progress is None)

@@ -1,6 +1,6 @@
 """What decides a run's records: :class:`RunConfig` (the task, the episodes, the agent and its options,
-the seed) and which episodes a run selects. How the records are produced (workers, backend, retries)
-is not part of it: see :mod:`navbench.eval.runner`.
+the seed) and which episodes a run selects; and apart from it, :class:`Execution`: how the records are
+produced (workers, backend, retries, limits), which never changes them.
 
     >>> select_episodes(EpisodeDataset(), limit=3)
     []
@@ -16,14 +16,16 @@ from navbench.env.config import EnvConfig
 from navbench.episodes.types import Episode, EpisodeDataset
 from navbench.eval.rundir import RunError
 
-__all__ = ["RunConfig", "parse_shard", "select_episodes", "shard_of"]
+__all__ = ["BACKENDS", "Execution", "RunConfig", "parse_shard", "select_episodes", "shard_of"]
+
+BACKENDS = ("local", "ray")
 
 
 @dataclass
 class RunConfig:
-    """A run as ``config.json`` records it: everything its records depend on (``workers`` and
-    ``envs_per_worker`` are recorded too, but records do not depend on them, so a run may resume with
-    others). Built-in agents' factories read it (``agent_options``, ``env_config(sensors)``)."""
+    """A run as ``config.json`` records it: everything its records depend on, and the batch width its
+    agent is built for (``envs_per_worker``, which records do not depend on, so a run may resume with
+    another). Agent factories read it (``agent_options``, ``envs_per_worker``, ``env_config(sensors)``)."""
     task: str  # "pointnav" | "objectnav"
     split: str | None  # bundled split name, or None for a user's file
     agent: str
@@ -35,7 +37,6 @@ class RunConfig:
     # The first per_scene episodes of each scene (file order) before limit applies: a small run that
     # still covers every scene of a split whose file lists its episodes scene by scene.
     per_scene: int | None = None
-    workers: int = 1
     env: dict[str, Any] = field(default_factory=dict)  # EnvConfig overrides
     agent_options: dict[str, Any] = field(default_factory=dict)  # e.g. {"checkpoint": ...}
     label: str = ""  # the row name in tables (default: the agent's name)
@@ -51,6 +52,44 @@ class RunConfig:
         # Render only what the agent reads: the oracle needs no images, a PointNav policy only depth.
         return dataclasses.replace(base, rgb="rgb" in sensors, depth="depth" in sensors,
                                    semantic="semantic" in sensors)
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How a run's episodes are run; the records are the same whatever these are, so a run may resume
+    with others. A setting out of range is a one-line RunError.
+
+    Attributes:
+        workers: parallel episode workers (processes, or with ``backend="ray"`` and no ``address`` the
+            CPUs of the local Ray instance started for the run).
+        backend: ``"local"`` (worker processes) or ``"ray"`` (:mod:`navbench.eval.ray_backend`).
+        address: the Ray cluster to join (``backend="ray"`` only).
+        retries: times an episode whose worker died is retried on a fresh worker before it is failed.
+        step_timeout: seconds an agent call may take before its episode fails (with workers, a call that
+            never returns is killed).
+        fail_fast: stop at the first failed episode (RunError) instead of recording it and going on.
+
+    >>> Execution(workers=2).backend
+    'local'
+    """
+    workers: int = 1
+    backend: str = "local"
+    address: str | None = None
+    retries: int = 2
+    step_timeout: float | None = None
+    fail_fast: bool = False
+
+    def __post_init__(self) -> None:
+        if self.workers < 1:
+            raise RunError(f"--workers must be 1 or more, got {self.workers}")
+        if self.step_timeout is not None and not self.step_timeout > 0:
+            raise RunError(f"--step-timeout must be positive, got {self.step_timeout:g}")
+        if self.retries < 0:
+            raise RunError(f"--retries must be 0 or more, got {self.retries}")
+        if self.backend not in BACKENDS:
+            raise RunError(f"backend {self.backend!r}: choose {' or '.join(BACKENDS)}")
+        if self.address is not None and self.backend != "ray":
+            raise RunError("--address applies to --backend ray only")
 
 
 def parse_shard(shard: str | None) -> tuple[int, int] | None:

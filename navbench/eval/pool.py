@@ -2,12 +2,13 @@
 
 Each worker is a spawned process with its own :class:`~navbench.eval.worker.EpisodeWorker` that takes
 tasks (lists of episode keys) over a pipe and sends back (:class:`~navbench.eval.worker.Msg`), per
-episode, where it begins and its record when it ends. The driver hands the next task to whichever worker is idle, in order. When a worker dies (SIGKILL,
-a segfault in the GL driver, the OOM killer), its records already sent are kept, the episodes it was
-running are retried on a fresh worker up to ``retries`` times and then recorded as failed ("worker
-died (signal 9)"), and the rest of its task goes back to the front of the queue (a
-:class:`~navbench.eval.worker.RetryLedger` keeps the count). A worker whose agent
-call outlives the step limit is killed and the episodes of that call are recorded as failed.
+episode, where it begins and its record when it ends. The driver hands the next task to whichever
+worker is idle, in order. When a worker dies (SIGKILL, a segfault in the GL driver, the OOM killer),
+its records already sent are kept, the episodes it was running are retried on a fresh worker up to
+``retries`` times and then recorded as failed ("worker died (signal 9)"), and the rest of its task
+goes back to the front of the queue (a :class:`~navbench.eval.worker.RetryLedger` keeps the count).
+A worker whose agent call outlives the step limit is killed and the episodes of that call are
+recorded as failed.
 """
 
 from __future__ import annotations

@@ -296,16 +296,17 @@ class _Slot:
 
 def run_ray(cfg: RunConfig, make_agent: AgentFactory, keys: list[Key],
             finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
-            step_timeout: float | None = None) -> None:
+            step_timeout: float | None = None, workers: int = 1) -> None:
     """Run the episodes ``keys`` on Ray actors, handing every record (run or failed) to ``finish`` as its
     episode ends; the contract of :func:`navbench.eval.pool.run_pool`, with tasks sized
-    (:func:`~navbench.eval.worker.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots."""
+    (:func:`~navbench.eval.worker.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots.
+    Without ``address`` a local Ray instance with ``workers`` CPUs is started for the run."""
     ray = require_ray()
     if not keys:
         return
     started = not ray.is_initialized()
     if started:
-        connect(ray, address, cfg.workers)
+        connect(ray, address, workers)
     from ray.util.queue import Empty
     from ray.util.queue import Queue as RayQueue
 

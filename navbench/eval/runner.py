@@ -11,7 +11,8 @@ in anything that changes results, and a record of an episode the dataset does no
 An episode whose agent or env raises, whose agent returns an action outside the action space, or
 whose agent call takes longer than the step limit is recorded with ``failed: true``, a one-line
 ``failure_reason`` and a failure's metrics, and the run goes on; so is an episode whose worker process
-died ``retries + 1`` times (see :mod:`navbench.eval.worker`, :mod:`navbench.eval.pool`). A bad episode or scene in the dataset
+died ``retries + 1`` times (see :mod:`navbench.eval.worker`, :mod:`navbench.eval.pool`). A bad episode or scene
+in the dataset
 (EpisodeError, SceneError) is bad input and ends the run.
 
 Parallelism: ``workers`` processes (or a Ray cluster's actors, :mod:`navbench.eval.ray_backend`), each
@@ -34,13 +35,13 @@ from typing import Any
 
 from navbench._version import __version__
 from navbench.episodes.types import EpisodeDataset
-from navbench.eval.config import RunConfig, parse_shard, select_episodes, shard_of
+from navbench.eval.config import Execution, RunConfig, parse_shard, select_episodes, shard_of
 from navbench.eval.records import RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
 from navbench.metrics import aggregate
 
-__all__ = ["RunConfig", "RunError", "comparable", "parse_shard", "read_records", "run", "run_dataset",
+__all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "read_records", "run", "run_dataset",
            "select_episodes", "shard_of", "summarize"]
 
 # Keys that may differ between a run and its resumption without changing any episode's result.
@@ -147,43 +148,40 @@ def _note_stderr(msg: str) -> None:
 
 def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = False,
         progress: Callable[[dict[str, Any], int, int], None] | None = None, *, overwrite: bool = False,
-        retries: int = 2, step_timeout: float | None = None, fail_fast: bool = False,
-        note: Callable[[str], None] = _note_stderr, backend: str = "local", address: str | None = None
-        ) -> RunSummary:
+        execution: Execution | None = None, note: Callable[[str], None] = _note_stderr) -> RunSummary:
     """Run ``cfg``'s episodes into ``out`` and return the summary.
 
-    ``resume`` keeps the records already there (each episode once; failed episodes are rerun); without it
-    (or ``overwrite``) a directory that already holds a run is refused. An episode whose agent or env
-    fails is recorded as failed (``failed``, ``failure_reason``) and the run goes on, unless
-    ``fail_fast``: then the first failure raises RunError (finished records kept). A worker process that
-    dies is replaced and its episodes retried ``retries`` times; an agent call slower than
-    ``step_timeout`` seconds fails its episode (with workers, a call that never returns is killed).
-    ``backend="ray"`` runs the episodes on the Ray cluster at ``address`` (see
-    :mod:`navbench.eval.ray_backend`); the backend is not part of the config, so a run may resume on either.
+    Args:
+        cfg: what the records depend on.
+        make_agent: the agent's factory, called once per worker with ``cfg``.
+        out: the run directory.
+        resume: keep the records already there (each episode once; failed episodes are rerun); without
+            it (or ``overwrite``) a directory that already holds a run is refused.
+        progress: called as ``progress(record, done, total)`` after each episode.
+        overwrite: replace the run in ``out``.
+        execution: how the episodes are run (default: one worker in this process, 2 retries); see
+            :class:`~navbench.eval.config.Execution`. It is not part of config.json, so a run may resume
+            with other settings, on either backend.
+        note: where notes on the run directory go (default: stderr).
+
+    Returns:
+        The summary, as ``out/summary.json`` holds it. An episode whose agent or env fails is recorded
+        as failed and the run goes on, unless ``execution.fail_fast``: then RunError (records kept).
     """
-    if step_timeout is not None and step_timeout <= 0:
-        raise RunError(f"--step-timeout must be positive, got {step_timeout:g}")
-    if retries < 0:
-        raise RunError(f"--retries must be 0 or more, got {retries}")
-    if backend not in ("local", "ray"):
-        raise RunError(f"backend {backend!r}: choose local or ray")
-    if address is not None and backend != "ray":
-        raise RunError("--address applies to --backend ray only")
-    if backend == "ray":  # before the run directory is touched: a missing extra is a one-line error
+    execution = execution or Execution()
+    if execution.backend == "ray":  # before the run directory is touched: a missing extra is one line
         from navbench.eval.ray_backend import require_ray
         require_ray()
     out = Path(out)
     make_run_dir(out)
     lock = RunLock(out, note)
     try:
-        return _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note,
-                           backend, address)
+        return _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution, note)
     finally:
         lock.release()
 
 
-def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step_timeout, fail_fast, note,
-                backend="local", address=None):
+def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Execution, note):
     cfg_json = config_json(cfg)
     jsonl = out / "episodes.jsonl"
     notes: list[str] = []
@@ -216,7 +214,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
         recorded = [total - len(todo)]  # episodes of this selection already in the file
 
         def finish(rec):
-            if rec.get("failed") and fail_fast:
+            if rec.get("failed") and execution.fail_fast:
                 raise RunError(f"{cfg.episodes}: episode {rec['episode_id']} ({rec['scene_id']}) failed: "
                                f"{rec['failure_reason']}")
             fh.append(rec)
@@ -225,21 +223,24 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, retries, step
             if progress:
                 progress(rec, recorded[0], total)
 
-        size = task_size(len(todo), cfg.workers, cfg.envs_per_worker)
+        workers, step_timeout = execution.workers, execution.step_timeout
+        size = task_size(len(todo), workers, cfg.envs_per_worker)
         # No more env slots than a worker can fill (a one-episode run builds one env and one agent).
         wcfg = dataclasses.replace(cfg, envs_per_worker=max(1, min(cfg.envs_per_worker, size)))
-        if backend == "ray":
+        if execution.backend == "ray":
             from navbench.eval.ray_backend import run_ray
-            run_ray(wcfg, make_agent, todo, finish, address=address, retries=retries, step_timeout=step_timeout)
+            run_ray(wcfg, make_agent, todo, finish, address=execution.address, retries=execution.retries,
+                    step_timeout=step_timeout, workers=workers)
         # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
-        elif (cfg.workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
+        elif (workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
             if todo:
                 with EpisodeWorker(wcfg, make_agent) as worker:
                     worker.run(todo, finish, Clock(step_timeout))
         else:
             from navbench.eval.pool import run_pool
             run_pool(wcfg, make_agent, [todo[i:i + size] for i in range(0, len(todo), size)], finish,
-                     workers=cfg.workers, n_slots=wcfg.envs_per_worker, retries=retries, step_timeout=step_timeout)
+                     workers=workers, n_slots=wcfg.envs_per_worker, retries=execution.retries,
+                     step_timeout=step_timeout)
         complete = True
     finally:
         fh.close()
