@@ -20,10 +20,10 @@ import time
 from pathlib import Path
 
 from navbench.agents.plugins import resolve_agent
-from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
+from navbench.agents.registry import AGENTS, prebuild_memories
 from navbench.api import resolve_episodes
 from navbench.episodes.io import load_dataset
-from navbench.eval.runner import RunConfig, comparable, read_records, run, select_episodes
+from navbench.eval.runner import Execution, RunConfig, comparable, read_records, run, select_episodes
 from navbench.paths import SCENES_DIR
 
 
@@ -39,8 +39,8 @@ def main() -> None:
     task, split, episodes, sd = resolve_episodes("objectnav", "val_unseen", None)
     agent = resolve_agent("memory", {}, 0)
     cfg = RunConfig(task=task, split=split, agent="memory", episodes=str(episodes), scene_dir=str(SCENES_DIR),
-                    success_distance=sd, limit=args.episodes, workers=args.workers,
-                    envs_per_worker=DEFAULT_ENVS_PER_WORKER["memory"], agent_options=agent.options)
+                    success_distance=sd, limit=args.episodes, envs_per_worker=AGENTS["memory"].envs_per_worker,
+                    agent_options=agent.options)
     prebuild_memories(cfg, select_episodes(load_dataset(episodes), cfg.limit))
     per: dict[str, list[float]] = {"local": [], "ray": []}
     fixed: dict[str, list[float]] = {"local": [], "ray": []}
@@ -51,7 +51,7 @@ def main() -> None:
                 for n in (args.small, args.episodes):
                     t0 = time.perf_counter()
                     run(dataclasses.replace(cfg, limit=n), agent.factory, Path(tmp) / f"{backend}{i}_{n}",
-                        backend=backend, note=lambda _: None)
+                        execution=Execution(workers=args.workers, backend=backend), note=lambda _: None)
                     t[n] = time.perf_counter() - t0
                 per[backend].append((t[args.episodes] - t[args.small]) / (args.episodes - args.small))
                 fixed[backend].append(t[args.small] - args.small * per[backend][-1])

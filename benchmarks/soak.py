@@ -5,8 +5,9 @@
 
 Episodes cycle through the houses (the 8 train houses' ``train`` split, the 4 val houses'
 ``val_seen``/``val_unseen``), one house after another, so nearly every episode switches scene: the
-path that closes a GL context and opens the next. Each worker steps its episodes as a ``navbench run``
-worker does (one core, ``--envs-per-worker`` episodes in lockstep, one env and GL context per slot).
+path that closes a GL context and opens the next. Each worker steps its episodes through the
+``EpisodeWorker`` a ``navbench run`` worker uses (one core, ``--envs-per-worker`` episodes in
+lockstep, one env and GL context per slot).
 After every episode each worker records its RSS, open file descriptors, live GL contexts (renderers
 holding an OSMesa/EGL context) and threads. The CSV
 has one row per episode; the summary gives the RSS growth between the 500th and the last episode of
@@ -26,7 +27,7 @@ import sys
 import time
 from pathlib import Path
 
-from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER
+from navbench.agents.registry import AGENTS
 from navbench.episodes.io import load_dataset, save_dataset
 from navbench.episodes.types import EpisodeDataset
 from navbench.paths import SCENES_DIR, split_file
@@ -81,13 +82,14 @@ def worker(args: tuple) -> list[dict]:
     wid, episodes_file, indices, csv_dir, envs = args
     from navbench.agents.registry import AGENTS, agent_options
     from navbench.env.config import SUCCESS_DISTANCE
-    from navbench.eval import runner
+    from navbench.eval.config import RunConfig
+    from navbench.eval.worker import EpisodeWorker
 
-    cfg = runner.RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes_file),
-                           scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"],
-                           envs_per_worker=envs, agent_options=agent_options("memory"))
-    runner._worker_init(cfg, AGENTS["memory"], single_thread=True)  # as a `navbench run` worker
-    episodes = runner._WORKER["dataset"].episodes
+    cfg = RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes_file),
+                    scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"],
+                    envs_per_worker=envs, agent_options=agent_options("memory"))
+    worker = EpisodeWorker(cfg, AGENTS["memory"].factory, single_thread=True)  # as a `navbench run` worker
+    episodes = worker.dataset.episodes
     rows: list[dict] = []
     t0 = time.perf_counter()
     path = Path(csv_dir) / f"worker{wid}.csv"
@@ -102,9 +104,8 @@ def worker(args: tuple) -> list[dict]:
             fh.flush()
             rows.append(row)
 
-        runner._run_keys([(episodes[i].scene_id, episodes[i].episode_id) for i in indices], finish)
-    for env in runner._WORKER["envs"]:
-        env.close()
+        worker.run([(episodes[i].scene_id, episodes[i].episode_id) for i in indices], finish)
+    worker.close()
     return rows
 
 
@@ -131,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--warmup", type=int, default=500, help="RSS growth is measured from this episode of each "
                    "worker on (a quarter of the worker's episodes if it runs fewer than 4x this)")
-    p.add_argument("--envs-per-worker", type=int, default=DEFAULT_ENVS_PER_WORKER["memory"],
+    p.add_argument("--envs-per-worker", type=int, default=AGENTS["memory"].envs_per_worker,
                    help="episodes a worker steps in lockstep (default: navbench run's)")
     p.add_argument("--csv", default="soak.csv")
     args = p.parse_args(argv)
@@ -140,13 +141,13 @@ def main(argv: list[str] | None = None) -> int:
     out_dir = Path(args.csv).resolve().parent
     episodes_file = save_dataset(soak_dataset(args.episodes), out_dir / "soak_episodes.json.gz")
     # Every house's memory is built once here, so workers never build the same one at once.
-    from navbench.agents.registry import agent_options, prebuild_memories
+    from navbench.agents.registry import agent_options
     from navbench.env.config import SUCCESS_DISTANCE
-    from navbench.eval.runner import RunConfig
+    from navbench.eval.config import RunConfig
     cfg = RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes_file),
                     scene_dir=str(SCENES_DIR), success_distance=SUCCESS_DISTANCE["ovon"],
                     agent_options=agent_options("memory"))
-    prebuild_memories(cfg, load_dataset(episodes_file).episodes)
+    AGENTS["memory"].prepare(cfg, load_dataset(episodes_file).episodes)
     chunks = [(w, str(episodes_file), list(range(w, args.episodes, args.workers)), str(out_dir), args.envs_per_worker)
               for w in range(args.workers)]
     # spawn: each worker starts clean, as `navbench run` workers do, not a copy of this process

@@ -23,17 +23,17 @@ import json, sys, time
 t0 = time.perf_counter()
 import navbench.agents.lockstep, navbench.agents.memory_agent, navbench.agents.perceive  # noqa: E401
 from navbench.agents.registry import agent_options, make_memory
-from navbench.eval import runner
+from navbench.eval.config import RunConfig
+from navbench.eval.worker import EpisodeWorker
 from navbench.paths import SCENES_DIR, split_file
 t1 = time.perf_counter()
-cfg = runner.RunConfig(task="objectnav", split="val_unseen", agent="memory",
-                       episodes=str(split_file("objectnav", "val_unseen")), scene_dir=str(SCENES_DIR),
-                       success_distance=0.1, agent_options=agent_options("memory"))
-runner._worker_init(cfg, make_memory, single_thread=True)
-w = runner._WORKER
-ep = w["dataset"].episodes[0]
-w["envs"][0].reset(options={"episode": ep})
-w["agent"].reset(ep)
+cfg = RunConfig(task="objectnav", split="val_unseen", agent="memory",
+                episodes=str(split_file("objectnav", "val_unseen")), scene_dir=str(SCENES_DIR),
+                success_distance=0.1, agent_options=agent_options("memory"))
+w = EpisodeWorker(cfg, make_memory, single_thread=True)
+ep = w.dataset.episodes[0]
+w.envs[0].reset(options={"episode": ep})
+w.agent.reset(ep)
 t2 = time.perf_counter()
 print(json.dumps({"imports_s": t1 - t0, "ready_s": t2 - t1}))
 """

@@ -1,12 +1,29 @@
 """navbench: a CPU-friendly, Habitat-style benchmark harness for embodied navigation.
 
 ``import navbench`` registers the Gymnasium ids ``navbench/PointNav-v0`` and ``navbench/ObjectNav-v0``
-(entry points are strings, so nothing heavy is imported until an env is made).
+(entry points are strings, so nothing heavy is imported until an env is made). What users import is
+listed in ``__all__`` and loaded on first use:
+
+    >>> import navbench
+    >>> navbench.Action.STOP == 0
+    True
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as _gym
 
-__version__ = "0.1.0"
+from navbench._version import __version__
+
+if TYPE_CHECKING:
+    from navbench.agents.base import Agent, BatchAgent
+    from navbench.api import evaluate
+    from navbench.env.config import Action, EnvConfig
+    from navbench.episodes.types import Episode
+    from navbench.eval.config import RunConfig
+    from navbench.eval.records import EpisodeRecord, RunSummary
 
 for _id, _entry in (("navbench/PointNav-v0", "navbench.env.pointnav:PointNavEnv"),
                     ("navbench/ObjectNav-v0", "navbench.env.objectnav:ObjectNavEnv")):
@@ -14,8 +31,25 @@ for _id, _entry in (("navbench/PointNav-v0", "navbench.env.pointnav:PointNavEnv"
         # Habitat truncates at 500 steps inside the env; no TimeLimit wrapper on top of that.
         _gym.register(id=_id, entry_point=_entry, disable_env_checker=True)
 
+# name -> the module that defines it; imported on first access, so `import navbench` stays light
+_EXPORTS = {
+    "evaluate": "navbench.api", "Agent": "navbench.agents.base", "BatchAgent": "navbench.agents.base",
+    "Action": "navbench.env.config", "EnvConfig": "navbench.env.config", "Episode": "navbench.episodes.types",
+    "RunConfig": "navbench.eval.config", "EpisodeRecord": "navbench.eval.records",
+    "RunSummary": "navbench.eval.records",
+}
+__all__ = ["Action", "Agent", "BatchAgent", "EnvConfig", "Episode", "EpisodeRecord", "RunConfig", "RunSummary",
+           "__version__", "evaluate"]
 
-def evaluate(*args, **kwargs):
-    """Evaluate an agent over a split and return the summary: see :func:`navbench.api.evaluate`."""
-    from navbench.api import evaluate as _evaluate
-    return _evaluate(*args, **kwargs)
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'navbench' has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,4 +1,4 @@
-"""Evaluate an agent from Python, as ``navbench run`` does from the shell:
+"""Evaluate an agent from Python, as ``navbench run`` does from the shell (the command calls it):
 
     import navbench
     summary = navbench.evaluate(MyAgent, task="pointnav", split="val", limit=10)
@@ -17,7 +17,12 @@ from pathlib import Path
 from typing import Any
 
 from navbench.env.config import SUCCESS_DISTANCE
+from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.paths import SCENES_DIR, split_file
+
+__all__ = ["evaluate", "resolve_episodes", "run_dir"]
+
+VIDEOS = ("none", "failures", "all")
 
 # `select`: houses of their own for choosing among trained policies, so `val` is looked at once, to report
 POINTNAV_SPLITS = ("train", "val", "select")
@@ -27,10 +32,21 @@ OVON_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")  # navben
 
 def resolve_episodes(task: str | None, split: str | None, episodes: str | Path | None
                      ) -> tuple[str, str | None, Path, float]:
-    """(task, split, episode file, default success distance) of a bundled split or a user's file. The
-    task defaults to the file's, or for a split to ObjectNav unless the split is PointNav's only; the
-    split to the task's validation split (val_unseen without a task). A user's ObjectNav file in
-    HM3D-OVON's format (:func:`navbench.episodes.io.is_ovon`) defaults to OVON's success distance."""
+    """The episodes a run reads, from a bundled split or a user's file.
+
+    Args:
+        task: ``"pointnav"``, ``"objectnav"`` or None: the file's task, or for a split ObjectNav unless
+            the split is PointNav's only.
+        split: a bundled split, or None: the task's validation split (val_unseen without a task).
+        episodes: a user's episode file instead of a bundled split.
+
+    Returns:
+        (task, split or None for a user's file, episode file, the default success distance: a user's
+        ObjectNav file in HM3D-OVON's format (:func:`navbench.episodes.io.is_ovon`) gets OVON's).
+
+    >>> resolve_episodes("pointnav", None, None)[::3]
+    ('pointnav', 0.2)
+    """
     if episodes:
         episodes = Path(episodes)
         if task in (None, "objectnav"):
@@ -52,7 +68,11 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
 
 
 def run_dir(task: str, split: str, label: str, root: str | Path = "runs") -> Path:
-    """A run's default directory: <root>/<task>/<split>/<label> (split: a user's episode file's stem)."""
+    """A run's default directory: <root>/<task>/<split>/<label> (split: a user's episode file's stem).
+
+    >>> str(run_dir("pointnav", "val", "pointnav-argmax"))
+    'runs/pointnav/val/pointnav-argmax'
+    """
     return Path(root) / task / split / label
 
 
@@ -77,32 +97,78 @@ def _spec_of(obj: Any) -> str:
     return f"{module}:{obj.__qualname__}"
 
 
-def evaluate(agent: Any, task: str | None = None, split: str | None = None, episodes: str | Path | None = None,
-             *, options: dict[str, Any] | None = None, workers: int = 1, envs_per_worker: int | None = None,
-             limit: int | None = None, per_scene: int | None = None, seed: int = 0, out: str | Path | None = None,
-             runs_dir: str | Path = "runs", resume: bool = False, scene_dir: str | Path | None = None,
-             success_distance: float | None = None, label: str | None = None,
-             progress: Callable[[dict[str, Any], int, int], None] | None = None, overwrite: bool = False,
-             retries: int = 2, step_timeout: float | None = None, fail_fast: bool = False) -> dict[str, Any]:
-    """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary.
+def evaluate(agent: Any = None, task: str | None = None, split: str | None = None,
+             episodes: str | Path | None = None, *, options: dict[str, Any] | None = None,
+             limit: int | None = None, per_scene: int | None = None, shard: str | None = None, seed: int = 0,
+             scene_dir: str | Path | None = None, success_distance: float | None = None, label: str | None = None,
+             out: str | Path | None = None, runs_dir: str | Path = "runs", resume: bool = False,
+             overwrite: bool = False, workers: int | None = None, envs_per_worker: int | None = None,
+             backend: str = "local", address: str | None = None, retries: int = 2,
+             step_timeout: float | None = None, fail_fast: bool = False,
+             progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
+             on_run_dir: Callable[[Path], None] | None = None) -> RunSummary:
+    """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary; what
+    ``navbench run`` does, flag for flag.
 
-    ``agent`` is an agent spec as ``--agent`` takes it (a built-in or entry-point name,
-    ``"package.module:Name"``, ``"http://HOST:PORT"``), a class (built as ``Class(**options)``), a
-    factory function (``f(run_config, **options)``), or an agent instance (used as is; pickled into
-    each worker when ``workers > 1``). A module-level class or function is recorded in config.json by
-    its import path, so the CLI can rerun or ``--resume`` the run; an instance or a function defined
-    in ``__main__`` runs but cannot be rerun from config.json alone. Agents with ``act_batch`` step
-    ``envs_per_worker`` episodes at once (default: the agent's ``num_envs``, else 1; 8 for the pointnav,
-    memory and frontier agents). ``resume``, ``overwrite``, ``retries``, ``step_timeout`` and ``fail_fast`` are
-    ``navbench run``'s options of the same names. When episodes fail, a RuntimeWarning names the first
-    reason (with ``fail_fast`` the first failure raises). Agents written for Habitat's ``habitat.Agent``
-    (``reset()``, ``act`` returning an id, a name or ``{"action": ...}``) run unchanged.
+    A module-level class or function is recorded in config.json by its import path, so the CLI can
+    rerun or ``--resume`` the run; an instance or a function defined in ``__main__`` runs but cannot be
+    rerun from config.json alone. An option, or an execution setting, that cannot apply to the agent is
+    a one-line ValueError, as is bad input; a failed episode is recorded (``num_failed``) and the run
+    goes on unless ``fail_fast``.
+
+    Args:
+        agent: an agent spec as ``--agent`` takes it (a built-in or entry-point name,
+            ``"package.module:Name"``, ``"http://HOST:PORT"``), a class (built as ``Class(**options)``), a
+            factory function (``f(run_config, **options)``) or an agent instance (used as is; pickled into
+            each worker when ``workers > 1``). None: the task's own agent (memory for ObjectNav,
+            pointnav for PointNav).
+        task: ``"pointnav"`` or ``"objectnav"`` (default: the episode file's, else from the split).
+        split: a bundled split (default: the task's validation split).
+        episodes: a Habitat-format episode file instead of a bundled split.
+        options: the agent's options (a built-in's by field name, e.g. ``{"decoding": "sample"}``).
+        limit: the first ``limit`` episodes only (file order).
+        per_scene: the first ``per_scene`` episodes of each scene only (before ``limit``).
+        shard: ``"I/N"``: the I-th of N contiguous blocks of the selected episodes.
+        seed: the run's seed: the same seed gives the same records.
+        scene_dir: where episodes' ``scene_id`` paths are resolved (default: the bundled scenes).
+        success_distance: default: the task's (the split's for OVON-style splits).
+        label: the run's name in tables (default: the agent and what differs from its defaults).
+        out: the run directory (default ``runs_dir/TASK/SPLIT/LABEL[/shardIofN]``).
+        runs_dir: root of the default run directory.
+        resume: continue the run in ``out`` (finished episodes kept, failed ones rerun).
+        overwrite: replace the run in ``out``.
+        workers: parallel episode workers (default 1; with ``backend="ray"`` and no ``address``, the CPUs
+            of the local Ray instance); not with ``address`` (the cluster's CPUs are the workers).
+        envs_per_worker: episodes a worker steps at once, for an agent with ``act_batch`` (default: the
+            built-in's, else the agent's ``num_envs``, else 1); records do not depend on it.
+        backend: ``"local"`` (worker processes) or ``"ray"``.
+        address: the Ray cluster to join (``backend="ray"`` only; default: start a local instance).
+        retries: times an episode whose worker died is retried before it is recorded as failed.
+        step_timeout: seconds an agent call may take before its episode fails.
+        fail_fast: raise at the first failed episode instead of recording it.
+        progress: called as ``progress(record, done, total)`` after each episode.
+        video: ``"failures"`` or ``"all"``: also write ``out/videos/EPISODE.mp4`` for those episodes.
+        on_run_dir: called with the run directory once it is known, before any episode runs.
+
+    Returns:
+        The summary, as ``summary.json`` holds it.
     """
     from navbench.agents.habitat_compat import check_agent
-    from navbench.agents.plugins import ResolvedAgent, check_options, plugin_label, resolve_agent
-    from navbench.agents.registry import DEFAULT_ENVS_PER_WORKER, prebuild_memories
-    from navbench.eval.runner import RunConfig, run
+    from navbench.agents.plugins import ResolvedAgent, can_batch, check_options, plugin_label, resolve_agent
+    from navbench.agents.registry import default_agent
+    from navbench.eval.config import Execution, RunConfig, parse_shard
+    from navbench.eval.runner import run, run_dataset
 
+    if resume and overwrite:
+        raise ValueError("--resume and --overwrite: choose one")
+    if address is not None and workers is not None:
+        raise ValueError("--workers does not apply with --address: the Ray cluster's CPUs are the workers")
+    execution = Execution(workers=workers or 1, backend=backend, address=address, retries=retries,
+                          step_timeout=step_timeout, fail_fast=fail_fast)
+    if video not in VIDEOS:
+        raise ValueError(f"--video {video!r}: choose from {', '.join(VIDEOS)}")
+    task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
+    agent = default_agent(task) if agent is None else agent
     options = dict(options or {})
     if isinstance(agent, str):
         resolved = resolve_agent(agent, options, seed)
@@ -114,35 +180,48 @@ def evaluate(agent: Any, task: str | None = None, split: str | None = None, epis
             factory: Any = PluginFactory(spec, options)  # workers re-import it by name
         else:
             factory = _Bound(agent, options)
-        resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), False)
+        resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), batches=can_batch(agent))
     elif callable(getattr(agent, "act", None)) or callable(getattr(agent, "act_batch", None)):
         if options:
             raise ValueError("options apply to an agent class or factory, not to an agent instance")
         spec = _spec_of(type(agent))
         check_agent(spec, agent)
-        resolved = ResolvedAgent(spec, _Instance(agent), {}, plugin_label(spec, {}, seed), False)
-        envs_per_worker = envs_per_worker or getattr(agent, "num_envs", None)
+        resolved = ResolvedAgent(spec, _Instance(agent), {}, plugin_label(spec, {}, seed),
+                                 batches=callable(getattr(agent, "act_batch", None)))
     else:
         raise ValueError(f"agent {agent!r}: expected an agent spec string, class, factory or instance "
                          f"(with act or act_batch)")
+    if envs_per_worker is not None and envs_per_worker > 1 and resolved.batches is False:
+        raise ValueError(f"--envs-per-worker applies to agents that step episodes in batches (act_batch), "
+                         f"not {resolved.spec!r}, which steps one at a time")
     if envs_per_worker is None:
         n = getattr(agent, "num_envs", 1)
-        envs_per_worker = DEFAULT_ENVS_PER_WORKER.get(resolved.spec) or (n if isinstance(n, int) and n > 0 else 1)
+        envs_per_worker = resolved.envs_per_worker if resolved.builtin else (n if isinstance(n, int) and n > 0 else 1)
 
-    task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
                     scene_dir=str(scene_dir or SCENES_DIR),
                     success_distance=success_distance if success_distance is not None else default_sd,
-                    seed=seed, limit=limit, per_scene=per_scene, workers=workers,
-                    envs_per_worker=envs_per_worker, agent_options=resolved.options)
+                    seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=envs_per_worker,
+                    agent_options=resolved.options, shard=shard)
     cfg.label = label or resolved.label
-    out = Path(out) if out is not None else run_dir(task, split or episodes_path.name.split(".")[0], cfg.label,
-                                                    runs_dir)
-    if resolved.spec == "memory":
-        from navbench.eval.runner import run_dataset
-        prebuild_memories(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene).episodes)
+    parsed_shard = parse_shard(shard)
+    if out is None:
+        out = run_dir(task, split or episodes_path.name.split(".")[0], cfg.label, runs_dir)
+        if parsed_shard:
+            out = out / f"shard{parsed_shard[0]}of{parsed_shard[1]}"
+    out = Path(out)
+    if on_run_dir is not None:
+        on_run_dir(out)
+    if backend == "ray":  # before the agent prepares: a missing extra is a one-line error
+        from navbench.eval.ray_backend import require_ray
+        require_ray()
+    if resolved.prepare is not None:
+        resolved.prepare(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard).episodes)
     summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
-                  retries=retries, step_timeout=step_timeout, fail_fast=fail_fast)
+                  execution=execution)
+    if video != "none":  # drawn from the finished records, so the run itself is the same without
+        from navbench.viz.cli import write_videos
+        write_videos(out, video, quiet=progress is None)
     warn_failed(summary, out)
     return summary
 
@@ -154,7 +233,7 @@ def warn_failed(summary: dict[str, Any], out: Path) -> None:
         first = summary["failed_episodes"][0]
         warnings.warn(f"{summary['num_failed']} of {summary['num_episodes']} episode(s) failed (listed in "
                       f"{out}/summary.json); first, episode {first['episode_id']}: {first['failure_reason']}",
-                      RuntimeWarning, stacklevel=4)  # the caller of navbench.evaluate
+                      RuntimeWarning, stacklevel=3)  # the caller of navbench.evaluate
 
 
 class _Bound:

@@ -29,13 +29,14 @@ import argparse
 import json
 import math
 import sys
+import warnings
 from pathlib import Path
+from typing import Any
 
+from navbench.agents.options import add_flags, flag_of, given_flags
 from navbench.agents.plugins import parse_options, resolve_agent
-from navbench.agents.registry import AGENTS, DEFAULT_DECODING, DEFAULT_ENVS_PER_WORKER, agent_options, prebuild_memories
-from navbench.agents.registry import scan_config
-from navbench.agents.registry import agent_factory, make_oracle, make_pointnav  # noqa: F401  (importable from here too)
-from navbench.api import OBJECTNAV_SPLITS, OVON_SPLITS, POINTNAV_SPLITS, resolve_episodes, run_dir  # noqa: F401
+from navbench.agents.registry import AGENTS, agent_options, default_agent, scan_config
+from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
 from navbench.paths import EPISODES_DIR, SCENES_DIR
 
 METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
@@ -43,45 +44,28 @@ METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
 
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
+    """``navbench run``: the flags as :func:`navbench.evaluate`'s arguments, then the summary printed."""
+    from navbench.api import evaluate
     from navbench.eval.run_progress import Progress
-    from navbench.eval.runner import RunConfig, parse_shard, run, run_dataset
     from navbench.eval.table import summary_markdown
 
-    task, split, episodes, default_sd = resolve_episodes(args.task, args.split, args.episodes)
-    # The benchmark's own methods by default: the memory agent for ObjectNav, the policy for PointNav.
-    args.agent = args.agent or ("memory" if task == "objectnav" else "pointnav")
-    agent = _resolve_agent(args)
-    cfg = RunConfig(
-        task=task, split=split, agent=args.agent, episodes=str(episodes),
-        scene_dir=str(args.scene_dir or SCENES_DIR),
-        success_distance=args.success_distance if args.success_distance is not None else default_sd,
-        seed=args.seed, limit=args.limit, per_scene=args.per_scene, workers=args.workers,
-        envs_per_worker=args.envs_per_worker or DEFAULT_ENVS_PER_WORKER.get(args.agent, 1),
-        agent_options=agent.options, shard=args.shard,
-    )
-    cfg.label = agent.label
-    shard = parse_shard(args.shard)
-    out = Path(args.out or run_dir(task, split or Path(episodes).name.split(".")[0], cfg.label, args.runs_dir))
-    if args.out is None and shard:
-        out = out / f"shard{shard[0]}of{shard[1]}"
-    if args.resume and args.overwrite:
-        raise ValueError("--resume and --overwrite: choose one")
-    if args.address is not None and args.backend != "ray":
-        raise ValueError("--address applies to --backend ray only")
-    if args.backend == "ray":  # before the memories are built: a missing extra is a one-line error
-        from navbench.eval.ray_backend import require_ray
-        require_ray()
-
-    if args.agent == "memory":
-        prebuild_memories(cfg, run_dataset(episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes)
-    summary = run(cfg, agent.factory, out, resume=args.resume, progress=None if args.quiet else Progress(),
-                  overwrite=args.overwrite, retries=args.retries, step_timeout=args.step_timeout,
-                  fail_fast=args.fail_fast, backend=args.backend, address=args.address)
+    task, split, _, _ = resolve_episodes(args.task, args.split, args.episodes)
+    args.agent = args.agent or default_agent(task)
+    options = _agent_request(args)
+    workers = args.workers if args.workers is not None or args.address is not None else 2
+    where: list[Path] = []
+    with warnings.catch_warnings():  # failed episodes are reported below, in one line, with exit 3
+        warnings.filterwarnings("ignore", r".* episode\(s\) failed", RuntimeWarning)
+        summary = evaluate(
+            args.agent, task, split, args.episodes, options=options, limit=args.limit, per_scene=args.per_scene,
+            shard=args.shard, seed=args.seed, scene_dir=args.scene_dir, success_distance=args.success_distance,
+            out=args.out, runs_dir=args.runs_dir, resume=args.resume, overwrite=args.overwrite, workers=workers,
+            envs_per_worker=args.envs_per_worker, backend=args.backend, address=args.address, retries=args.retries,
+            step_timeout=args.step_timeout, fail_fast=args.fail_fast, progress=None if args.quiet else Progress(),
+            video=args.video, on_run_dir=where.append)
+    out = where[0]
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
-    if args.video != "none":  # drawn from the finished records, so the run itself is the same without
-        from navbench.viz.cli import write_videos
-        write_videos(out, args.video, quiet=args.quiet)
     if summary["num_failed"]:
         print(f"navbench: {summary['num_failed']} episode(s) failed (listed in {out}/summary.json), e.g. "
               f"{summary['failed_episodes'][0]['episode_id']}: {summary['failed_episodes'][0]['failure_reason']}",
@@ -90,18 +74,26 @@ def cmd_run(args) -> int:
     return 0
 
 
-def _resolve_agent(args):
-    """The run's agent: a built-in takes its flags (and ``--agent-opt`` for the same keys); a plug-in or
-    remote agent only ``--agent-opt``, so a built-in's flag given to it is refused in one line."""
-    opts = parse_options(args.agent_opt)
-    if args.agent in AGENTS:
-        return resolve_agent(args.agent, {**_builtin_flags(args), **opts}, args.seed)
-    given = [f for f, v in (("--checkpoint", args.checkpoint), ("--decoding", args.decoding),
-                            ("--temperature", args.temperature)) if v is not None]
-    if given:
-        raise ValueError(f"{', '.join(given)} apply to the built-in policy agents, not {args.agent!r}: "
-                         f"use --agent-opt KEY=VALUE")
-    return resolve_agent(args.agent, opts, args.seed)
+# Every built-in agent's option flags (field name -> field), added to `navbench run` by build_parser.
+AGENT_FLAGS: dict[str, Any] = {}
+
+
+def _agent_request(args) -> dict:
+    """The agent's options from its flags and ``--agent-opt``: a flag the chosen agent does not read is a
+    one-line ValueError naming it (a plug-in or remote agent reads ``--agent-opt`` only)."""
+    given = given_flags(args, AGENT_FLAGS)
+    spec = AGENTS.get(args.agent)
+    reads = [f.name for f in spec.options.user_fields()] if spec is not None else []
+    stray = [flag_of(AGENT_FLAGS[name]) for name in given if name not in reads]
+    if stray:
+        if spec is None:
+            why = "a plug-in or remote agent takes --agent-opt KEY=VALUE only"
+        else:
+            first = next(name for name in given if name not in reads)
+            readers = [n for n, s in AGENTS.items() if first in {f.name for f in s.options.user_fields()}]
+            why = f"{stray[0]} is read by {', '.join(readers)}"
+        raise ValueError(f"{', '.join(stray)}: not read by agent {args.agent!r} ({why})")
+    return {**given, **parse_options(args.agent_opt)}
 
 
 def cmd_merge(args) -> int:
@@ -114,19 +106,9 @@ def cmd_merge(args) -> int:
     return 3 if summary["num_failed"] else 0
 
 
-def _builtin_flags(args) -> dict:
-    """Everything the flags say of a built-in agent's behaviour (checked and completed by agent_options)."""
-    return dict(
-        checkpoint=args.checkpoint, decoding=args.decoding, temperature=args.temperature,
-        models={"siglip2": args.siglip2, "qwen_vl": args.qwen_vl, "sam3": args.sam3},
-        perception=args.perception, noise=args.noise, fusion=not args.no_fusion, rerank=args.rerank != "none",
-        keyframe_res=args.keyframe_res, all_frames=args.all_frames, goal_tracking=not args.no_tracking,
-        visibility_stop=not args.no_visibility_stop)
-
-
 def _agent_options(args) -> dict:
     """Everything that changes a built-in agent's behaviour, as its run's config.json records it."""
-    return agent_options(args.agent, **_builtin_flags(args))
+    return agent_options(args.agent, **_agent_request(args))
 
 
 def cmd_agents(args) -> int:
@@ -309,15 +291,16 @@ def _positive(text: str) -> float:
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="navbench", description=__doc__.split("\n\n")[0])
-    from navbench import __version__
+    from navbench._version import __version__
     p.add_argument("--version", action="version", version=f"navbench {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="evaluate an agent on a split and print SR/SPL")
     r.add_argument("--split", help="bundled split (default val_unseen)")
     r.add_argument("--task", choices=("pointnav", "objectnav"))
-    r.add_argument("--agent", help=f"one of: {', '.join(AGENTS)} (default: memory for ObjectNav, "
-                                   "pointnav for PointNav), an installed plug-in's name (`navbench agents`), "
+    r.add_argument("--agent", help=f"one of: {', '.join(AGENTS)} (default: {default_agent('objectnav')} for "
+                                   f"ObjectNav, {default_agent('pointnav')} for PointNav), an installed plug-in's "
+                                   "name (`navbench agents`), "
                                    "package.module:Name (a class or a factory f(run_config, **opts)), or "
                                    "http://HOST:PORT (an agent served by `navbench serve-agent`)")
     r.add_argument("--agent-opt", action="append", metavar="KEY=VALUE",
@@ -348,32 +331,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fail-fast", action="store_true", help="stop at the first failed episode (exit 2) instead of "
                                                            "recording it and going on")
     r.add_argument("--success-distance", type=_positive)
-    p_ = r.add_argument_group("PointNav policy (pointnav, memory and frontier agents)")
-    p_.add_argument("--checkpoint", help="policy checkpoint in habitat's layout (default: the shipped one)")
-    p_.add_argument("--decoding", choices=("argmax", "sample", "least-tried"),
-                    help="how actions are chosen from the policy's output: argmax; sample (every action drawn, "
-                         "as habitat-baselines evaluates); least-tried (argmax, but at a pose already visited "
-                         "drawn among the movements taken there least often). Draws are seeded by --seed and "
-                         "the episode. Default: " + ", ".join(f"{k} {v}" for k, v in DEFAULT_DECODING.items()))
-    p_.add_argument("--temperature", type=float,
-                    help="with --decoding sample: draw from softmax(logits / T) (default 1; lower is closer to "
-                         "the argmax)")
-    m = r.add_argument_group("memory / frontier agents: perception (both) and ablations (memory agent)")
-    m.add_argument("--perception", default="oracle", help="oracle | siglip2+qwen2.5-vl+sam3")
-    m.add_argument("--noise", default="none", help="oracle noise profile: none | default | heavy")
-    m.add_argument("--rerank", default="vlm", choices=("vlm", "none"), help="'none': skip VLM re-ranking")
-    m.add_argument("--no-fusion", action="store_true", help="single-view backprojection (no multi-view fusion)")
-    m.add_argument("--no-tracking", action="store_true", help="no dynamic goal tracking")
-    m.add_argument("--no-visibility-stop", action="store_true", help="STOP on distance alone")
-    m.add_argument("--all-frames", action="store_true", help="store every pre-scan frame, not keyframes")
-    m.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
-    m.add_argument("--siglip2", help="local SigLIP2 model directory")
-    m.add_argument("--qwen-vl", help="local Qwen2.5-VL model directory")
-    m.add_argument("--sam3", help="local SAM 3 model directory")
+    flags = r.add_argument_group("agent options (in brackets: the agents that read each; another agent's flag "
+                                 "is an error)")
+    AGENT_FLAGS.update(add_flags(flags, {name: spec.options for name, spec in AGENTS.items()}))
+    batching = ", ".join(f"{n} {s.envs_per_worker}" for n, s in AGENTS.items() if s.batches)
     r.add_argument("--envs-per-worker", type=_count, help="episodes a worker steps at once with one batched "
-                   "policy forward pass (pointnav, memory, frontier; default 8; records do not depend on it)")
-    r.add_argument("--workers", type=_count, default=2, help="parallel episode workers (default 2; with --backend "
-                                                            "ray and no --address, the local Ray instance's CPUs)")
+                   f"policy forward pass (agents that batch; default {batching}; records do not depend on it)")
+    r.add_argument("--workers", type=_count, help="parallel episode workers (default 2; with --backend ray and no "
+                                                  "--address, the local Ray instance's CPUs; not with --address)")
     r.add_argument("--backend", default="local", choices=("local", "ray"),
                    help="where episodes run: local worker processes, or one Ray actor per CPU of a Ray cluster "
                         "(pip install navbench[ray]; records are the same, so --resume works across backends)")

@@ -41,14 +41,45 @@ def test_decoding_flags_name_the_run_when_they_differ_from_the_agents_default():
 @pytest.mark.parametrize("flags,match", [
     (["--task", "pointnav", "--temperature", "0.5"], "temperature"),  # least-tried draws no temperature
     (["--task", "pointnav", "--decoding", "sample", "--temperature", "0"], "temperature"),
-    (["--agent", "oracle", "--decoding", "sample"], "PointNav policy"),  # the oracle has no policy to draw from
+    (["--agent", "oracle", "--decoding", "sample"], "read by pointnav, memory, frontier"),  # no policy to draw from
     (["--agent", "frontier", "--no-fusion"], "fusion"),  # a memory agent ablation
     (["--task", "pointnav", "--noise", "default"], "noise"),
+    (["--task", "pointnav", "--noise", "none"], "noise"),  # given at its default is still given
+    (["--agent", "oracle", "--agent-opt", "decoding=sample"], "takes no option 'decoding'"),
+    (["--agent", "memory", "--agent-opt", "fusion=1"], "true or false"),
 ])
 def test_options_an_agent_does_not_use_are_refused_in_one_line(flags, match):
     with pytest.raises(ValueError, match=match) as exc:
         _run(*flags)
     assert "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("argv,flag", [
+    (["--agent", "oracle", "--checkpoint", "x.pth"], "--checkpoint"),
+    (["--agent", "random", "--perception", "oracle"], "--perception"),
+    (["--agent", "pointnav", "--no-fusion"], "--no-fusion"),
+    (["--agent", "frontier", "--rerank", "none"], "--rerank"),
+    (["--agent", "frontier", "--keyframe-res", "160x120"], "--keyframe-res"),
+    (["--agent", "memory", "--agent-opt", "nope=1"], "'nope'"),
+    (["--agent", "walkmod:Walker", "--siglip2", "/models/s"], "--siglip2"),  # a plug-in reads --agent-opt only
+    (["--agent", "walkmod:Walker", "--no-tracking"], "--no-tracking"),
+])
+def test_a_flag_the_agent_does_not_read_exits_2_naming_it(argv, flag, capsys):
+    assert main(["run", "--task", "pointnav", "--episodes", "nowhere.json", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and flag in err, err
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["--agent", "oracle", "--backend", "ray", "--address", "auto", "--workers", "3"], "--workers"),
+    (["--agent", "oracle", "--envs-per-worker", "4"], "--envs-per-worker"),
+    (["--agent", "random", "--envs-per-worker", "2"], "--envs-per-worker"),
+])
+def test_an_execution_flag_that_cannot_apply_exits_2(argv, match, capsys, tmp_path):
+    assert main(["run", "--task", "pointnav", "--limit", "1", "--out", str(tmp_path / "r"), "-q", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and match in err, err
+    assert not (tmp_path / "r").exists()
 
 
 def test_removed_flags_are_gone():

@@ -3,13 +3,16 @@ per step. Agents written for Habitat's ``habitat.Agent`` (``reset()`` without th
 an id, an action name or ``{"action": ...}``) run unchanged through :mod:`navbench.agents.habitat_compat`.
 
 An agent may also expose ``sensors`` (which rendered observations it needs, so the evaluator can skip
-rendering the rest) and ``episode_log()`` (decisions to record in ``episodes.jsonl``).
+rendering the rest; default RGB and depth) and ``episode_log()`` (decisions to record in
+``episodes.jsonl``). Both are optional, for single and batched agents alike, so neither is a member of
+the protocols below.
 """
 
 from __future__ import annotations
 
 import math
 import zlib
+from collections.abc import Sequence
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -21,7 +24,9 @@ from navbench.scene.pose import yaw_from_quat
 
 @runtime_checkable
 class Agent(Protocol):
-    sensors: tuple[str, ...]  # subset of ("rgb", "depth", "semantic")
+    """One episode at a time: ``reset(episode)``, then ``act(observations)`` returns an action
+    (:class:`navbench.env.config.Action`, or its int). Optional: ``sensors``, a subset of ("rgb",
+    "depth", "semantic"), and ``episode_log()``."""
 
     def reset(self, episode: Episode) -> None: ...
 
@@ -33,14 +38,26 @@ class BatchAgent(Protocol):
     """An agent that acts for ``num_envs`` episodes at once (one forward pass of its network for all):
     ``reset_env(i, episode)`` starts an episode in slot ``i``; ``act_batch`` takes one observation
     dict per slot (None for a slot without an episode) and returns per slot an action, or the
-    exception that ends that slot's episode as failed. It may expose ``slot(i)``, the object whose
-    ``episode_log()`` and ``decision()`` describe slot ``i``'s episode."""
-    sensors: tuple[str, ...]
-    num_envs: int
+    exception that ends that slot's episode as failed. ``num_envs`` is optional (default 1), as are
+    ``sensors`` and ``slot(i)``, the object whose ``episode_log()`` and ``decision()`` describe slot
+    ``i``'s episode."""
 
     def reset_env(self, i: int, episode: Episode) -> None: ...
 
-    def act_batch(self, observations: list[dict[str, np.ndarray]]) -> np.ndarray: ...
+    def act_batch(self, observations: list[dict[str, np.ndarray] | None]) -> Sequence[int | BaseException]: ...
+
+
+def is_batch_agent(agent: Any) -> bool:
+    """Whether ``agent`` steps episodes in batches (has ``reset_env`` and ``act_batch``); what it declares
+    beyond those (``num_envs``, ``sensors``) does not matter.
+
+    >>> class Batched:
+    ...     def reset_env(self, i, episode): pass
+    ...     def act_batch(self, observations): return [1 for _ in observations]
+    >>> is_batch_agent(Batched()), isinstance(Batched(), BatchAgent)
+    (True, True)
+    """
+    return callable(getattr(agent, "reset_env", None)) and callable(getattr(agent, "act_batch", None))
 
 
 def episode_seed(seed: int, episode: Episode) -> list[int]:

@@ -20,6 +20,7 @@ import json
 import os
 import re
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
@@ -165,7 +166,8 @@ def available_agents() -> list[dict[str, str]]:
     """Every agent ``--agent`` takes by name, with where it comes from: built in, or the distribution
     and object of an entry point (a name taken by a built-in is listed, marked as shadowed)."""
     from navbench.agents.registry import AGENTS
-    rows = [{"name": n, "source": "built-in", "target": f"{f.__module__}:{f.__name__}"} for n, f in AGENTS.items()]
+    rows = [{"name": n, "source": "built-in", "target": f"{s.factory.__module__}:{s.factory.__name__}"}
+            for n, s in AGENTS.items()]
     for name, ep in sorted(entry_points().items()):
         dist = getattr(ep, "dist", None)
         where = f"{dist.name} {dist.version}" if dist is not None else "entry point"
@@ -175,31 +177,62 @@ def available_agents() -> list[dict[str, str]]:
 
 
 # -------------------------------------------------------------------------------------------- resolve
+def can_batch(target: Any) -> bool | None:
+    """Whether what builds an agent builds one that steps episodes in batches (``act_batch``): a class
+    says so, a factory function does not until it is called (None)."""
+    if inspect.isclass(target):
+        return callable(getattr(target, "act_batch", None))
+    return None
+
+
 @dataclass
 class ResolvedAgent:
     """What a run needs of an agent spec: a picklable factory, the options config.json records (a
-    built-in's with its defaults filled in), and the run's label."""
+    built-in's with its defaults filled in), the run's label, and what the harness knows of it up front.
+
+    ``envs_per_worker`` is the episodes a worker steps at once when not told; ``batches`` whether the
+    agent can step several (None: unknown until it is built); ``prepare(cfg, episodes)`` runs in the
+    driver before the workers start."""
     spec: str
     factory: Any
     options: dict[str, Any]
     label: str
-    builtin: bool
+    builtin: bool = False
+    envs_per_worker: int = 1
+    batches: bool | None = None
+    prepare: Callable[[Any, list[Any]], None] | None = None
 
 
 def resolve_agent(spec: str, options: dict[str, Any] | None = None, seed: int = 0) -> ResolvedAgent:
-    """Any agent spec with its options, checked up front (one-line ValueError naming the agent)."""
+    """Any agent spec with its options, checked up front (one-line ValueError naming the agent).
+
+    Args:
+        spec: a built-in or entry-point name, ``package.module:Name`` or ``http://HOST:PORT``.
+        options: the agent's options (a built-in's by field name; a plug-in's as its keywords).
+        seed: the run's seed (it names the run when the agent's actions depend on it).
+
+    Returns:
+        The resolved agent.
+    """
     from navbench.agents import registry
     options = dict(options or {})
     if spec in registry.AGENTS:
+        s = registry.AGENTS[spec]
         opts = registry.agent_options(spec, **options)
-        return ResolvedAgent(spec, registry.AGENTS[spec], opts, registry.run_label(spec, opts, seed), True)
+        return ResolvedAgent(spec, s.factory, opts, registry.run_label(spec, opts, seed), True,
+                             envs_per_worker=s.envs_per_worker, batches=s.batches, prepare=s.prepare)
+    batches: bool | None
     if is_remote(spec):
         from navbench.agents.remote import RemoteAgent, probe
         check_options(spec, RemoteAgent, {"url": None, "cfg": None, **options})
         probe(spec, timeout=min(float(options.get("timeout", 5.0)), 5.0))
+        batches = can_batch(RemoteAgent)
     elif spec in entry_points() or is_import_path(spec):
-        check_options(spec, load_target(spec), options)
+        target = load_target(spec)
+        check_options(spec, target, options)
+        batches = can_batch(target)
     else:
         raise ValueError(f"unknown agent {spec!r}: choose from {', '.join(registry.AGENTS)}, an installed "
                          f"plug-in (`navbench agents` lists them), package.module:Name or http://HOST:PORT")
-    return ResolvedAgent(spec, PluginFactory(spec, options), options, plugin_label(spec, options, seed), False)
+    return ResolvedAgent(spec, PluginFactory(spec, options), options, plugin_label(spec, options, seed),
+                         batches=batches)

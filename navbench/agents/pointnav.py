@@ -13,12 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from navbench.agents.base import episode_seed
+from navbench.agents.options import DEFAULT_CHECKPOINT
 from navbench.episodes.types import Episode
-from navbench.paths import POLICIES_DIR
 from navbench.policy.checkpoint import load_checkpoint
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy
-
-DEFAULT_CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
 
 
 class PointNavAgent:

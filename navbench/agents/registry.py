@@ -1,11 +1,19 @@
-"""The benchmark's agents by name: factories, their options with defaults, and the run label.
+"""The benchmark's agents by name: one :class:`AgentSpec` each, read by the CLI, the API, the tables and
+both execution backends (no module outside ``navbench.agents`` names a particular agent).
 
-A factory takes the run's :class:`~navbench.eval.runner.RunConfig` (duck-typed: ``task``, ``scene_dir``,
+A spec holds the agent's factory, its options dataclass (:mod:`navbench.agents.options`: defaults,
+flags and the ``agent_options`` that ``config.json`` records), how many episodes it steps at once by
+default, what it prepares before a run and the files it ships to remote workers.
+
+A factory takes the run's :class:`~navbench.eval.config.RunConfig` (duck-typed: ``task``, ``scene_dir``,
 ``success_distance``, ``seed``, ``envs_per_worker``, ``agent_options``, ``env_config(sensors)``) and
 returns a fresh agent. Factories are top-level functions so worker processes can unpickle them.
 
-``agent_options(agent, ...)`` fills in each agent's defaults and refuses options the agent does not
-use; ``run_label(agent, options, seed)`` names a run by what differs from those defaults.
+Adding an agent: write its module under ``navbench/agents/``, a ``make_NAME(cfg)`` factory and an
+options dataclass here (or reuse one), and one :class:`AgentSpec` line in :data:`AGENTS`.
+
+    >>> run_label("memory", agent_options("memory", rerank=False))
+    'memory-norerank'
 """
 
 from __future__ import annotations
@@ -13,30 +21,13 @@ from __future__ import annotations
 import dataclasses
 import sys
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from navbench.agents.options import (DEFAULT_CHECKPOINT, KEYFRAME_RES, AgentOptions, MemoryOptions,  # noqa: F401
+                                     PerceptionOptions, PointNavOptions, PolicyOptions, RandomOptions, decoding_of)
 from navbench.episodes.types import Episode
-
-# ------------------------------------------------------------------------------------------- defaults
-# Agents that drive with the PointNav policy: they take a checkpoint and a decoding.
-POLICY_AGENTS = ("pointnav", "memory", "frontier")
-# The decoding each policy agent is run (and reported) with when none is given:
-DEFAULT_DECODING = {
-    "pointnav": "least-tried",  # the PointNav table's headline figures are the shipped policy's with it
-    "memory": "argmax",  # the ObjectNav tables are argmax; least-tried is a listed variant
-    "frontier": "argmax",  # as the memory agent, so the two ObjectNav agents compare on one decoding
-}
-# Episodes a worker steps at once when none is given: the policy agents batch their PointNav forward pass
-# over 8 env slots (records do not depend on it); the others run one episode at a time.
-DEFAULT_ENVS_PER_WORKER = {agent: 8 for agent in POLICY_AGENTS}
-# Perception of the ObjectNav agents (the memory agent's localiser, both agents' live detector).
-PERCEPTION_DEFAULTS: dict[str, Any] = {"perception": "oracle", "noise": "none"}
-# The memory agent's localisation and stopping ablations (all on = the agent as reported).
-MEMORY_DEFAULTS: dict[str, Any] = {"fusion": True, "rerank": True, "keyframe_res": "full", "all_frames": False,
-                                   "goal_tracking": True, "visibility_stop": True}
-KEYFRAME_RES = ("full", "640x480", "160x120")
-
 
 # ------------------------------------------------------------------------------------------ factories
 def make_oracle(cfg):
@@ -56,33 +47,21 @@ def make_random(cfg):
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
 
 
-def decoding_of(options: dict[str, Any]) -> tuple[str, float]:
-    """(decoding, temperature) of a run's agent options. ``navbench run`` always records ``decoding``; a
-    config written before that option existed says it with ``sample_actions``/``sample_on_revisit``/
-    ``least_tried`` flags (none: argmax), read here so its records can be rerun from it."""
-    temperature = float(options.get("temperature", 1.0))
-    if "decoding" in options:
-        return options["decoding"], temperature
-    if not options.get("sample_actions"):
-        return "argmax", temperature
-    if not options.get("sample_on_revisit"):
-        return "sample", temperature
-    if options.get("least_tried"):
-        return "least-tried", temperature
-    raise ValueError("agent_options draw on revisits only (sample_on_revisit without least_tried), a decoding "
-                     "navbench no longer has: use decoding 'least-tried' or 'sample'")
+def _options(cfg, cls: type[AgentOptions]) -> Any:
+    """The typed options of the run's ``agent_options`` record."""
+    return cls.from_record(cfg.agent_options)
 
 
 def _inference_config(cfg):
     """How the PointNav policy picks actions, for every agent that drives with it."""
     from navbench.policy.net import InferenceConfig
-    decoding, temperature = decoding_of(cfg.agent_options)
-    return InferenceConfig(decoding=decoding, temperature=temperature)
+    o = _options(cfg, PolicyOptions)
+    return InferenceConfig(decoding=o.decoding, temperature=o.sampling_temperature)
 
 
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
-    return PointNavAgent(cfg.agent_options.get("checkpoint"), _inference_config(cfg),
+    return PointNavAgent(_options(cfg, PolicyOptions).checkpoint, _inference_config(cfg),
                          num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
 
 
@@ -96,22 +75,22 @@ def scan_config(keyframe_res: str, all_frames: bool):
 
 
 def _perception_config(cfg):
+    """Perception of the memory and frontier agents (the frontier agent's options keep the memory
+    agent's ablations at their defaults)."""
     from navbench.agents.perceive import PerceptionConfig
     from navbench.localize.benchmark import ModelDirs
 
-    o = cfg.agent_options
-    scan = scan_config(o.get("keyframe_res", "full"), o.get("all_frames", False))
-    models = ModelDirs(**{k: Path(v) for k, v in o.get("models", {}).items()})
-    return PerceptionConfig(perception=o.get("perception", "oracle"), noise=o.get("noise", "none"),
-                            fusion=o.get("fusion", True), rerank=o.get("rerank", True), prescan=scan,
-                            memory_root=o.get("memory_root"), models=models)
+    o = _options(cfg, MemoryOptions)
+    models = ModelDirs(**{k: Path(v) for k, v in o.models().items()})
+    return PerceptionConfig(perception=o.perception, noise=o.noise, fusion=o.fusion, rerank=o.rerank,
+                            prescan=scan_config(o.keyframe_res, o.all_frames), memory_root=o.memory_root,
+                            models=models)
 
 
 def _step_policy(cfg, num_envs: int = 1):
-    from navbench.agents.pointnav import DEFAULT_CHECKPOINT
     from navbench.policy.checkpoint import load_checkpoint
     from navbench.policy.net import PointNavAgentPolicy
-    return PointNavAgentPolicy(load_checkpoint(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT),
+    return PointNavAgentPolicy(load_checkpoint(_options(cfg, PolicyOptions).checkpoint or DEFAULT_CHECKPOINT),
                                num_envs=num_envs, config=_inference_config(cfg))
 
 
@@ -128,9 +107,8 @@ def _driving(cfg, build: Callable[[Any], Any]):
 def make_memory(cfg):
     from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
     from navbench.agents.perceive import LiveDetector, SceneLocalizer
-    o = cfg.agent_options
-    agent_cfg = MemoryAgentConfig(goal_tracking=o.get("goal_tracking", True),
-                                  visibility_stop=o.get("visibility_stop", True))
+    o = _options(cfg, MemoryOptions)
+    agent_cfg = MemoryAgentConfig(goal_tracking=o.goal_tracking, visibility_stop=o.visibility_stop)
     pcfg = _perception_config(cfg)
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
@@ -152,16 +130,6 @@ def make_frontier(cfg):
                                                       FrontierAgentConfig(), env_cfg, seed=cfg.seed))
 
 
-AgentFactory = Callable[[Any], Any]
-AGENTS: dict[str, AgentFactory] = {"oracle": make_oracle, "optimistic": make_optimistic, "random": make_random,
-                                   "pointnav": make_pointnav, "memory": make_memory, "frontier": make_frontier}
-
-
-def agent_factory(name: str) -> AgentFactory:
-    """The factory of agent ``name``; a ValueError naming the choices for an unknown one."""
-    if name not in AGENTS:
-        raise ValueError(f"unknown agent {name!r}: choose from {', '.join(AGENTS)}")
-    return AGENTS[name]
 
 
 def prebuild_memories(cfg, episodes: Iterable[Episode]) -> None:
@@ -178,79 +146,120 @@ def prebuild_memories(cfg, episodes: Iterable[Episode]) -> None:
               f"built in {st.build_seconds:.2f} s" + ("" if m.built_now else " (cached)"), file=sys.stderr)
 
 
-# -------------------------------------------------------------------------------------------- options
-def agent_options(agent: str, checkpoint: str | None = None, decoding: str | None = None,
-                  temperature: float | None = None, models: dict[str, str] | None = None,
-                  **choices: Any) -> dict[str, Any]:
-    """Everything that changes ``agent``'s behaviour, with its defaults filled in, as a run's
-    config.json records it. ``choices`` are the perception and ablation keys of PERCEPTION_DEFAULTS and
-    MEMORY_DEFAULTS. Options the agent does not use raise a one-line ValueError (unless at default)."""
-    agent_factory(agent)
-    opts: dict[str, Any] = {}
-    if agent not in POLICY_AGENTS and (checkpoint is not None or decoding is not None or temperature is not None):
-        raise ValueError(f"--checkpoint, --decoding and --temperature apply to the agents that drive with the "
-                         f"PointNav policy ({', '.join(POLICY_AGENTS)}), not {agent!r}")
-    if agent in POLICY_AGENTS:
-        from navbench.policy.net import InferenceConfig
-        decoding = decoding or DEFAULT_DECODING[agent]
-        if temperature is not None and decoding != "sample":
-            raise ValueError(f"--temperature applies to decoding 'sample' only, not {decoding!r}")
-        inference = InferenceConfig(decoding=decoding, temperature=1.0 if temperature is None else temperature)
-        opts.update({"checkpoint": checkpoint} if checkpoint else {}, decoding=inference.decoding)
-        if inference.decoding == "sample":
-            opts["temperature"] = inference.temperature
-    defaults = {**PERCEPTION_DEFAULTS, **MEMORY_DEFAULTS}
-    unknown = set(choices) - set(defaults)
-    if unknown:
-        raise ValueError(f"unknown agent option(s): {', '.join(sorted(unknown))}")
-    own = defaults if agent == "memory" else PERCEPTION_DEFAULTS if agent == "frontier" else {}
-    for key, value in choices.items():
-        if key not in own and value != defaults[key]:
-            raise ValueError(f"agent option {key!r} does not apply to agent {agent!r}")
-    if choices.get("keyframe_res", "full") not in KEYFRAME_RES:
-        raise ValueError(f"unknown keyframe resolution {choices['keyframe_res']!r}: choose from "
-                         f"{', '.join(KEYFRAME_RES)}")
-    models = {k: v for k, v in (models or {}).items() if v}
-    if models and not own:
-        raise ValueError(f"model directories apply to the memory and frontier agents, not {agent!r}")
-    if own:
-        opts.update({k: choices.get(k, v) for k, v in own.items()}, models=models)
-    return opts
+def _checkpoint_file(cfg) -> dict[str, Path]:
+    """The policy checkpoint a policy agent reads, as the option that names it."""
+    return {"checkpoint": Path(_options(cfg, PolicyOptions).checkpoint or DEFAULT_CHECKPOINT)}
 
 
-def _seed_matters(agent: str, options: dict[str, Any]) -> bool:
-    """Whether ``agent``'s actions depend on the run's seed: the random agent's always, a policy agent's
-    when its policy draws actions."""
-    return agent == "random" or (agent in POLICY_AGENTS and decoding_of(options)[0] != "argmax")
+def _memory_files(cfg, scene_path: Path) -> list[tuple[str, Path]]:
+    """The memory agent's keyframe memory of a scene as the driver has it (built now if missing), as
+    (path under the memory root, file)."""
+    from navbench.agents.perceive import scene_memory
+
+    directory = scene_memory(scene_path, _perception_config(cfg)).directory
+    return [(str(Path(directory.name) / f.relative_to(directory)), f)
+            for f in sorted(directory.rglob("*")) if f.is_file()]
+
+
+# ---------------------------------------------------------------------------------------------- specs
+@dataclass(frozen=True)
+class AgentSpec:
+    """Everything the harness knows of one built-in agent.
+
+    Calling a spec builds the agent: ``spec(cfg)`` is ``spec.factory(cfg)``.
+    """
+    name: str
+    factory: Callable[[Any], Any]
+    options: type[AgentOptions] = AgentOptions
+    help: str = ""
+    # Episodes a worker steps at once when not told (one batched policy forward pass for all of them;
+    # records do not depend on it); 1: the agent steps one episode at a time and cannot batch.
+    envs_per_worker: int = 1
+    # Run in the driver before any worker starts, with the run's config and selected episodes.
+    prepare: Callable[[Any, list[Episode]], None] | None = None
+    # Files a remote worker needs: run-wide, as option -> file (the worker's option then names its copy) ...
+    run_files: Callable[[Any], dict[str, Path]] | None = None
+    # ... and per scene, as (path under a directory, file), the directory named by option ``scene_option``.
+    scene_files: Callable[[Any, Path], list[tuple[str, Path]]] | None = None
+    scene_option: str | None = None
+
+    def __call__(self, cfg: Any) -> Any:
+        return self.factory(cfg)
+
+    @property
+    def drives_policy(self) -> bool:
+        """Whether the agent drives with the PointNav policy (takes a checkpoint and a decoding)."""
+        return issubclass(self.options, PolicyOptions)
+
+    @property
+    def batches(self) -> bool:
+        return self.envs_per_worker > 1
+
+
+_POLICY_FILES = dict(run_files=_checkpoint_file, envs_per_worker=8)
+AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
+    AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path (an upper bound)"),
+    AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)"),
+    AgentSpec("random", make_random, RandomOptions, help="Habitat's random agent"),
+    AgentSpec("pointnav", make_pointnav, PointNavOptions, help="the PointNav policy", **_POLICY_FILES),
+    AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory, localisation, then the PointNav policy",
+              prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", **_POLICY_FILES),
+    AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
+              **_POLICY_FILES),
+)}
+# The decoding each policy agent is run (and reported) with when none is given.
+DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}
+DEFAULT_TASK_AGENT = {"objectnav": "memory", "pointnav": "pointnav"}  # `navbench run` without --agent
+
+
+def agent_spec(name: str) -> AgentSpec:
+    """The spec of built-in agent ``name``; a ValueError naming the choices for an unknown one."""
+    if name not in AGENTS:
+        raise ValueError(f"unknown agent {name!r}: choose from {', '.join(AGENTS)}")
+    return AGENTS[name]
+
+
+agent_factory = agent_spec  # a spec is its agent's factory
+
+
+def default_agent(task: str) -> str:
+    """The benchmark's own method for ``task``: the memory agent for ObjectNav, the policy for PointNav."""
+    return DEFAULT_TASK_AGENT[task]
+
+
+def agent_options(agent: str, **options: Any) -> dict[str, Any]:
+    """Everything that changes ``agent``'s behaviour, with its defaults filled in, as a run's config.json
+    records it. ``None`` means not given; an option the agent does not read, or a bad value, is a
+    one-line ValueError.
+
+    Args:
+        agent: a built-in agent's name.
+        **options: its options by field name (``models`` may be given as a dict of model directories).
+
+    Returns:
+        The ``agent_options`` record.
+
+    >>> agent_options("pointnav")
+    {'decoding': 'least-tried'}
+    """
+    spec = agent_spec(agent)
+    given = {k: v for k, v in options.items() if v is not None}
+    return spec.options.from_user(given, agent).to_record()
 
 
 def run_label(agent: str, options: dict[str, Any], seed: int = 0) -> str:
     """A run's name: the agent, then what differs from its defaults, in a fixed order: the checkpoint's
-    stem, the decoding (``sample_t0.5`` with a temperature), ``seedN``, the perception, the noise
-    profile, then ``norerank``, ``nofusion``, ``notrack``, ``novisstop``, the keyframe resolution and
-    ``allframes``; e.g. ``pointnav``, ``pointnav-argmax``, ``pointnav-pointnav_2h-seed3``,
-    ``memory-norerank``, ``memory-noise_default``."""
-    parts = [agent]
-    if agent in POLICY_AGENTS:
-        from navbench.agents.pointnav import DEFAULT_CHECKPOINT
-        checkpoint = options.get("checkpoint")
-        if checkpoint and Path(checkpoint).resolve() != DEFAULT_CHECKPOINT.resolve():
-            parts.append(Path(checkpoint).stem)
-        decoding, temperature = decoding_of(options)
-        if decoding != DEFAULT_DECODING[agent] or temperature != 1.0:
-            parts.append(f"sample_t{temperature:g}" if temperature != 1.0 else decoding)
-    if seed != 0 and _seed_matters(agent, options):
-        parts.append(f"seed{seed}")
-    o = {**PERCEPTION_DEFAULTS, **MEMORY_DEFAULTS, **options}
-    if o["perception"] != "oracle":
-        parts.append(o["perception"])
-    if o["noise"] != "none":
-        parts.append(f"noise_{o['noise']}")
-    parts += [tag for tag, on in (("norerank", not o["rerank"]), ("nofusion", not o["fusion"]),
-                                  ("notrack", not o["goal_tracking"]), ("novisstop", not o["visibility_stop"]))
-              if on]
-    if o["keyframe_res"] != "full":
-        parts.append(o["keyframe_res"])
-    if o["all_frames"]:
-        parts.append("allframes")
-    return "-".join(parts)
+    stem, the decoding (``sample_t0.5`` with a temperature), ``seedN`` (when the agent draws), the
+    perception, the noise profile, then ``norerank``, ``nofusion``, ``notrack``, ``novisstop``, the
+    keyframe resolution and ``allframes``; e.g. ``pointnav``, ``pointnav-argmax``,
+    ``pointnav-pointnav_2h-seed3``, ``memory-norerank``, ``memory-noise_default``.
+
+    Args:
+        agent: a built-in agent's name.
+        options: its ``agent_options`` record.
+        seed: the run's seed.
+
+    Returns:
+        The label, which is also the run directory's default name.
+    """
+    return "-".join([agent, *agent_spec(agent).options.from_record(options).label_parts(agent, seed)])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import IntEnum
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -11,6 +12,19 @@ if TYPE_CHECKING:
 # Habitat's action ids.
 STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
 ACTION_NAMES = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
+
+
+class Action(IntEnum):
+    """The actions of both tasks, as an agent's ``act`` may return them (a plain int works too).
+
+    >>> Action.MOVE_FORWARD == 1, Action(3).name
+    (True, 'TURN_RIGHT')
+    """
+    STOP = STOP
+    MOVE_FORWARD = MOVE_FORWARD
+    TURN_LEFT = TURN_LEFT
+    TURN_RIGHT = TURN_RIGHT
+
 
 # Success distances by task as Habitat's configs set them; HM3D-OVON uses 0.25 m (naokiyokoyama/ovon
 # config/experiments/*.yaml, habitat.task.measurements.success.success_distance).

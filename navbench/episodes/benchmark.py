@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from navbench.episodes.categories import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES
+from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES
 from navbench.episodes.generate import SceneGoals, objectnav_episodes
 from navbench.episodes.io import save_dataset
 from navbench.episodes.types import EpisodeDataset
-from navbench.progress import progress
+from navbench.loop_progress import progress
 
 # House seeds are dataset_seed * 1000 + i: 0 (bundled), 1 (policy training) and 2 (policy selection) are
 # taken, so a benchmark generated with --seed S uses dataset seed HOUSE_SEED_BASE + S.

@@ -17,7 +17,8 @@ from typing import Any
 from navbench.episodes.io import load_dataset
 from navbench.eval.provenance import check_same_protocol, merge_provenance
 from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
-from navbench.eval.runner import RunConfig, config_diff, selector, summarize
+from navbench.eval.config import RunConfig, selector
+from navbench.eval.runner import config_diff, summarize
 
 # Keys shards may differ in: how each was run, not what it computes.
 _MERGE_FREE_KEYS = ("shard", "workers", "envs_per_worker", "navbench_version")

@@ -1,12 +1,14 @@
 """The evaluation runner's process pool: workers that may die without taking the run with them.
 
-Each worker is a spawned process with its own agent and envs (``runner._worker_init``) that takes tasks
-(lists of episode keys) over a pipe and sends back, per episode, where it begins and its record when it
-ends. The driver hands the next task to whichever worker is idle, in order. When a worker dies (SIGKILL,
-a segfault in the GL driver, the OOM killer), its records already sent are kept, the episodes it was
-running are retried on a fresh worker up to ``retries`` times and then recorded as failed ("worker
-died (signal 9)"), and the rest of its task goes back to the front of the queue. A worker whose agent
-call outlives the step limit is killed and the episodes of that call are recorded as failed.
+Each worker is a spawned process with its own :class:`~navbench.eval.worker.EpisodeWorker` that takes
+tasks (lists of episode keys) over a pipe and sends back (:class:`~navbench.eval.worker.Msg`), per
+episode, where it begins and its record when it ends. The driver hands the next task to whichever
+worker is idle, in order. When a worker dies (SIGKILL, a segfault in the GL driver, the OOM killer),
+its records already sent are kept, the episodes it was running are retried on a fresh worker up to
+``retries`` times and then recorded as failed ("worker died (signal 9)"), and the rest of its task
+goes back to the front of the queue (a :class:`~navbench.eval.worker.RetryLedger` keeps the count).
+A worker whose agent call outlives the step limit is killed and the episodes of that call are
+recorded as failed.
 """
 
 from __future__ import annotations
@@ -19,13 +21,12 @@ from multiprocessing import get_context
 from multiprocessing.connection import wait
 from typing import Any
 
-from navbench.eval import runner as R
 from navbench.eval.rundir import RunError
+from navbench.eval.worker import (Clock, EpisodeWorker, Key, Msg, RetryLedger, Tracker, failed_record, failure_reason,
+                                  step_timeout_reason)
 
-Key = tuple[str, str]
 
-
-class _PipeTracker(R.Tracker):
+class _PipeTracker(Tracker):
     """Tells the driver where each slot's episode is: a message when it begins, shared counters after the
     env's reset (the start's geodesic distance) and each step."""
 
@@ -34,7 +35,7 @@ class _PipeTracker(R.Tracker):
 
     def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
         self.steps[slot], self.dist[slot], self.d0[slot] = 0, d0, d0
-        self.conn.send(("begin", (slot, (record["scene_id"], record["episode_id"]), record)))
+        self.conn.send((Msg.BEGIN, (slot, (record["scene_id"], record["episode_id"]), record)))
 
     def started(self, slot: int, d0: float) -> None:
         self.dist[slot] = self.d0[slot] = d0
@@ -45,21 +46,21 @@ class _PipeTracker(R.Tracker):
 
 def _send_exception(conn, exc: BaseException) -> None:
     try:
-        conn.send(("error", exc))
+        conn.send((Msg.ERROR, exc))
     except Exception:  # unpicklable: its one line is enough
-        conn.send(("error", RunError(f"worker: {R.failure_reason(exc)}")))
+        conn.send((Msg.ERROR, RunError(f"worker: {failure_reason(exc)}")))
 
 
 def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
     try:
-        R._worker_init(cfg, make_agent, single_thread=True)
+        worker = EpisodeWorker(cfg, make_agent, single_thread=True)
     except Exception as exc:
         exc.add_note(traceback.format_exc())
         _send_exception(conn, exc)
         return
-    clock, tracker = R.Clock(limit, busy), _PipeTracker(conn, steps, dist, d0)
+    clock, tracker = Clock(limit, busy), _PipeTracker(conn, steps, dist, d0)
     try:
-        conn.send(("ready", None))
+        conn.send((Msg.READY, None))
         while True:
             try:
                 keys = conn.recv()
@@ -68,17 +69,17 @@ def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
             if keys is None:
                 return
             try:
-                R._run_keys(keys, lambda rec: conn.send(("rec", rec)), clock, tracker)
+                worker.run(keys, lambda rec: conn.send((Msg.RECORD, rec)), clock, tracker)
             except (BrokenPipeError, EOFError):
                 raise
             except Exception as exc:  # bad input (EpisodeError, SceneError) or a bug: ends the run
                 _send_exception(conn, exc)
                 continue
-            conn.send(("done", None))
+            conn.send((Msg.DONE, None))
     except (BrokenPipeError, EOFError, KeyboardInterrupt):  # the driver is gone or stopping
         return
     finally:
-        R._worker_close()
+        worker.close()  # the envs' renderers, then the agent's close() (a remote agent ends its session)
 
 
 class _Worker:
@@ -135,8 +136,7 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
     """
     ctx = get_context("spawn")  # torch and OSMesa state must not be forked
     queue: deque[list[Key]] = deque(tasks)
-    attempts: dict[Key, int] = {}
-    startup_deaths = 0
+    ledger = RetryLedger(retries, cfg.episodes)
     pool: list[_Worker] = []
 
     def spawn() -> _Worker:
@@ -144,28 +144,16 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
 
     def lost(w: _Worker) -> None:
         """``w`` is gone: fail or retry the episodes it was running and requeue the rest of its task."""
-        nonlocal startup_deaths
         reason = w.kill_reason or w.death()
         w.kill()
         if not w.ready:
-            startup_deaths += 1
-            if startup_deaths > retries:
-                raise RunError(f"{cfg.episodes}: a worker could not start ({reason})")
+            ledger.startup_death(reason)
         in_flight = {key: (rec, slot) for slot, (key, rec) in w.begun.items() if key not in w.done}
-        rest: list[Key] = []
-        for key in w.task or []:
-            if key in w.done:
-                continue
-            if key in in_flight:
-                rec, slot = in_flight[key]
-                attempts[key] = attempts.get(key, 0) + 1
-                if w.kill_reason is None and attempts[key] <= retries:
-                    rest.append(key)
-                    continue
-                finish(R.failed_record(rec, reason, float(w.d0[slot]), float(w.dist[slot]), int(w.steps[slot]),
-                                       time.monotonic() - w.task_started))
-                continue
-            rest.append(key)
+        rest, failed = ledger.settle(w.task or [], w.done, set(in_flight), retry=w.kill_reason is None)
+        for key in failed:
+            rec, slot = in_flight[key]
+            finish(failed_record(rec, reason, float(w.d0[slot]), float(w.dist[slot]), int(w.steps[slot]),
+                                 time.monotonic() - w.task_started))
         if rest:
             queue.appendleft(rest)
         if queue:
@@ -189,24 +177,24 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
                 except (EOFError, OSError):
                     lost(w)
                     continue
-                if kind == "ready":
+                if kind is Msg.READY:
                     w.ready = True
-                elif kind == "begin":
+                elif kind is Msg.BEGIN:
                     slot, key, rec = value
                     w.begun[slot] = (key, rec)
-                elif kind == "rec":
+                elif kind is Msg.RECORD:
                     w.done.add((value["scene_id"], value["episode_id"]))
                     finish(value)
-                elif kind == "done":
+                elif kind is Msg.DONE:
                     w.task = None
-                elif kind == "error":
+                elif kind is Msg.ERROR:
                     raise value
             if step_timeout is not None:
                 now = time.monotonic()
                 for w in pool:
                     t = w.busy.value
                     if w.task is not None and w.kill_reason is None and t and now - t > step_timeout:
-                        w.kill_reason = R.step_timeout_reason(now - t, step_timeout)
+                        w.kill_reason = step_timeout_reason(now - t, step_timeout)
                         w.proc.kill()  # its pipe then reads EOF: lost() records the call's episodes
     finally:
         for w in pool:

@@ -32,7 +32,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from navbench import __version__
+from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
 

@@ -11,9 +11,9 @@ its episode ends and the driver appends it to ``episodes.jsonl``, so ``--resume`
 backend, either way round: the records are the same.
 
 No shared file system is needed: the driver puts the episode file, the files of the scenes the run
-needs (the mesh and its same-name side files, and the nearest ``*.scene_dataset_config.json``), the
-PointNav checkpoint of the policy agents and, for the memory agent, the keyframe memories it built before
-the run into Ray's object store once. Each actor copies what its tasks need into
+needs (the mesh and its same-name side files, and the nearest ``*.scene_dataset_config.json``) and the
+files the agent's spec names (the PointNav checkpoint of the policy agents; the keyframe memories the
+memory agent built before the run) into Ray's object store once. Each actor copies what its tasks need into
 ``$NAVBENCH_CACHE/ray/DIGEST`` on its machine (DIGEST names the files' contents, so the copy is shared by
 the actors of a machine and reused by later runs) and runs there. Shipping the driver's memories means no
 two actors ever build one, and the records equal a local run's, whose memory statistics they quote.
@@ -39,13 +39,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from navbench import __version__
-from navbench.eval import runner as R
-from navbench.eval.rundir import RunError
+from navbench._version import __version__
 from navbench.episodes.types import EpisodeError
+from navbench.eval.config import RunConfig
+from navbench.eval.rundir import RunError
+from navbench.eval.worker import (AgentFactory, Clock, EpisodeWorker, Key, Msg, RetryLedger, Tracker, base_record,
+                                  failed_record, failure_reason, run_dataset, start_distance, task_size)
 from navbench.scene.asset import SceneError
 
-Key = tuple[str, str]
 File = tuple[str, str, Any]  # (path under the actor's copy, sha1 of the bytes, ObjectRef of the bytes)
 
 EXTRA = "pip install navbench[ray]"
@@ -85,16 +86,6 @@ def scene_files(scene_id: str, scene_dir: Path) -> list[tuple[str, Path]]:
     return out
 
 
-def _memory_files(cfg: R.RunConfig, scene_path: Path) -> list[tuple[str, Path]]:
-    """The memory agent's keyframe memory of a scene, as the driver has it (built now if missing)."""
-    from navbench.agents.perceive import scene_memory
-    from navbench.agents.registry import _perception_config
-
-    directory = scene_memory(scene_path, _perception_config(cfg)).directory
-    return [(str(Path(directory.name) / f.relative_to(directory)), f)
-            for f in sorted(directory.rglob("*")) if f.is_file()]
-
-
 class _Shipper:
     """Puts each file into the object store once; ``digest`` then names the whole set of contents."""
 
@@ -115,43 +106,45 @@ class _Shipper:
 class Shipment:
     """What an actor needs to run tasks away from the driver's disk."""
     digest: str
-    base: list[File]  # the episode file and the checkpoint
-    scenes: dict[str, list[File]]  # scene_id -> its scene files and memory
+    base: list[File]  # the episode file and the agent's run-wide files
+    scenes: dict[str, list[File]]  # scene_id -> its scene files and the agent's files of the scene
     episodes: str  # path of the episode file under the copy
-    checkpoint: str | None  # path of the checkpoint under the copy
+    # agent option -> path under the copy it names there (a run-wide file, or the directory of per-scene files)
+    options: dict[str, str] = dataclasses.field(default_factory=dict)
 
 
-def ship(ray, cfg: R.RunConfig, scene_ids: list[str]) -> Shipment:
-    from navbench.agents.registry import POLICY_AGENTS
+def ship(ray, cfg: RunConfig, scene_ids: list[str]) -> Shipment:
+    """Put the run's files into the object store: the episode file, the scenes of ``scene_ids`` and what
+    the agent's spec says it reads (:class:`~navbench.agents.registry.AgentSpec` ``run_files`` and
+    ``scene_files``; a plug-in agent ships nothing)."""
+    from navbench.agents.registry import AGENTS
     from navbench.env.base import resolve_scene_path
 
+    spec = AGENTS.get(cfg.agent)
     s = _Shipper(ray)
     episodes = f"episodes/{Path(cfg.episodes).name}"
     base = [s.put(episodes, Path(cfg.episodes))]
-    checkpoint = None
-    if cfg.agent in POLICY_AGENTS:
-        from navbench.agents.pointnav import DEFAULT_CHECKPOINT
-        src = Path(cfg.agent_options.get("checkpoint") or DEFAULT_CHECKPOINT)
-        checkpoint = f"checkpoint/{src.name}"
-        base.append(s.put(checkpoint, src))
+    options: dict[str, str] = {}
+    for option, src in (spec.run_files(cfg) if spec is not None and spec.run_files else {}).items():
+        options[option] = f"{option}/{src.name}"
+        base.append(s.put(options[option], src))
+    per_scene = spec.scene_files if spec is not None and spec.scene_option else None
+    if per_scene is not None:
+        options[spec.scene_option] = spec.scene_option
     scene_dir = Path(cfg.scene_dir)
     scenes: dict[str, list[File]] = {}
     for scene_id in dict.fromkeys(scene_ids):
         files = [s.put(f"scenes/{rel}", p) for rel, p in scene_files(scene_id, scene_dir)]
-        if cfg.agent == "memory":
+        if per_scene is not None:
             mesh = resolve_scene_path(scene_id, scene_dir)
-            files += [s.put(f"memory/{rel}", p) for rel, p in _memory_files(cfg, mesh)]
+            files += [s.put(f"{spec.scene_option}/{rel}", p) for rel, p in per_scene(cfg, mesh)]
         scenes[scene_id] = files
-    return Shipment(s.digest(), base, scenes, episodes, checkpoint)
+    return Shipment(s.digest(), base, scenes, episodes, options)
 
 
-def worker_config(cfg: R.RunConfig, root: Path, shipment: Shipment) -> R.RunConfig:
-    """``cfg`` reading the actor's copy under ``root``: the episode file, scenes, checkpoint and memories."""
-    options = dict(cfg.agent_options)
-    if shipment.checkpoint is not None:
-        options["checkpoint"] = str(root / shipment.checkpoint)
-    if cfg.agent == "memory":
-        options["memory_root"] = str(root / "memory")
+def worker_config(cfg: RunConfig, root: Path, shipment: Shipment) -> RunConfig:
+    """``cfg`` reading the actor's copy under ``root``: the episode file, the scenes and the agent's files."""
+    options = {**cfg.agent_options, **{k: str(root / rel) for k, rel in shipment.options.items()}}
     return dataclasses.replace(cfg, episodes=str(root / shipment.episodes), scene_dir=str(root / "scenes"),
                                agent_options=options)
 
@@ -170,12 +163,12 @@ def materialize(ray, root: Path, files: list[File]) -> None:
 
 
 # ------------------------------------------------------------------------------------------- actors
-def warm_scene(cfg: R.RunConfig) -> str:
+def warm_scene(cfg: RunConfig) -> str:
     """The scene a new env loads when ``make_env`` resets it with the run's seed: the episode that
     ``NavEnv.reset`` draws without one (gymnasium's seeded generator)."""
     from gymnasium.utils import seeding
 
-    episodes = R.run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes
+    episodes = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes
     rng, _ = seeding.np_random(cfg.seed)
     return episodes[int(rng.integers(len(episodes)))].scene_id
 
@@ -186,34 +179,46 @@ def _portable(exc: BaseException) -> BaseException:
         pickle.loads(pickle.dumps(exc))
         return exc
     except Exception:
-        return RunError(f"ray worker: {R.failure_reason(exc)}")
+        return RunError(f"ray worker: {failure_reason(exc)}")
+
+
+class _QueueTracker(Tracker):
+    """Tells the driver, through the run's record queue, which episodes begin (so a dead actor's retries
+    are charged only to those)."""
+
+    def __init__(self, queue: Any) -> None:
+        self.queue = queue
+
+    def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
+        self.queue.put((Msg.BEGIN, (record["scene_id"], record["episode_id"])))
 
 
 class NavbenchWorker:
-    """A Ray actor: one agent and its envs (``runner._worker_init``) over the actor's copy of the files.
+    """A Ray actor: an :class:`~navbench.eval.worker.EpisodeWorker` over the actor's copy of the files.
     Errors come back as values so the driver raises them as the local backend would."""
 
-    def __init__(self, cfg: R.RunConfig, make_agent: R.AgentFactory, shipment: Shipment,
+    def __init__(self, cfg: RunConfig, make_agent: AgentFactory, shipment: Shipment,
                  step_timeout: float | None) -> None:
         import ray
 
         from navbench.paths import cache_dir
 
         self.error: BaseException | None = None
-        self.shipment, self.clock = shipment, R.Clock(step_timeout)
+        self.shipment, self.clock = shipment, Clock(step_timeout)
         self.root = cache_dir("ray", shipment.digest)
         self.have: set[str] = set()
         self.episodes = ("", "")
+        self.worker: EpisodeWorker | None = None
         try:
             materialize(ray, self.root, shipment.base)
             local = worker_config(cfg, self.root, shipment)
             self.episodes = (local.episodes, cfg.episodes)  # (this copy's, the driver's) episode file
             self._fetch([warm_scene(local)])
             try:
-                R._worker_init(local, make_agent, single_thread=True)
+                self.worker = EpisodeWorker(local, make_agent, single_thread=True)
             except SceneError:  # the envs warmed up on another scene than expected: fetch them all
                 self._fetch(shipment.scenes)
-                R._worker_init(local, make_agent, single_thread=True)
+                self.worker = EpisodeWorker(local, make_agent, single_thread=True)
         except Exception as exc:
             self.error = _portable(exc)
 
@@ -228,16 +233,17 @@ class NavbenchWorker:
         return __version__, os.getpid(), self.error
 
     def run(self, keys: list[Key], queue: Any) -> tuple[list[dict[str, Any]], BaseException | None]:
-        """Run ``keys``, putting each record into the driver's ``queue`` as its episode ends (so an actor
-        that dies mid-task loses only its episodes in flight); returns them all too."""
+        """Run ``keys``, putting where each episode begins and its record into the driver's ``queue`` as it
+        ends (so an actor that dies mid-task loses only its episodes in flight); returns the records too."""
         records: list[dict[str, Any]] = []
 
         def finish(rec: dict[str, Any]) -> None:
-            queue.put(rec)
+            queue.put((Msg.RECORD, rec))
             records.append(rec)
         try:
             self._fetch(k[0] for k in keys)
-            R._run_keys(keys, finish, self.clock)
+            assert self.worker is not None, "run() on an actor that did not start"
+            self.worker.run(keys, finish, self.clock, _QueueTracker(queue))
         except (EpisodeError, SceneError) as exc:  # bad input ends the run; name the user's file, not the copy
             return records, type(exc)(str(exc).replace(*self.episodes))
         except Exception as exc:  # a bug: ends the run
@@ -288,38 +294,42 @@ class _Slot:
         self.task_started = 0.0
 
 
-def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
+def run_ray(cfg: RunConfig, make_agent: AgentFactory, keys: list[Key],
             finish: Callable[[dict[str, Any]], None], address: str | None = None, retries: int = 2,
-            step_timeout: float | None = None) -> None:
+            step_timeout: float | None = None, workers: int = 1) -> None:
     """Run the episodes ``keys`` on Ray actors, handing every record (run or failed) to ``finish`` as its
     episode ends; the contract of :func:`navbench.eval.pool.run_pool`, with tasks sized
-    (:func:`~navbench.eval.runner.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots."""
+    (:func:`~navbench.eval.worker.task_size`) for the cluster's CPUs and ``cfg.envs_per_worker`` slots.
+    Without ``address`` a local Ray instance with ``workers`` CPUs is started for the run."""
     ray = require_ray()
     if not keys:
         return
     started = not ray.is_initialized()
     if started:
-        connect(ray, address, cfg.workers)
+        connect(ray, address, workers)
     from ray.util.queue import Empty
     from ray.util.queue import Queue as RayQueue
 
     dying = _death_errors(ray)
-    selected = R.run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes
+    selected = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard).episodes
     by_key = {(e.scene_id, e.episode_id): e for e in selected}
     slots: list[_Slot] = []
     try:
         shipment = ship(ray, cfg, [warm_scene(cfg)] + [k[0] for k in keys])
         Actor = ray.remote(num_cpus=1, max_restarts=0)(NavbenchWorker)
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        size = R.task_size(len(keys), cpus, cfg.envs_per_worker)
+        size = task_size(len(keys), cpus, cfg.envs_per_worker)
         tasks = [keys[i:i + size] for i in range(0, len(keys), size)]
         n_actors = min(cpus, len(tasks))
         queue: deque[list[Key]] = deque(tasks)
-        records = RayQueue(actor_options={"num_cpus": 0})  # each finished record, as it ends, from any actor
+        # (Msg.BEGIN, key) as an episode begins, (Msg.RECORD, record) as it ends, from any actor
+        records = RayQueue(actor_options={"num_cpus": 0})
         finished: set[Key] = set()
+        began: set[Key] = set()  # began and not finished (an actor's retry of an episode begins it again)
 
         def take(rec: dict[str, Any]) -> None:
             key = (rec["scene_id"], rec["episode_id"])
+            began.discard(key)
             if key not in finished:  # an episode a dead actor sent and its retry ran again counts once
                 finished.add(key)
                 finish(rec)
@@ -327,13 +337,15 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
         def drain() -> None:
             while True:
                 try:
-                    rec = records.get_nowait()
+                    kind, value = records.get_nowait()
                 except Empty:
                     return
-                take(rec)
+                if kind is Msg.BEGIN:
+                    began.add(value)
+                else:
+                    take(value)
 
-        attempts: dict[Key, int] = {}
-        startup_deaths = 0
+        ledger = RetryLedger(retries, cfg.episodes)
         pending: dict[Any, _Slot] = {}  # ObjectRef of a ready() or run() call -> its actor
 
         def spawn() -> _Slot:
@@ -344,24 +356,20 @@ def run_ray(cfg: R.RunConfig, make_agent: R.AgentFactory, keys: list[Key],
 
         def lost(slot: _Slot, exc: BaseException) -> None:
             """``slot``'s actor is gone: retry or fail the episodes of its task, requeue the retried."""
-            nonlocal startup_deaths
             reason = f"ray worker died ({type(exc).__name__})"
             _kill(ray, slot.handle)
             if not slot.ready:
-                startup_deaths += 1
-                if startup_deaths > retries:
-                    raise RunError(f"{cfg.episodes}: a Ray worker could not start ({reason})")
+                ledger.startup_death(reason, "a Ray worker")
             drain()  # records the actor sent before it died are kept
-            rest: list[Key] = []
-            for key in [k for k in slot.task or [] if k not in finished]:
-                attempts[key] = attempts.get(key, 0) + 1
-                if attempts[key] <= retries:
-                    rest.append(key)
-                    continue
+            task = slot.task or []
+            rest, failed = ledger.settle(task, finished, began & set(task))
+            began.difference_update(task)  # a retried episode is charged again only if it begins again
+            for key in failed:
                 ep = by_key[key]
                 finished.add(key)
-                finish(R.failed_record(R._base_record(ep, cfg), reason, R.start_distance(ep), None, 0,
-                                       time.monotonic() - slot.task_started))
+                began.discard(key)
+                finish(failed_record(base_record(ep, cfg), reason, start_distance(ep), None, 0,
+                                     time.monotonic() - slot.task_started))
             if rest:
                 queue.appendleft(rest)
             if queue:

@@ -189,7 +189,7 @@ def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:
     import json
 
     from navbench.episodes.io import load_dataset
-    from navbench.eval.runner import select_episodes
+    from navbench.eval.config import select_episodes
     from navbench.paths import split_file
 
     cfg = json.loads((run_dir / "config.json").read_text())

@@ -119,24 +119,23 @@ def first_summary(run_dir: str | Path, first: int) -> dict[str, Any]:
 
 
 IDENTITY = ("checkpoint", "decoding", "seed", "perception")
-POLICY_AGENTS = ("pointnav", "memory", "frontier")  # agents that drive with the PointNav policy
-DEFAULT_CHECKPOINT = "pointnav_navbench"
 
 
 def run_identity(run_dir: str | Path) -> dict[str, Any]:
-    """What makes a run what it is, beyond its agent and split: the table's identity columns."""
+    """What makes a run what it is, beyond its agent and split: the table's identity columns (those the
+    run's agent has, from its options; "-" for the others and for a plug-in agent's run)."""
+    from navbench.agents.registry import AGENTS
+
+    path = Path(run_dir) / "config.json"
     cfg = load_config(run_dir)
-    o, agent = cfg.get("agent_options", {}), cfg.get("agent")
-    ident = {k: "-" for k in IDENTITY}
+    ident: dict[str, Any] = {k: "-" for k in IDENTITY}
     ident["seed"] = cfg.get("seed", 0)
-    if agent in POLICY_AGENTS:
-        ident["checkpoint"] = Path(o["checkpoint"]).name.split(".")[0] if o.get("checkpoint") else DEFAULT_CHECKPOINT
-        ident["decoding"] = o.get("decoding", "argmax")
-        if ident["decoding"] == "sample" and o.get("temperature", 1.0) != 1.0:
-            ident["decoding"] = f"sample T={o['temperature']:g}"
-    if agent in ("memory", "frontier"):
-        noise = o.get("noise") or "none"
-        ident["perception"] = (o.get("perception") or "oracle") + ("" if noise == "none" else f", noise {noise}")
+    spec = AGENTS.get(cfg.get("agent"))
+    if spec is not None:
+        try:
+            ident.update(spec.options.from_record(cfg.get("agent_options", {})).identity())
+        except (TypeError, ValueError) as exc:
+            raise TableError(f"{path}: corrupt config (agent_options: {exc})"[:300]) from None
     return ident
 
 

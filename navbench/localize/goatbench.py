@@ -67,7 +67,8 @@ class GoatBenchSubtask:
         """The localiser's :class:`Query`; an image query is rendered from the scene ``asset``."""
         if self.type != "image":
             return Query(self.type, text=self.query)
-        from navbench.render.renderer import CameraConfig, Renderer
+        from navbench.render.camera import CameraConfig
+        from navbench.render.renderer import Renderer
 
         g = self.image_goal
         with Renderer(asset, CameraConfig(width=g.width, height=g.height, hfov_deg=g.hfov_deg)) as r:

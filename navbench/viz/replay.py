@@ -17,8 +17,10 @@ import numpy as np
 
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, ObjectGoal
+from navbench.eval.config import RunConfig
 from navbench.eval.failures import failure_kind
-from navbench.eval.runner import RunConfig, make_env, read_records
+from navbench.eval.runner import read_records
+from navbench.eval.worker import make_env
 from navbench.safeio import read_input
 from navbench.viz.topdown import EpisodeDrawing, TopDown, shortest_path
 

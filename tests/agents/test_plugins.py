@@ -95,13 +95,44 @@ def test_batched_agents_are_stepped_batched(agent_dir, pointnav_file, tmp_path):
         [{**r, "agent": None, "log": None} for r in _records(tmp_path / "single")]
 
 
+class _StopBatch:
+    """A batch agent as a newcomer writes one: no ``sensors``; STOP after two forward steps."""
+
+    def __init__(self, num_envs=None):
+        if num_envs is not None:
+            self.num_envs = num_envs
+        self.steps, self.widths = {}, []
+
+    def reset_env(self, i, episode):
+        self.steps[i] = 0
+
+    def act_batch(self, observations):
+        self.widths.append(sum(o is not None for o in observations))
+        out = []
+        for i, o in enumerate(observations):
+            self.steps[i] = self.steps.get(i, 0) + (o is not None)
+            out.append(navbench.Action.MOVE_FORWARD if self.steps[i] <= 2 else navbench.Action.STOP)
+        return out
+
+
+@pytest.mark.parametrize("num_envs", [None, 3])
+def test_a_batch_agent_needs_no_sensors(pointnav_file, tmp_path, num_envs):
+    agent = _StopBatch(num_envs)
+    summary = navbench.evaluate(agent, episodes=pointnav_file, out=tmp_path / "run")
+    recs = read_records(tmp_path / "run" / "episodes.jsonl")
+    assert summary["num_failed"] == 0 and len(recs) == summary["num_episodes"] > 0
+    assert all(r["num_steps"] == 3 and r["stop_called"] for r in recs)
+    assert max(agent.widths) == (num_envs or 1)
+
+
 @pytest.mark.parametrize("argv, needle", [
     (["--agent", "walkmod:WalkAgent", "--agent-opt", "speed=2"],
      "agent 'walkmod:WalkAgent' takes no option 'speed' (it takes: stop_after, turn, wall)"),
     (["--agent", "walkmod:Nope"], "agent 'walkmod:Nope': module 'walkmod' has no 'Nope'"),
     (["--agent", "nomod_xyz:Agent"], "agent 'nomod_xyz:Agent'"),
-    (["--agent", "walkmod:WalkAgent", "--decoding", "argmax"], "--decoding apply to the built-in policy agents"),
-    (["--agent", "oracle", "--agent-opt", "fusion=false"], "agent option 'fusion' does not apply to agent 'oracle'"),
+    (["--agent", "walkmod:WalkAgent", "--decoding", "argmax"], "--decoding: not read by agent 'walkmod:WalkAgent'"),
+    (["--agent", "walkmod:WalkAgent", "--perception", "oracle"], "--perception: not read by agent"),
+    (["--agent", "oracle", "--agent-opt", "fusion=false"], "agent 'oracle' takes no option 'fusion'"),
 ])
 def test_bad_plugin_input_is_one_line_and_exit_2(agent_dir, pointnav_file, argv, needle, capsys):
     assert _cli("--episodes", pointnav_file, *argv) == 2

@@ -14,7 +14,8 @@ import pytest
 
 from navbench.episodes.io import episode_keys, load_dataset
 from navbench.episodes.types import EpisodeError
-from navbench.eval.runner import run_dataset, select_episodes, selector
+from navbench.eval.config import select_episodes, selector
+from navbench.eval.runner import run_dataset
 
 EPISODE = {"scene_id": "houses/val/house_008.glb", "start_position": [0.5, 0.0, 0.5],
            "start_rotation": [0, 0, 0, 1], "info": {"geodesic_distance": 2.0},

@@ -8,7 +8,8 @@ import shutil
 import pytest
 
 from navbench.agents.pointnav import DEFAULT_CHECKPOINT
-from navbench.cli import main, make_oracle
+from navbench.agents.registry import make_oracle
+from navbench.cli import main
 from navbench.episodes.io import load_dataset
 from navbench.eval.merge import merge
 from navbench.eval.provenance import (PROVENANCE, ProtocolError, config_protocol, protocol_id, provenance,

@@ -157,7 +157,8 @@ def test_scene_files_are_the_mesh_its_side_files_and_the_dataset_config(tmp_path
 def test_warm_scene_is_the_scene_a_new_env_loads():
     from navbench.episodes.io import load_dataset
     from navbench.eval.ray_backend import warm_scene
-    from navbench.eval.runner import RunConfig, make_env
+    from navbench.eval.config import RunConfig
+    from navbench.eval.worker import make_env
     from navbench.paths import SCENES_DIR, split_file
 
     for seed in (0, 3):
@@ -192,7 +193,7 @@ def test_an_episode_whose_actor_always_dies_is_recorded_as_failed(tmp_path, monk
     """On a local Ray instance: retried ``retries`` times on fresh actors, then a failed record; the rest run."""
     pytest.importorskip("ray")
     from navbench.episodes.io import load_dataset
-    from navbench.eval.runner import RunConfig, run
+    from navbench.eval.runner import Execution, RunConfig, run
     from navbench.paths import SCENES_DIR
 
     (tmp_path / "crashing_agent.py").write_text(CRASHING_AGENT)
@@ -202,8 +203,8 @@ def test_an_episode_whose_actor_always_dies_is_recorded_as_failed(tmp_path, monk
 
     ids = [e.episode_id for e in load_dataset(pointnav_file).episodes]
     cfg = RunConfig(task="pointnav", split=None, agent="crashing_agent:make", episodes=str(pointnav_file),
-                    scene_dir=str(SCENES_DIR), success_distance=0.2, workers=1, agent_options={"die_on": ids[1]})
-    summary = run(cfg, crashing_agent.make, tmp_path / "run", backend="ray", retries=1)
+                    scene_dir=str(SCENES_DIR), success_distance=0.2, agent_options={"die_on": ids[1]})
+    summary = run(cfg, crashing_agent.make, tmp_path / "run", execution=Execution(workers=1, backend="ray", retries=1))
     lines = (tmp_path / "run" / "episodes.jsonl").read_text().splitlines()
     records = {r["episode_id"]: r for r in map(json.loads, lines)}
     assert sorted(records) == sorted(ids)

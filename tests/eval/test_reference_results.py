@@ -42,7 +42,7 @@ def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     ref_dir = RUNS / name
     cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
                        if k in RunConfig.__dataclass_fields__})
-    cfg.limit, cfg.workers = 8, 1
+    cfg.limit = 8  # run in this process (the default execution: one worker)
     # bundled data is read from this checkout (config.json holds the writer's absolute paths)
     cfg.episodes, cfg.scene_dir = str(split_file(cfg.task, cfg.split)), str(SCENES_DIR)
     run(cfg, AGENTS[cfg.agent], tmp_path / "run")

@@ -1,6 +1,7 @@
 """The runner's robustness: failed episodes recorded (not fatal), dying workers retried, shards and merge,
 the run directory's lock, refusals and repairs, progress."""
 
+import dataclasses
 import errno
 import io
 import json
@@ -21,7 +22,7 @@ from navbench.episodes.io import load_dataset
 from navbench.eval import rundir
 from navbench.eval.merge import merge
 from navbench.eval.run_progress import Progress
-from navbench.eval.runner import RunConfig, RunError, comparable, read_records, run, shard_of
+from navbench.eval.runner import Execution, RunConfig, RunError, comparable, read_records, run, shard_of
 from navbench.paths import SCENES_DIR
 
 
@@ -76,7 +77,8 @@ def _misbehaving(cfg):
 def test_sigkilled_worker_mid_episode_is_retried_and_the_run_finishes(pointnav_file, tmp_path):
     ids = _ids(pointnav_file)
     opts = {"modes": {ids[2]: "die_once"}, "dir": str(tmp_path)}
-    summary = run(_cfg(pointnav_file, workers=2, agent_options=opts), _misbehaving, tmp_path / "run")
+    summary = run(_cfg(pointnav_file, agent_options=opts), _misbehaving, tmp_path / "run",
+                  execution=Execution(workers=2))
     recs = read_records(tmp_path / "run" / "episodes.jsonl")
     assert len(list(tmp_path.glob(f"{ids[2]}.*"))) == 2  # killed once, then run again on a fresh worker
     assert sorted(r["episode_id"] for r in recs) == sorted(ids)  # exact count, no duplicates
@@ -87,7 +89,8 @@ def test_sigkilled_worker_mid_episode_is_retried_and_the_run_finishes(pointnav_f
 def test_a_worker_that_keeps_dying_fails_its_episode_after_the_retries(pointnav_file, tmp_path, capsys):
     ids = _ids(pointnav_file)
     opts = {"modes": {ids[1]: "die"}, "dir": str(tmp_path)}
-    summary = run(_cfg(pointnav_file, workers=2, agent_options=opts), _misbehaving, tmp_path / "run", retries=1)
+    summary = run(_cfg(pointnav_file, agent_options=opts), _misbehaving, tmp_path / "run",
+                  execution=Execution(workers=2, retries=1))
     recs = {r["episode_id"]: r for r in read_records(tmp_path / "run" / "episodes.jsonl")}
     assert len(recs) == 6 and len(list(tmp_path.glob(f"{ids[1]}.*"))) == 2  # first try + 1 retry
     bad = recs[ids[1]]
@@ -118,7 +121,7 @@ def test_an_agent_that_raises_or_returns_7_fails_its_episodes_not_the_run(pointn
 
 
 def test_a_step_slower_than_the_limit_fails_its_episode(pointnav_file, tmp_path):
-    from navbench.eval.runner import Clock, make_env, run_episode
+    from navbench.eval.worker import Clock, make_env, run_episode
     ds = load_dataset(pointnav_file)
     cfg = _cfg(pointnav_file, agent_options={"modes": {ds.episodes[0].episode_id: "slow"}})
     rec = run_episode(make_env(cfg, ds, ()), Misbehaving(cfg), ds.episodes[0], cfg, Clock(0.5))
@@ -130,8 +133,8 @@ def test_a_step_slower_than_the_limit_fails_its_episode(pointnav_file, tmp_path)
 def test_a_hung_agent_call_is_killed_and_fails_its_episode(pointnav_file, tmp_path):
     ids = _ids(pointnav_file)
     modes = {ids[0]: "raise", ids[1]: "seven", ids[3]: "hang"}
-    summary = run(_cfg(pointnav_file, workers=2, agent_options={"modes": modes}), _misbehaving,
-                  tmp_path / "run", step_timeout=0.5)
+    summary = run(_cfg(pointnav_file, agent_options={"modes": modes}), _misbehaving,
+                  tmp_path / "run", execution=Execution(workers=2, step_timeout=0.5))
     recs = {r["episode_id"]: r for r in read_records(tmp_path / "run" / "episodes.jsonl")}
     assert len(recs) == 6 and summary["complete"] and summary["num_failed"] == 3
     _check_failed(recs[ids[0]], "ValueError: the agent is confused")
@@ -144,9 +147,9 @@ def test_a_hung_agent_call_is_killed_and_fails_its_episode(pointnav_file, tmp_pa
 def test_failures_exit_3_and_fail_fast_stops_with_exit_2(pointnav_file, tmp_path, monkeypatch, capsys):
     from navbench.agents import registry
     ids = _ids(pointnav_file)
-    monkeypatch.setitem(registry.AGENTS, "oracle", lambda cfg: Misbehaving(
-        type("C", (), {"scene_dir": cfg.scene_dir, "success_distance": cfg.success_distance,
-                       "agent_options": {"modes": {ids[2]: "raise"}}})))
+    monkeypatch.setitem(registry.AGENTS, "oracle", dataclasses.replace(registry.AGENTS["oracle"], factory=lambda cfg: (
+        Misbehaving(type("C", (), {"scene_dir": cfg.scene_dir, "success_distance": cfg.success_distance,
+                                   "agent_options": {"modes": {ids[2]: "raise"}}})))))
     argv = ["run", "--episodes", str(pointnav_file), "--agent", "oracle", "--workers", "1", "-q"]
     assert main(argv + ["--out", str(tmp_path / "a")]) == 3
     assert "1 episode(s) failed" in capsys.readouterr().err
@@ -321,10 +324,10 @@ def test_resume_repairs_a_truncated_line_and_a_duplicate(pointnav_file, tmp_path
 def test_resuming_a_finished_batched_run_runs_nothing_and_keeps_its_records(pointnav_file, tmp_path):
     """Nothing left to run (no episodes, so no tasks to size) with several slots per worker is not an error."""
     from navbench.agents.registry import make_pointnav
-    cfg = _cfg(pointnav_file, agent="pointnav", envs_per_worker=3, workers=2, env={"max_steps": 20})
-    run(cfg, make_pointnav, tmp_path / "run")
+    cfg = _cfg(pointnav_file, agent="pointnav", envs_per_worker=3, env={"max_steps": 20})
+    run(cfg, make_pointnav, tmp_path / "run", execution=Execution(workers=2))
     before = (tmp_path / "run" / "episodes.jsonl").read_text()
-    summary = run(cfg, make_pointnav, tmp_path / "run", resume=True)
+    summary = run(cfg, make_pointnav, tmp_path / "run", resume=True, execution=Execution(workers=2))
     assert summary["num_episodes"] == 6 and (tmp_path / "run" / "episodes.jsonl").read_text() == before
 
 
@@ -412,13 +415,13 @@ def test_progress_lines_off_a_terminal_and_quiet(pointnav_file, tmp_path, capsys
 DETERMINISM_RUN = """
 import sys
 from navbench.agents.registry import make_pointnav
-from navbench.eval.runner import RunConfig, run
+from navbench.eval.runner import Execution, RunConfig, run
 if __name__ == "__main__":  # not in the spawned workers
     workers, envs, out = int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
     cfg = RunConfig(task="pointnav", split=None, agent="pointnav", episodes=sys.argv[1], scene_dir=sys.argv[2],
-                    success_distance=0.2, workers=workers, envs_per_worker=envs, env={"max_steps": 40},
+                    success_distance=0.2, envs_per_worker=envs, env={"max_steps": 40},
                     agent_options={"decoding": "least-tried"})
-    run(cfg, make_pointnav, out, resume=len(sys.argv) > 6)
+    run(cfg, make_pointnav, out, resume=len(sys.argv) > 6, execution=Execution(workers=workers))
 """
 
 
@@ -484,9 +487,9 @@ def test_records_do_not_depend_on_workers_batching_or_a_resume_after_a_cut(twelv
 
     def go(out, workers, envs, resume=False):
         cfg = RunConfig(task="pointnav", split=None, agent="pointnav", episodes=str(twelve_pointnav),
-                        scene_dir=str(SCENES_DIR), success_distance=0.2, workers=workers, envs_per_worker=envs,
+                        scene_dir=str(SCENES_DIR), success_distance=0.2, envs_per_worker=envs,
                         env={"max_steps": 40}, agent_options={"decoding": "least-tried"})
-        run(cfg, make_pointnav, out, resume=resume, note=lambda *_: None)
+        run(cfg, make_pointnav, out, resume=resume, note=lambda *_: None, execution=Execution(workers=workers))
         return _sorted_lines(out)
 
     serial = go(tmp_path / "serial", 1, 1)

@@ -8,9 +8,10 @@ import time
 
 import pytest
 
-from navbench.cli import main, make_oracle
+from navbench.agents.registry import make_oracle
+from navbench.cli import main
 from navbench.episodes.io import load_dataset, save_dataset
-from navbench.eval.runner import RunConfig, RunError, comparable, read_records, run
+from navbench.eval.runner import Execution, RunConfig, RunError, comparable, read_records, run
 from navbench.eval.table import render, runs_frame
 from navbench.paths import SCENES_DIR
 
@@ -36,7 +37,8 @@ def test_smoke_oracle_objectnav_end_to_end(objectnav_file, tmp_path):
 
 def test_same_seed_same_records_with_parallel_workers(pointnav_file, tmp_path):
     a = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3), _random, tmp_path / "a")
-    b = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3, workers=2), _random, tmp_path / "b")
+    b = run(_cfg(pointnav_file, "pointnav", agent="random", seed=3), _random, tmp_path / "b",
+            execution=Execution(workers=2))
     records = [comparable(read_records(tmp_path / d / "episodes.jsonl")) for d in ("a", "b")]
     assert records[0] == records[1]
     assert a == b
@@ -194,7 +196,7 @@ def test_parallel_workers_with_a_cold_grid_cache(pointnav_file, tmp_path, monkey
     cache file remains. (The rename race this guards against is timing-dependent: seen in `make run`
     on a fresh machine, not reliably reproduced here.)"""
     monkeypatch.setenv("NAVBENCH_CACHE", str(tmp_path / "cold_cache"))
-    summary = run(_cfg(pointnav_file, "pointnav", workers=2), make_oracle, tmp_path / "run")
+    summary = run(_cfg(pointnav_file, "pointnav"), make_oracle, tmp_path / "run", execution=Execution(workers=2))
     assert summary["num_episodes"] == 6 and summary["success"] == 1.0
     assert len(list((tmp_path / "cold_cache" / "navgrid").glob("*.npz"))) == 1
 
@@ -203,7 +205,7 @@ def test_batched_policy_records_equal_one_at_a_time(pointnav_file, tmp_path):
     """Stepping several episodes with one batched forward pass changes nothing in any episode's record
     (each slot keeps its own recurrent state); 3 slots over 6 episodes also exercises slot refills.
     With sampled actions too: each episode draws from a generator seeded by the run's seed and the episode."""
-    from navbench.cli import make_pointnav
+    from navbench.agents.registry import make_pointnav
 
     # 30-step episodes keep it cheap; their different lengths (STOPs) still refill slots unevenly.
     records = {}
