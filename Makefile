@@ -1,6 +1,5 @@
 # navbench: `make run` (set up + the main job on the bundled data) and `make test` (set up + the tests).
-# Works as root on a fresh Debian 12 machine: creates .venv, installs OSMesa only when missing, then
-# navbench with its dev and models extras (tiny random models test the real perception backends).
+# As root on a fresh Debian 12 machine: .venv, OSMesa only when missing, navbench with its extras.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -13,7 +12,7 @@ LIMIT ?=
 LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
-	figures wheel-check
+	figures wheel-check lint
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing.
@@ -36,9 +35,10 @@ wheel-check: setup  # sdist + wheel (dist/), then the wheel alone in a fresh ven
 	bash tests/wheel_check.sh $(BIN)/python $(PY)
 bench: setup
 	$(NB) bench
+lint: setup  # ruff, pyright on the public modules (pyproject.toml), the import order of docs/layout.md
+	$(BIN)/ruff check . && $(BIN)/pyright && $(BIN)/python -m pytest -q tests/test_layout.py
 clean:
 	rm -rf $(VENV) .pytest_cache dist build
-
 # Reference tables in results/ (results/README.md says what each holds). Runs land in
 # results/runs/<task>/<split>/<label>/; LIMIT=N runs the first N episodes of each.
 results-oracle: setup

@@ -226,12 +226,13 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     return summary
 
 
-def warn_failed(summary: dict[str, Any], out: Path) -> None:
+def warn_failed(summary: RunSummary, out: Path) -> None:
     """A RuntimeWarning when episodes failed (their agent raised, returned an invalid action...), naming
     the first reason: a summary of failures is otherwise easy to read as a weak agent's scores."""
-    if summary.get("num_failed"):
-        first = summary["failed_episodes"][0]
-        warnings.warn(f"{summary['num_failed']} of {summary['num_episodes']} episode(s) failed (listed in "
+    failed = summary.get("failed_episodes") or []
+    if failed:
+        first = failed[0]
+        warnings.warn(f"{summary.get('num_failed')} of {summary.get('num_episodes')} episode(s) failed (listed in "
                       f"{out}/summary.json); first, episode {first['episode_id']}: {first['failure_reason']}",
                       RuntimeWarning, stacklevel=3)  # the caller of navbench.evaluate
 

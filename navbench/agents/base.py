@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Sequence
-from typing import Any, Protocol, runtime_checkable
+from typing import cast, Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -74,7 +74,7 @@ def slot_agent(agent: BatchAgent, i: int) -> Any:
 
 def episode_log(agent: Agent) -> dict[str, Any]:
     log = getattr(agent, "episode_log", None)
-    return log() if callable(log) else {}
+    return cast("dict[str, Any]", log()) if callable(log) else {}
 
 
 class PoseTracker:

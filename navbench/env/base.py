@@ -93,7 +93,7 @@ class NavEnv(gym.Env):
         """Load the episode's scene, and the grid of the floor its start stands on (multi-floor scans)."""
         path = resolve_scene_path(scene_id, self.scene_dir)
         if path == self._scene_path:
-            if start_y is not None and self.navgrid is not None and \
+            if start_y is not None and self.navgrid is not None and self.asset is not None and \
                     abs(start_y - self.navgrid.floor_height) > self.nav_config.agent_height / 2:
                 self.navgrid = navgrid_for(self.asset, self.nav_config, floor_hint=start_y)
             return
@@ -148,6 +148,7 @@ class NavEnv(gym.Env):
             # A goal on another storey that stairs or a ramp join to the start's: the episode runs on the
             # joined surfaces instead (goals on storeys nothing joins never count, on either engine).
             if self.layered is None:
+                assert self.asset is not None  # loaded with the episode's scene
                 self.layered = LayeredNav.from_mesh(self.asset.mesh, self.nav_config)
             declared = np.asarray(episode.start_position, np.float64)
             on = self.layered.snap_point(declared, self.config.start_snap_tolerance)
@@ -185,6 +186,7 @@ class NavEnv(gym.Env):
             self._stop_called = True
         elif action == MOVE_FORWARD:
             fwd = heading_vector(self._yaw)
+            assert self._motion is not None  # set by reset()
             new, collided = self._motion.try_step(self._position, self._position + self.config.forward_step * fwd,
                                                   sliding=self.config.allow_sliding)
             # Habitat's path length sums 3-D displacements (y changes on stairs and ramps only).
@@ -204,6 +206,7 @@ class NavEnv(gym.Env):
         if self.render_mode != "rgb_array":
             return None
         if self._last_rgb is None:
+            assert self._renderer is not None
             out = self._renderer.render(*self.camera_pose(), rgb=True, depth=False, ids=False)
             self._last_rgb = out.rgb
         return self._last_rgb
@@ -250,11 +253,14 @@ class NavEnv(gym.Env):
         if self._renderer is not None and (c.rgb or c.depth or c.semantic):
             out = self._renderer.render(*self.camera_pose(), rgb=c.rgb, depth=c.depth, ids=c.semantic)
             if c.rgb:
+                assert out.rgb is not None  # rendered when asked for
                 obs["rgb"] = out.rgb
                 self._last_rgb = out.rgb
             if c.depth:
+                assert out.depth is not None
                 obs["depth"] = normalize_depth(out.depth, c.min_depth, c.max_depth, c.normalize_depth)
             if c.semantic:
+                assert out.ids is not None
                 obs["semantic"] = out.ids.astype(np.int32)[..., None]
         obs["gps"] = gps(self._position, self._start_position, self._start_yaw)
         obs["compass"] = compass(self._yaw, self._start_yaw)
@@ -267,6 +273,7 @@ class NavEnv(gym.Env):
     def _info(self) -> dict[str, Any]:
         d = self.distance_to_goal()
         m = episode_metrics(self._stop_called, d, self._d0, self._path_length, self.success_distance)
+        assert self.episode is not None  # set by reset()
         return {
             "episode_id": self.episode.episode_id,
             "scene_id": self.episode.scene_id,

@@ -59,12 +59,13 @@ class ObjectNavEnv(NavEnv):
         # (a hand-written file) gets one in sorted category order.
         if not self.dataset.category_to_task_category_id:
             self.dataset.category_to_task_category_id = {
-                c: i for i, c in enumerate(sorted({e.object_category for e in self.dataset.episodes}))}
+                c: i for i, c in enumerate(sorted({str(e.object_category) for e in self.dataset.episodes}))}
         cats = self.dataset.category_to_task_category_id
         obs["objectgoal"] = spaces.Box(0, max(cats.values()), (1,), np.int64)
         return obs
 
     def _goal_observation(self):
+        assert self.episode is not None  # set by reset()
         cat = self.episode.object_category
         cats = self.dataset.category_to_task_category_id
         if cat not in cats:

@@ -80,5 +80,6 @@ class PointNavEnv(NavEnv):
         return obs
 
     def _goal_observation(self):
+        assert self.episode is not None  # set by reset()
         goal = np.asarray(self.episode.goals[0].position, np.float64)
         return {"pointgoal_with_gps_compass": pointgoal_polar(goal, self._position, self._yaw)}

@@ -34,7 +34,7 @@ class DepthUint8(gym.ObservationWrapper):
         if not isinstance(space, spaces.Dict) or "depth" not in space.spaces:
             raise ValueError("DepthUint8: the env renders no depth (EnvConfig(depth=True))")
         depth = space.spaces["depth"]
-        if not (np.all(depth.low == 0) and np.all(depth.high == 1)):
+        if not isinstance(depth, spaces.Box) or not (np.all(depth.low == 0) and np.all(depth.high == 1)):
             raise ValueError("DepthUint8: depth is not normalised to [0, 1] (EnvConfig(normalize_depth=True))")
         self.observation_space = spaces.Dict({**space.spaces, "depth": spaces.Box(0, 255, depth.shape, np.uint8)})
 

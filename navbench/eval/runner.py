@@ -40,7 +40,7 @@ from navbench.episodes.io import episode_keys
 from navbench.episodes.types import EpisodeDataset
 from navbench.eval.config import Execution, RunConfig, parse_shard, select_episodes, shard_of
 from navbench.eval.provenance import config_protocol, protocol_id, write_provenance
-from navbench.eval.records import RunSummary
+from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
 from navbench.eval.stats import add_intervals
@@ -159,7 +159,7 @@ def _note_stderr(msg: str) -> None:
 
 
 def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = False,
-        progress: Callable[[dict[str, Any], int, int], None] | None = None, *, overwrite: bool = False,
+        progress: Callable[[EpisodeRecord, int, int], None] | None = None, *, overwrite: bool = False,
         execution: Execution | None = None, note: Callable[[str], None] = _note_stderr) -> RunSummary:
     """Run ``cfg``'s episodes into ``out`` and return the summary.
 

@@ -119,20 +119,25 @@ def test_objectnav_goals_after_the_episodes_still_reach_a_limited_selection(tmp_
     assert ds.category_to_task_category_id == {"chair": 0}
 
 
-PROBE = textwrap.dedent("""
-    import resource, sys, time
+# A child's peak memory in MB: VmHWM belongs to the new process image, whereas ru_maxrss survives exec on
+# Linux (a child of a large pytest process would report the parent's peak).
+PEAK = ("def peak_mb():\n"
+        "    for line in open('/proc/self/status'):\n"
+        "        if line.startswith('VmHWM:'):\n"
+        "            return int(line.split()[1]) // 1024\n")
+PROBE = PEAK + textwrap.dedent("""
+    import sys, time
     from navbench.eval.runner import run_dataset
     t0 = time.monotonic()
     ds = run_dataset(sys.argv[1], int(sys.argv[2]))
-    print(len(ds.episodes), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024, time.monotonic() - t0)
+    print(len(ds.episodes), peak_mb(), time.monotonic() - t0)
 """)
 
 
 def test_a_limit_on_a_big_file_holds_only_what_it_selects(tmp_path):
     path = tmp_path / "big.json.gz"
     _many(path, 100_000)
-    base = subprocess.run([sys.executable, "-c", "import resource, navbench.eval.runner;"
-                           "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)"],
+    base = subprocess.run([sys.executable, "-c", PEAK + "import navbench.eval.runner\nprint(peak_mb())"],
                           capture_output=True, text=True, check=True, env=dict(os.environ))
     out = subprocess.run([sys.executable, "-c", PROBE, str(path), "2"], capture_output=True, text=True, check=True)
     n, rss, _ = out.stdout.split()
@@ -144,8 +149,8 @@ def test_a_bomb_through_the_cli_is_exit_2_with_memory_bounded(tmp_path):
     path = tmp_path / "bomb.json.gz"
     _bomb(path, b'{"episodes": [', b" ", 96 << 20, b"]}")
     env = dict(os.environ, NAVBENCH_MAX_INPUT_BYTES="64M")
-    code = ("import resource, sys\nfrom navbench.cli import main\nrc = main(sys.argv[1:])\n"
-            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)\nsys.exit(rc)")
+    code = (PEAK + "import sys\nfrom navbench.cli import main\nrc = main(sys.argv[1:])\n"
+            "print(peak_mb())\nsys.exit(rc)")
     out = subprocess.run([sys.executable, "-c", code, "run", "--episodes", str(path), "--limit", "2", "--out",
                           str(tmp_path / "run"), "-q"], capture_output=True, text=True, env=env)
     assert out.returncode == 2, out.stderr
