@@ -46,7 +46,7 @@ def soak_dataset(n: int) -> EpisodeDataset:
             ep.extra["soak_split"] = split
             by_scene.setdefault(ep.scene_id, []).append(ep)
         out.goals_by_category.update(ds.goals_by_category)
-        for cat, i in ds.category_to_task_category_id.items():
+        for cat in ds.category_to_task_category_id:
             out.category_to_task_category_id.setdefault(cat, len(out.category_to_task_category_id))
     cycles = [itertools.cycle(eps) for eps in by_scene.values()]
     seen: dict[tuple[str, str], int] = {}

@@ -16,8 +16,8 @@ import io
 import os
 import re
 import secrets
-from pathlib import Path
 from collections.abc import Callable
+from pathlib import Path
 from typing import BinaryIO
 
 DEFAULT_MAX_INPUT_BYTES = 1 << 30

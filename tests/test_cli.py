@@ -2,8 +2,7 @@
 
 import pytest
 
-from navbench.agents.registry import (AGENTS, DEFAULT_DECODING, agent_factory, agent_options, decoding_of,
-                                      run_label)
+from navbench.agents.registry import AGENTS, DEFAULT_DECODING, agent_factory, agent_options, decoding_of, run_label
 from navbench.cli import _agent_options, build_parser, main, run_dir
 from navbench.policy.net import DECODINGS
 

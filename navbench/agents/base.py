@@ -13,12 +13,12 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Sequence
-from typing import cast, Any, Protocol, runtime_checkable
+from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 
-from navbench.episodes.types import Episode
 from navbench.env.sensors import world_pose
+from navbench.episodes.types import Episode
 from navbench.scene.pose import yaw_from_quat
 
 

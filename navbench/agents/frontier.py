@@ -46,14 +46,22 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from navbench.agents.base import xz_dist, xz_dists
-from navbench.agents.common import (Detect, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch,
-                                    reset_detector, subsample)
+from navbench.agents.common import (
+    Detect,
+    ObjectNavAgentBase,
+    ObjectNavAgentConfig,
+    StepPolicy,
+    StuckWatch,
+    reset_detector,
+    subsample,
+)
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.geometry import voxel_downsample
 from navbench.scene.pose import heading_vector
+
 
 @dataclass(frozen=True)
 class FrontierAgentConfig(ObjectNavAgentConfig):

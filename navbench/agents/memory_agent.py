@@ -39,14 +39,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from navbench.agents.base import fov_leave_distance, log_value, nearest_to_height, xz_dist, xz_dists
-from navbench.agents.common import (Detector, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch,
-                                    subsample)
+from navbench.agents.common import Detector, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch, subsample
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.grouping import nearest_distances
 from navbench.scene.pose import wrap_angle, yaw_towards
+
 
 @dataclass(frozen=True)
 class MemoryAgentConfig(ObjectNavAgentConfig):

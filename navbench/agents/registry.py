@@ -25,9 +25,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from navbench.agents.options import (DEFAULT_CHECKPOINT, KEYFRAME_RES, AgentOptions, MemoryOptions,  # noqa: F401
-                                     PerceptionOptions, PointNavOptions, PolicyOptions, RandomOptions, decoding_of)
+from navbench.agents.options import (  # noqa: F401
+    DEFAULT_CHECKPOINT,
+    KEYFRAME_RES,
+    AgentOptions,
+    MemoryOptions,
+    PerceptionOptions,
+    PointNavOptions,
+    PolicyOptions,
+    RandomOptions,
+    decoding_of,
+)
 from navbench.episodes.types import Episode
+
 
 # ------------------------------------------------------------------------------------------ factories
 def make_oracle(cfg):

@@ -60,7 +60,7 @@ class EnvConfig:
     cell_size: float = 0.05
     gl_platform: str = "osmesa"  # or "egl"
 
-    def nav_grid_config(self) -> "NavGridConfig":
+    def nav_grid_config(self) -> NavGridConfig:
         """The navigability grid this body moves on: its height, radius and climb, at ``cell_size``."""
         # imported here: this module is read by the CLI at start-up, the grid's module pulls trimesh and cv2
         from navbench.scene.navigability import NavGridConfig

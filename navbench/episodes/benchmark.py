@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES
 from navbench.episodes.generate import SceneGoals, objectnav_episodes
 from navbench.episodes.io import save_dataset
+from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES
 from navbench.episodes.types import EpisodeDataset
 from navbench.loop_progress import progress
 

@@ -21,12 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, categories_table
 from navbench.episodes.io import goals_key, save_dataset
+from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES, categories_table
 from navbench.episodes.types import AgentState, Episode, EpisodeDataset, NavigationGoal, ObjectGoal, ViewPoint
 from navbench.episodes.viewpoints import ViewPointConfig, ViewPointFinder
-from navbench.paths import EPISODES_DIR, SCENES_DIR
 from navbench.loop_progress import progress
+from navbench.paths import EPISODES_DIR, SCENES_DIR
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.pose import quat_from_yaw
 

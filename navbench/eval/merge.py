@@ -4,7 +4,8 @@
 
 The shards must share their config apart from the shard itself and how they were run (workers, episodes
 per worker, navbench version, as ``--resume`` allows), share their protocol (provenance.json), and together
-hold every selected episode of the episode file exactly once; anything else is refused with a one-line error. The merged ``episodes.jsonl``
+hold every selected episode of the episode file exactly once; anything else is refused with a one-line error.
+The merged ``episodes.jsonl``
 lists the records in the episode file's order.
 """
 
@@ -15,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from navbench.episodes.io import load_dataset
+from navbench.eval.config import RunConfig, selector
 from navbench.eval.provenance import check_same_protocol, merge_provenance
 from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
-from navbench.eval.config import RunConfig, selector
 from navbench.eval.runner import config_diff, summarize
 
 # Keys shards may differ in: how each was run, not what it computes.

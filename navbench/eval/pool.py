@@ -22,8 +22,17 @@ from multiprocessing.connection import wait
 from typing import Any
 
 from navbench.eval.rundir import RunError
-from navbench.eval.worker import (Clock, EpisodeWorker, Key, Msg, RetryLedger, Tracker, failed_record, failure_reason,
-                                  step_timeout_reason)
+from navbench.eval.worker import (
+    Clock,
+    EpisodeWorker,
+    Key,
+    Msg,
+    RetryLedger,
+    Tracker,
+    failed_record,
+    failure_reason,
+    step_timeout_reason,
+)
 
 
 class _PipeTracker(Tracker):

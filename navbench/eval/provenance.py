@@ -196,9 +196,10 @@ def cpu() -> dict[str, Any]:
 def opengl_renderer() -> str:
     """The OpenGL renderer string of the context the renderer would use (e.g. ``llvmpipe (LLVM 15...)``)."""
     try:
-        import navbench.render.renderer  # noqa: F401  (binds PyOpenGL's platform first)
         import pyrender
         from OpenGL import GL
+
+        import navbench.render.renderer  # noqa: F401  (binds PyOpenGL's platform first)
 
         gl = pyrender.OffscreenRenderer(1, 1)
         try:

@@ -43,8 +43,21 @@ from navbench._version import __version__
 from navbench.episodes.types import EpisodeError
 from navbench.eval.config import RunConfig
 from navbench.eval.rundir import RunError
-from navbench.eval.worker import (AgentFactory, Clock, EpisodeWorker, Key, Msg, RetryLedger, Tracker, base_record,
-                                  failed_record, failure_reason, run_dataset, start_distance, task_size)
+from navbench.eval.worker import (
+    AgentFactory,
+    Clock,
+    EpisodeWorker,
+    Key,
+    Msg,
+    RetryLedger,
+    Tracker,
+    base_record,
+    failed_record,
+    failure_reason,
+    run_dataset,
+    start_distance,
+    task_size,
+)
 from navbench.scene.asset import SceneError
 
 File = tuple[str, str, Any]  # (path under the actor's copy, sha1 of the bytes, ObjectRef of the bytes)

@@ -42,8 +42,8 @@ from navbench.eval.config import Execution, RunConfig, parse_shard, select_episo
 from navbench.eval.provenance import config_protocol, protocol_id, write_provenance
 from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
-from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
 from navbench.eval.stats import add_intervals
+from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
 from navbench.metrics import aggregate
 from navbench.safeio import read_input
 

@@ -46,9 +46,9 @@ from navbench.localize.pipeline import (
     LocalizerConfig,
     Perception,
 )
+from navbench.loop_progress import progress
 from navbench.memory.prescan import PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
-from navbench.loop_progress import progress
 from navbench.scene.asset import SceneAsset, load_scene
 
 SUCCESS_RADIUS = 1.5  # metres, xz plane

@@ -14,7 +14,8 @@
 
 Before subsampling, the cloud is reduced to one centroid per ``voxel_size`` voxel: sklearn's HDBSCAN
 builds its spanning tree with Prim's algorithm over all point pairs (O(n^2)), and the views of one
-object repeat the same surface, so voxels keep the shape while cutting the points several-fold. ``voxel_size=0`` restores the plain reference behaviour.
+object repeat the same surface, so voxels keep the shape while cutting the points several-fold. ``voxel_size=0``
+restores the plain reference behaviour.
 
 The clusters are the same on every CPU: sklearn orders the spanning tree's edges by weight with numpy's
 default (unstable) argsort, whose order among equal weights - common, since a mutual-reachability

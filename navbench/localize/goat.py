@@ -86,7 +86,7 @@ class GoatSubtask:
                 "gt_positions": [[round(float(v), 4) for v in p] for p in self.gt_positions]}
 
     @classmethod
-    def from_json(cls, d: dict) -> "GoatSubtask":
+    def from_json(cls, d: dict) -> GoatSubtask:
         """Raises ValueError/TypeError/KeyError on a subtask that could not be asked or scored."""
         kind = d["type"]
         if kind not in ("object", "image", "language"):

@@ -143,7 +143,7 @@ class Localizer:
 
     @classmethod
     def from_perception(cls, memory: Memory, perception: Perception,
-                        config: LocalizerConfig = LocalizerConfig()) -> "Localizer":
+                        config: LocalizerConfig = LocalizerConfig()) -> Localizer:
         return cls(memory, perception.encoder, perception.reranker, perception.segmenter, config,
                    perception.captioner, perception.depth_noise)
 

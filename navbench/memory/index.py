@@ -101,7 +101,7 @@ class EmbeddingIndex:
         (directory / IDS_FILE).write_text(json.dumps(meta))
 
     @classmethod
-    def load(cls, directory: str | Path) -> "EmbeddingIndex":
+    def load(cls, directory: str | Path) -> EmbeddingIndex:
         directory = Path(directory)
         index_path, ids_path = directory / INDEX_FILE, directory / IDS_FILE
         if not index_path.is_file() or not ids_path.is_file():

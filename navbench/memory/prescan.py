@@ -34,11 +34,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from navbench.loop_progress import progress
 from navbench.memory.index import EmbeddingIndex
 from navbench.memory.keyframes import select_keyframes
 from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig, read_versioned_json
 from navbench.paths import cache_dir
-from navbench.loop_progress import progress
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, scene_digest
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, GreedyFollower
@@ -100,7 +100,7 @@ class PrescanConfig:
                                f"{self.frames_per_action} and {self.look_around_turns}")
 
     @property
-    def camera(self) -> "CameraConfig":  # noqa: F821 - see build_memory for the lazy import
+    def camera(self) -> CameraConfig:  # noqa: F821 - see build_memory for the lazy import
         from navbench.render.camera import CameraConfig
 
         return CameraConfig(self.width, self.height, self.hfov_deg)
@@ -133,7 +133,7 @@ class MemoryStats:
         return d
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "MemoryStats":
+    def from_json(cls, d: dict[str, Any]) -> MemoryStats:
         return cls(int(d["frames"]), int(d["keyframes"]), int(d["bytes"]), float(d["build_seconds"]),
                    tuple(d.get("rooms_visited", ())), tuple(d.get("rooms_missed", ())))
 
@@ -289,7 +289,7 @@ class Memory:
         return config_from_json(self.info["config"])
 
     @classmethod
-    def open(cls, directory: str | Path) -> "Memory":
+    def open(cls, directory: str | Path) -> Memory:
         directory = Path(directory)
         info = read_versioned_json(directory / MEMORY_FILE, MEMORY_VERSION, PrescanError, "memory")
         index = None if info.get("encoder") is None else EmbeddingIndex.load(directory)

@@ -59,7 +59,7 @@ class Intrinsics:
     height: int
 
     @classmethod
-    def from_hfov(cls, width: int, height: int, hfov_deg: float) -> "Intrinsics":
+    def from_hfov(cls, width: int, height: int, hfov_deg: float) -> Intrinsics:
         """Square pixels, centred principal point, horizontal field of view ``hfov_deg`` (Habitat's HFOV)."""
         f = (width / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
         return cls(fx=f, fy=f, cx=(width - 1) / 2.0, cy=(height - 1) / 2.0, width=int(width), height=int(height))
@@ -68,7 +68,7 @@ class Intrinsics:
     def K(self) -> np.ndarray:
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
-    def resized(self, width: int, height: int) -> "Intrinsics":
+    def resized(self, width: int, height: int) -> Intrinsics:
         sx, sy = width / self.width, height / self.height
         return Intrinsics(self.fx * sx, self.fy * sy, sx * (self.cx + 0.5) - 0.5, sy * (self.cy + 0.5) - 0.5,
                           int(width), int(height))
@@ -77,7 +77,7 @@ class Intrinsics:
         return asdict(self)
 
     @classmethod
-    def from_json(cls, d: dict) -> "Intrinsics":
+    def from_json(cls, d: dict) -> Intrinsics:
         return cls(float(d["fx"]), float(d["fy"]), float(d["cx"]), float(d["cy"]), int(d["width"]), int(d["height"]))
 
 
@@ -147,7 +147,7 @@ class KeyframeRecord:
         }
 
     @classmethod
-    def from_json(cls, d: dict) -> "KeyframeRecord":
+    def from_json(cls, d: dict) -> KeyframeRecord:
         return cls(
             id=int(d["id"]),
             frame_index=int(d["frame_index"]),
@@ -224,7 +224,7 @@ class KeyframeStore:
     def write(cls, directory: str | Path, frames: Iterable[Frame], *, scene_id: str = "",
               config: StoreConfig = StoreConfig(), metadata: dict[str, Any] | None = None,
               overwrite: bool = False, frame_indices: Sequence[int] | None = None,
-              total_frames: int | None = None) -> "KeyframeStore":
+              total_frames: int | None = None) -> KeyframeStore:
         """Select keyframes from ``frames`` (consumed once, in trajectory order) and write them.
 
         ``frames`` may be a generator: only the current frame is held in memory.
@@ -318,7 +318,7 @@ class KeyframeStore:
 
     # ---------------------------------------------------------------- reading
     @classmethod
-    def open(cls, directory: str | Path) -> "KeyframeStore":
+    def open(cls, directory: str | Path) -> KeyframeStore:
         directory = Path(directory)
         path = directory / STORE_FILE
         doc = read_versioned_json(path, STORE_VERSION, StoreError, "keyframe store")

@@ -32,12 +32,12 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from navbench.loop_progress import progress
 from navbench.policy.checkpoint import load_checkpoint, load_train_state, save_checkpoint, save_train_state
 from navbench.policy.config import PPOConfig
-from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.csv_log import log_row
+from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.rollout import Collection, EnvSlots, make_envs
-from navbench.loop_progress import progress
 
 __all__ = ["PPOConfig", "Rollout", "gae", "ppo_update", "step_reward", "train_ppo"]
 

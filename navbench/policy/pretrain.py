@@ -35,17 +35,17 @@ import torch.nn.functional as F
 
 from navbench.env.config import EnvConfig
 from navbench.env.sensors import normalize_depth
+from navbench.loop_progress import progress
 from navbench.paths import SCENES_DIR
 from navbench.policy.checkpoint import save_checkpoint, save_train_state
 from navbench.policy.config import PretrainConfig
-from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.csv_log import log_row
+from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 from navbench.render.camera import CameraConfig
 from navbench.render.renderer import Renderer
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
-from navbench.loop_progress import progress
 
 
 # ------------------------------------------------------------------------------------------- targets

@@ -38,13 +38,13 @@ import torch.nn.functional as F
 from navbench.env.config import STOP, EnvConfig
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
+from navbench.loop_progress import progress
 from navbench.paths import split_file
 from navbench.policy.checkpoint import load_checkpoint, load_train_state, save_checkpoint, save_train_state
 from navbench.policy.config import TrainConfig
-from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.csv_log import log_row
+from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.rollout import Collection, EnvSlots, make_envs
-from navbench.loop_progress import progress
 
 __all__ = ["TrainConfig", "Collector", "EpisodeBuffer", "build_learner", "evaluate", "train", "train_step"]
 

@@ -11,7 +11,9 @@ mesh whose vertex colours encode ``id + 1`` (:func:`navbench.render.frame.encode
 
 from __future__ import annotations
 
+# isort: off
 import navbench.render.gl_platform  # noqa: F401  (first: binds the platform before OpenGL is imported)
+# isort: on
 
 import numpy as np
 import pyrender

@@ -9,7 +9,9 @@ about as much as the rasterizing itself at 224x224. Images are pyrender's bit fo
 
 from __future__ import annotations
 
+# isort: off
 import navbench.render.gl_platform  # noqa: F401  (first: binds the platform before OpenGL is imported)
+# isort: on
 
 import ctypes
 import functools
@@ -37,7 +39,7 @@ from navbench.render.frame import RenderOutput
 GL_PACK_INVERT_MESA = 0x8758  # GL_MESA_pack_invert: glReadPixels returns rows top first
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def raw_gl() -> dict:
     """The GL entry points of the per-frame path as plain ctypes functions of the bound GL library.
 
@@ -84,7 +86,7 @@ class DirectDraw:
 
     @classmethod
     def create(cls, scene: pyrender.Scene, gl: pyrender.OffscreenRenderer, colour_nodes: list, id_nodes: list,
-               box_min: np.ndarray, box_max: np.ndarray, camera: CameraConfig) -> "DirectDraw | None":
+               box_min: np.ndarray, box_max: np.ndarray, camera: CameraConfig) -> DirectDraw | None:
         """The direct path, or None if some primitive needs state it does not reproduce, or Mesa
         lacks ``GL_MESA_pack_invert``."""
         from OpenGL import GL

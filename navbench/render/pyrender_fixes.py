@@ -5,7 +5,9 @@ Importing this module patches pyrender's shader cache (see :func:`patch_shader_c
 
 from __future__ import annotations
 
+# isort: off
 import navbench.render.gl_platform  # noqa: F401  (first: binds the platform before OpenGL is imported)
+# isort: on
 
 import contextlib
 import ctypes

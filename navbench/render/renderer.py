@@ -36,7 +36,9 @@ PyOpenGL try imports that no longer work).
 
 from __future__ import annotations
 
+# isort: off
 import navbench.render.gl_platform  # noqa: F401  (first: binds the platform before OpenGL is imported)
+# isort: on
 
 import atexit
 import gc
@@ -243,7 +245,7 @@ class Renderer:
             if Renderer._closes % 16 == 0:
                 gc.collect()
 
-    def __enter__(self) -> "Renderer":
+    def __enter__(self) -> Renderer:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -42,7 +42,7 @@ class ObjectAnnotation:
         }
 
     @classmethod
-    def from_json(cls, d: dict) -> "ObjectAnnotation":
+    def from_json(cls, d: dict) -> ObjectAnnotation:
         return cls(
             id=int(d["id"]),
             category=str(d["category"]),
@@ -64,7 +64,7 @@ class RoomAnnotation:
         return {"name": self.name, "aabb": {"min": list(self.aabb_min), "max": list(self.aabb_max)}}
 
     @classmethod
-    def from_json(cls, d: dict) -> "RoomAnnotation":
+    def from_json(cls, d: dict) -> RoomAnnotation:
         return cls(
             name=str(d["name"]),
             aabb_min=_xyz(d["aabb"]["min"]),

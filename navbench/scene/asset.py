@@ -24,11 +24,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-import trimesh
-
-from navbench.scene.annotations import ObjectAnnotation, RoomAnnotation
 from navbench.safeio import InputTooLarge, max_input_bytes, read_input, too_large
+from navbench.scene.annotations import ObjectAnnotation, RoomAnnotation
 from navbench.scene.errors import SceneError
 from navbench.scene.mesh_io import read_mesh
 from navbench.scene.types import SceneAsset

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from navbench.paths import cache_dir
-from navbench.scene.asset import SceneAsset, SceneError, load_scene
 from navbench.scene import navigability
+from navbench.scene.asset import SceneAsset, SceneError, load_scene
 from navbench.scene.navigability import NavGrid, NavGridConfig
 
 

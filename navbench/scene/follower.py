@@ -189,7 +189,7 @@ class GreedyFollower:
             def dfs(px: float, pz: float, prev: int, left: int, used: int, turns: int, first: int | None) -> None:
                 for m in lattice:
                     t = turns + self._turns(m - prev)
-                    b = best[0]
+                    b = best[0]  # noqa: B023 (dfs runs within this iteration)
                     if b is not None and (used + 1, t) >= b[:2]:
                         continue
                     qx, qz, dq = step(px, pz, m)
@@ -197,7 +197,7 @@ class GreedyFollower:
                         continue  # blocked: a wasted step
                     f = m if first is None else first
                     if dq < s:
-                        best[0] = (used + 1, t, f)
+                        best[0] = (used + 1, t, f)  # noqa: B023
                         continue
                     if left > 1 and dq - s <= (left - 1) * st + 1e-9:
                         dfs(qx, qz, m, left - 1, used + 1, t, f)

@@ -79,7 +79,7 @@ class GeodesicField:
     (where success is decided) does not suffer from the cone-shaped field's interpolation error.
     """
 
-    def __init__(self, grid: "NavGrid", goals: np.ndarray, values: np.ndarray, near_goal: np.ndarray):
+    def __init__(self, grid: NavGrid, goals: np.ndarray, values: np.ndarray, near_goal: np.ndarray):
         self.grid = grid
         self.goals = goals  # (G, 3) goal points actually used (snapped where needed), y = floor
         self.values = values
@@ -169,7 +169,7 @@ class NavGrid:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_mesh(cls, mesh: trimesh.Trimesh, config: NavGridConfig = NavGridConfig()) -> "NavGrid":
+    def from_mesh(cls, mesh: trimesh.Trimesh, config: NavGridConfig = NavGridConfig()) -> NavGrid:
         """Build the grid of one floor of ``mesh``.
 
         Method:
@@ -242,13 +242,15 @@ class NavGrid:
             blocked.ravel()[cand[inside]] = True
         free = surface & ~blocked
         if not free.any():
-            raise SceneError(f"mesh has no walkable floor with {config.agent_height} m headroom at floor height {floor:.3f}")
+            raise SceneError(f"mesh has no walkable floor with {config.agent_height} m headroom at floor height "
+                             f"{floor:.3f}")
 
         # 4. erosion by the agent radius, islands
         clearance = cls._clearance(free, blocked, surface, outline, cs, config.agent_radius)
         navigable = free & (clearance >= config.agent_radius - 0.5 * cs - 1e-9)
         if not navigable.any():
-            raise SceneError(f"no floor space at height {floor:.3f} is wide enough for an agent of radius {config.agent_radius} m")
+            raise SceneError(f"no floor space at height {floor:.3f} is wide enough for an agent of radius "
+                             f"{config.agent_radius} m")
         if config.largest_island:
             labels, n = ndimage.label(navigable)
             if n > 1:
@@ -347,7 +349,8 @@ class NavGrid:
 
         Near obstacles it is the distance to the outlines of the head-band footprints, sampled at
         most one cell apart (at the agent radius, ~3.6 cells away, that is exact to ~cs/30). Cell-level
-        distances would place a wall up to half a cell off and bias every geodesic that turns round it. Far from obstacles (where it
+        distances would place a wall up to half a cell off and bias every geodesic that turns round it.
+        Far from obstacles (where it
         cannot decide navigability) it is the distance to the nearest blocked cell centre. A floor's
         edge lies between its last floor cell centre and the first floorless one: half a cell nearer
         than the floorless cell.
@@ -440,7 +443,7 @@ class NavGrid:
             storey_top=np.float64(self.storey_top), config=np.array(json.dumps(dataclasses.asdict(self.config))))
 
     @classmethod
-    def load(cls, path: str | Path) -> "NavGrid":
+    def load(cls, path: str | Path) -> NavGrid:
         path = Path(path)
         try:
             with np.load(path, allow_pickle=False) as data:

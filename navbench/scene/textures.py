@@ -15,7 +15,8 @@ Both are transcoded to RGBA8 with the ``opengl-basisu`` package (Binomial's basi
 ``.basis`` file flagged Y-flipped (``cBASISHeaderFlagYFlipped``, basis_universal
 ``transcoder/basisu_file_headers.h``) has its rows back in glTF order after decoding: magnum's
 ``BasisImageConverter`` (``y_flip=true`` by default) stores the image bottom row first and sets the
-flag; for KTX2 it writes ``KTXorientation`` ``ru`` instead (KTX 2.0 spec, section 5.2), read the same way. A texture whose only source is an extension navbench cannot decode is refused, naming the file
+flag; for KTX2 it writes ``KTXorientation`` ``ru`` instead (KTX 2.0 spec, section 5.2), read the same way.
+A texture whose only source is an extension navbench cannot decode is refused, naming the file
 and the extension. In the GLB that trimesh parses, each decoded image is replaced by a
 1x1 PNG whose text chunk names the decoded image (:data:`DECODED`), which :func:`texture_image`
 swaps back in, so the large image is neither re-encoded nor copied through trimesh.

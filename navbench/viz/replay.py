@@ -38,7 +38,7 @@ class Run:
     records: list[dict[str, Any]]
 
     @classmethod
-    def load(cls, path: str | Path) -> "Run":
+    def load(cls, path: str | Path) -> Run:
         """A run directory, its config and records checked (a hand-edited file is one line naming it)."""
         path = Path(path)
         records = read_records(path / "episodes.jsonl")

@@ -52,7 +52,7 @@ class TopDown:
     cols: int = 0
 
     @classmethod
-    def fit(cls, grid: NavGrid, max_side: int = 640, margin: int = 4) -> "TopDown":
+    def fit(cls, grid: NavGrid, max_side: int = 640, margin: int = 4) -> TopDown:
         """Crop to the floor (plus ``margin`` cells) at the largest whole scale within ``max_side`` pixels."""
         ii, jj = np.nonzero(grid.free)
         h, w = grid.shape

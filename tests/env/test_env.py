@@ -103,7 +103,7 @@ def test_forward_moves_quarter_metre_and_walls_collide(pointnav_file):
 def test_stop_terminates_and_max_steps_truncates(pointnav_file):
     env = PointNavEnv(pointnav_file, config=EnvConfig(rgb=False, depth=False, max_steps=5))
     env.reset(options={"episode": 1})
-    for i in range(4):
+    for _ in range(4):
         _, _, term, trunc, _ = env.step(TURN_LEFT)
         assert not term and not trunc
     _, _, term, trunc, info = env.step(TURN_LEFT)

@@ -12,8 +12,7 @@ from navbench.agents.registry import make_oracle
 from navbench.cli import main
 from navbench.episodes.io import load_dataset
 from navbench.eval.merge import merge
-from navbench.eval.provenance import (PROVENANCE, ProtocolError, config_protocol, protocol_id, provenance,
-                                      run_protocol)
+from navbench.eval.provenance import PROVENANCE, ProtocolError, config_protocol, protocol_id, provenance, run_protocol
 from navbench.eval.runner import RunConfig, RunError, read_records, run
 from navbench.eval.stats import intervals
 from navbench.eval.table import TableError, group_frame, render, runs_frame

@@ -156,8 +156,8 @@ def test_scene_files_are_the_mesh_its_side_files_and_the_dataset_config(tmp_path
 
 def test_warm_scene_is_the_scene_a_new_env_loads():
     from navbench.episodes.io import load_dataset
-    from navbench.eval.ray_backend import warm_scene
     from navbench.eval.config import RunConfig
+    from navbench.eval.ray_backend import warm_scene
     from navbench.eval.worker import make_env
     from navbench.paths import SCENES_DIR, split_file
 

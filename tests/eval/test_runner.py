@@ -138,7 +138,8 @@ def test_per_scene_keeps_the_first_k_episodes_of_each_scene_before_limit():
 
     eps = [E(s, i) for i, s in enumerate("aaabbcaac")]
     ds = EpisodeDataset(episodes=eps)
-    pick = lambda *a: [e.episode_id for e in select_episodes(ds, *a)]
+    def pick(*a):
+        return [e.episode_id for e in select_episodes(ds, *a)]
     assert pick(None, 2) == [0, 1, 3, 4, 5, 8]
     assert pick(4, 2) == [0, 1, 3, 4] and pick(3) == [0, 1, 2] and pick(None) == list(range(9))
 

@@ -14,8 +14,16 @@ from navbench.episodes.io import load_dataset
 from navbench.eval.provenance import run_protocol, sha256
 from navbench.eval.rundir import read_records
 from navbench.eval.runner import select_episodes
-from navbench.eval.stats import (CI_METHOD, N_RESAMPLES, SEED, StatsError, add_intervals, compare_records,
-                                 intervals, resample_means)
+from navbench.eval.stats import (
+    CI_METHOD,
+    N_RESAMPLES,
+    SEED,
+    StatsError,
+    add_intervals,
+    compare_records,
+    intervals,
+    resample_means,
+)
 from navbench.metrics import aggregate
 from navbench.paths import RESULTS_DIR, split_file
 
@@ -134,7 +142,8 @@ def test_paired_interval_matches_a_loop_bootstrap_of_the_differences():
 def test_memory_leads_frontier_in_spl_on_40_val_unseen_episodes(capsys):
     keep = {(e.scene_id, e.episode_id)
             for e in select_episodes(load_dataset(split_file("objectnav", "val_unseen")), None, per_scene=10)}
-    sub = lambda name: [r for r in _records(name) if (r["scene_id"], r["episode_id"]) in keep]
+    def sub(name):
+        return [r for r in _records(name) if (r["scene_id"], r["episode_id"]) in keep]
     res = compare_records(sub("frontier"), sub("memory"))
     assert res["episodes"] == 40 and res["scenes"] == 4
     assert res["metrics"]["spl"]["ci95"][0] > 0

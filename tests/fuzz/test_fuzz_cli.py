@@ -18,7 +18,8 @@ COUNTS = [(["run", "--split", "val_unseen"], "--limit"), (["run", "--split", "va
 POSITIVE = [(["run", "--split", "val_unseen"], "--success-distance"), (["bench"], "--seconds")]
 SEEDS = [(["run", "--split", "val_unseen"], "--seed"), (["generate", "episodes"], "--seed")]
 CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
-           ["table", "x", "--format"], ["table", "x", "--by"], ["compare", "x", "y", "--metric"], ["generate"], ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
+           ["table", "x", "--format"], ["table", "x", "--by"], ["compare", "x", "y", "--metric"], ["generate"],
+           ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
            ["localize", "--rerank"]]
 
 bad_numbers = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0", "1e999", "abc", "", "1.5", "0x10", " "])
@@ -50,7 +51,8 @@ def test_unknown_choices(prefix):
 
 
 @pytest.mark.parametrize("argv", [[], ["nosuch"], ["run", "--nosuch"], ["table"], ["memory", "build"], ["merge"],
-                                  ["merge", "x"], ["compare"], ["compare", "x"], ["viz"], ["report"], ["serve-agent"], ["agents", "extra"],
+                                  ["merge", "x"], ["compare"], ["compare", "x"], ["viz"], ["report"], ["serve-agent"],
+                                  ["agents", "extra"],
                                   ["run", "--limit"], ["run", "--split", "val_unseen", "extra-positional"]],
                          ids=repr)
 def test_usage_errors(argv):

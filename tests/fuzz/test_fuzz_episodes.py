@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 from fuzzlib import apply, check_user_error, mutations, paths, read_or_error
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from navbench.episodes.io import goals_key, load_dataset, read_json

@@ -7,7 +7,6 @@ import gzip
 import json
 import shutil
 
-import numpy as np
 import pytest
 import torch
 import trimesh

@@ -14,7 +14,7 @@ from navbench.localize.backends.oracle import (
     OracleSegmenter,
     centre_instance,
 )
-from navbench.localize.pipeline import Localizer, LocalizeError, LocalizerConfig, Perception, Query
+from navbench.localize.pipeline import LocalizeError, Localizer, LocalizerConfig, Perception, Query
 from navbench.render.camera import CameraConfig
 from navbench.render.renderer import Renderer
 from navbench.scene.cache import load_scene_and_navgrid

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-
 from navbench.memory import Frame, Intrinsics, KeyframeStore, StoreConfig, StoreError
 
 W, H = 320, 240

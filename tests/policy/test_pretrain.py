@@ -10,8 +10,17 @@ import torch
 import trimesh
 
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
-from navbench.policy.pretrain import (GeometryHead, PretrainConfig, batch_tensors, fov_mask, free_distances, generate,
-                                      losses, navigability_patch, patch_offsets)
+from navbench.policy.pretrain import (
+    GeometryHead,
+    PretrainConfig,
+    batch_tensors,
+    fov_mask,
+    free_distances,
+    generate,
+    losses,
+    navigability_patch,
+    patch_offsets,
+)
 from navbench.scene.navigability import NavGrid
 
 FACING_PLUS_X = -math.pi / 2  # yaw 0 faces -z; turning right (negative yaw) by 90 deg faces +x

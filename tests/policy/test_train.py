@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 import torch
 
-from navbench.policy.net import (InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig,
-                                 prepare_depth)
+from navbench.policy.net import (
+    InferenceConfig,
+    PointNavAgentPolicy,
+    PointNavResNetPolicy,
+    PolicyNetConfig,
+    prepare_depth,
+)
 from navbench.policy.rollout import make_envs
 from navbench.policy.train import Collector, EpisodeBuffer, TrainConfig, evaluate, iteration_lr, train, train_step
 

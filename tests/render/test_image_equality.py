@@ -81,7 +81,8 @@ def reference() -> dict[str, np.ndarray]:
 def _check(ref: dict[str, np.ndarray], key: str, rgb=None, depth=None, ids=None) -> None:
     if rgb is not None:
         assert rgb.dtype == np.uint8 and rgb.shape == ref[f"{key}_rgb"].shape
-        assert np.array_equal(rgb, ref[f"{key}_rgb"]), f"{key}: {(rgb != ref[f'{key}_rgb']).any(-1).sum()} RGB pixels differ"
+        differ = (rgb != ref[f"{key}_rgb"]).any(-1).sum()
+        assert np.array_equal(rgb, ref[f"{key}_rgb"]), f"{key}: {differ} RGB pixels differ"
     if ids is not None:
         assert ids.dtype == np.int32
         assert np.array_equal(ids, ref[f"{key}_ids"]), f"{key}: {(ids != ref[f'{key}_ids']).sum()} id pixels differ"

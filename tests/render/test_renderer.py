@@ -23,8 +23,17 @@ import numpy as np
 import pytest
 import trimesh
 
-from navbench.render import CameraConfig, Renderer, RenderError, RenderOutput, backproject_image, intrinsics
-from navbench.render import culling, gl_platform, pyrender_fixes
+from navbench.render import (
+    CameraConfig,
+    Renderer,
+    RenderError,
+    RenderOutput,
+    backproject_image,
+    culling,
+    gl_platform,
+    intrinsics,
+    pyrender_fixes,
+)
 from navbench.scene.asset import load_scene
 
 C = np.array([0.0, 1.0, 0.0])

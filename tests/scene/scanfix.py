@@ -331,9 +331,9 @@ def write_mp3d_scene(root: Path, scan: str = "17DRP5sb8fy") -> Path:
     mesh = write_mesh_glb(d / f"{scan}.glb", v_mp, f, grey)
     # Part -> .house object index: floor 0, wall -1 (unannotated), armchair 1, tv 2.
     obj = np.array([0, -1, 1, 2])[part].astype(np.int32)
-    head = ("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
-            "property float z\nelement face %d\nproperty list uchar int vertex_indices\nproperty int object_id\n"
-            "end_header\n" % (len(v_mp), len(f))).encode()
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(v_mp)}\nproperty float x\n"
+            f"property float y\nproperty float z\nelement face {len(f)}\nproperty list uchar int vertex_indices\n"
+            "property int object_id\nend_header\n").encode()
     body = v_mp.astype("<f4").tobytes()
     rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,)), ("obj", "<i4")])
     rec["n"], rec["idx"], rec["obj"] = 3, f, obj

@@ -11,9 +11,9 @@ import trimesh
 from scipy import ndimage
 
 from navbench.scene.asset import load_scene
-from navbench.scene.procedural.furniture import CATEGORIES, COLOURS, ROOM_TYPES, WALL_MOUNT_HEIGHT, paint
 from navbench.scene.procedural import HouseConfig, HouseConfigError, generate_dataset, generate_house, write_house
 from navbench.scene.procedural.furnish import RECIPES
+from navbench.scene.procedural.furniture import CATEGORIES, COLOURS, ROOM_TYPES, WALL_MOUNT_HEIGHT, paint
 
 SEED = 7  # an 8-room corridor house in the default config
 CELL = 0.05

@@ -176,7 +176,8 @@ def test_scene_ids_resolve_like_habitat(tmp_path):
     plain = mesh.with_name("abcDEFghiJK.glb")
     mesh.rename(plain)  # the -glb- download only: .basis.glb episodes still resolve
     assert resolve_scene(sid, sd) == plain
-    with pytest.raises(SceneError, match=r"00801-zzz/zzz\.basis\.glb: scene file not found \(also looked for: .*00801-zzz/zzz\.glb"):
+    missing = r"00801-zzz/zzz\.basis\.glb: scene file not found \(also looked for: .*00801-zzz/zzz\.glb"
+    with pytest.raises(SceneError, match=missing):
         resolve_scene("hm3d/val/00801-zzz/zzz.basis.glb", sd)
 
 

@@ -3,8 +3,18 @@
 import numpy as np
 
 from navbench.scene.navigability import NavGrid
-from navbench.viz.topdown import (COLLISION, NAVIGABLE, OBSTACLE, SHORTEST, UNREACHABLE, WALL, EpisodeDrawing,
-                                  TopDown, draw_episode, shortest_path)
+from navbench.viz.topdown import (
+    COLLISION,
+    NAVIGABLE,
+    OBSTACLE,
+    SHORTEST,
+    UNREACHABLE,
+    WALL,
+    EpisodeDrawing,
+    TopDown,
+    draw_episode,
+    shortest_path,
+)
 
 
 def grid() -> NavGrid:

@@ -60,7 +60,7 @@ class Sam3Segmenter:
         self.mean = np.asarray(cfg["image_mean"], np.float32) if cfg["do_normalize"] else np.zeros(3, np.float32)
         self.std = np.asarray(cfg["image_std"], np.float32) if cfg["do_normalize"] else np.ones(3, np.float32)
 
-    def pixel_values(self, image: np.ndarray) -> "torch.Tensor":  # noqa: F821 - torch is imported lazily
+    def pixel_values(self, image: np.ndarray) -> torch.Tensor:  # noqa: F821 - torch is imported lazily
         """The model input for one RGB image: (1, 3, h, w) float32."""
         resized = cv2.resize(check_image(image), self.input_size, interpolation=self.interpolation)
         x = (resized.astype(np.float32) * self.rescale - self.mean) / self.std

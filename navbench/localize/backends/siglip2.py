@@ -17,7 +17,7 @@ from navbench.localize.backends.base import BackendError, check_image, check_mod
 from navbench.memory.index import l2_normalize
 
 
-def _features(output) -> "torch.Tensor":  # noqa: F821 - torch is imported lazily
+def _features(output) -> torch.Tensor:  # noqa: F821 - torch is imported lazily
     return output if hasattr(output, "shape") else output.pooler_output
 
 

@@ -156,7 +156,7 @@ class _Placed:
     yaw: int
     pos: np.ndarray  # world position of the local origin (base centre)
     room: int
-    support: "_Placed | None" = None
+    support: _Placed | None = None
     colour: str = ""
     lo: np.ndarray = field(init=False)
     hi: np.ndarray = field(init=False)
