@@ -34,7 +34,7 @@ def _sha(path):
 
 def test_protocol_id_is_stable_and_changes_with_the_rules():
     a = protocol_id(config_protocol(_cfg()))
-    assert a == protocol_id(config_protocol(_cfg(seed=5, workers=2, agent="pointnav")))  # not protocol
+    assert a == protocol_id(config_protocol(_cfg(seed=5, envs_per_worker=2, agent="pointnav")))  # not protocol
     assert a != protocol_id(config_protocol(_cfg(success_distance=0.36)))
     assert a != protocol_id(config_protocol(_cfg(env={"max_steps": 200})))
     assert a != protocol_id(config_protocol(_cfg(env={"forward_step": 0.1})))
@@ -79,11 +79,13 @@ def test_a_run_records_provenance_and_intervals_that_reproduce(tmp_path):
 
 
 def test_committed_runs_without_provenance_get_a_derived_protocol():
-    d = RUNS / "objectnav" / "val_unseen" / "memory"
+    d = RUNS / "objectnav" / "val_unseen" / "frontier"
+    assert not (d / PROVENANCE).exists()
     proto = run_protocol(d)
     cfg = json.loads((d / "config.json").read_text())
     assert proto.pop("derived") is True
     assert proto == config_protocol(RunConfig(**{k: v for k, v in cfg.items() if k in RunConfig.__dataclass_fields__}))
+    assert proto == run_protocol(RUNS / "objectnav" / "val_unseen" / "memory")  # recorded: the same rules
 
 
 def _copy(tmp_path, rel, name, **config):
