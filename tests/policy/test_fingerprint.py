@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from navbench.policy.checkpoint import save_checkpoint
+from navbench.policy.checkpoint import read_train_state, save_checkpoint
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig
 
 RUNS = [("dagger", 1), ("dagger", 2), ("ppo", 1), ("ppo", 2)]
@@ -91,14 +91,14 @@ def fingerprint(trainer: str, workers: int, tmp: Path, details: dict | None = No
         cfg = TrainConfig(num_envs=2, iterations=2, frames_per_iteration=60, max_episode_steps=25,
                           epochs_per_iteration=2.0, seed=3, workers=workers, threads=1, **kw)
         train(cfg, out, state_dir=state, init=init, log_every=lambda _: None)
-        weights = torch.load(state / "train_state.pt", weights_only=False)["policy"]
+        weights = read_train_state(state / "train_state.pt")["policy"]
     else:
         from navbench.policy.ppo import PPOConfig, train_ppo
 
         cfg = PPOConfig(train_split="train", num_envs=2, rollout_steps=6, updates=2, critic_warmup=1, save_every=1,
                         bc_weight=0.1, tight_starts=0.3, seed=5, workers=workers, threads=1)
         train_ppo(cfg, out, init, state_dir=state, log_every=lambda _: None)
-        weights = torch.load(state / "ppo_state.pt", weights_only=False)["policy"]
+        weights = read_train_state(state / "ppo_state.pt")["policy"]
     if details is not None:
         with open(out.with_suffix(".log.csv"), newline="") as f:
             details.update(weights=weights, init=torch.load(init, weights_only=False), rows=list(csv.DictReader(f)))
