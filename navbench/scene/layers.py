@@ -33,7 +33,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from navbench.scene.asset import SceneError
-from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points
+from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points, grid_cells
 
 # Unit lattice steps (row, col): the four orthogonal ones first, then the diagonals.
 _UNIT = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)]
@@ -103,12 +103,7 @@ class LayeredNav:
             raise SceneError(f"navigability needs a non-empty trimesh.Trimesh, got {type(mesh).__name__}")
         cs = config.cell_size
         lo, hi = mesh.bounds
-        w = int(math.ceil((hi[0] - lo[0]) / cs - 1e-9)) + 2
-        h = int(math.ceil((hi[2] - lo[2]) / cs - 1e-9)) + 2
-        origin = np.array([lo[0] - cs / 2, lo[2] - cs / 2])
-        jj, ii = np.meshgrid(np.arange(w), np.arange(h))
-        xs = origin[0] + jj.ravel() * cs
-        zs = origin[1] + ii.ravel() * cs
+        w, h, origin, xs, zs = grid_cells(lo, hi, cs)
 
         # 1. spans: floor-like hits with headroom, not inside a solid (the hit above is not an upward face)
         rays = np.column_stack([xs, np.full(xs.shape, hi[1] + 1.0), zs])

@@ -38,6 +38,17 @@ _GOAL_DISC_CELLS = 1.5
 _MIN_SPEED = 0.3
 
 
+def grid_cells(lo: np.ndarray, hi: np.ndarray, cs: float) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray]:
+    """(width, height, origin, x, z of every cell centre, row-major) of a grid of ``cs`` cells over the
+    bounds ``lo``-``hi``. One ring of cells lies beyond the bounds, so the border is never free; cell *edges*
+    (not centres) fall on the bounds, so a floor ending at the bounds ends between two centres."""
+    w = int(math.ceil((hi[0] - lo[0]) / cs - 1e-9)) + 2
+    h = int(math.ceil((hi[2] - lo[2]) / cs - 1e-9)) + 2
+    origin = np.array([lo[0] - cs / 2, lo[2] - cs / 2])
+    jj, ii = np.meshgrid(np.arange(w), np.arange(h))
+    return w, h, origin, origin[0] + jj.ravel() * cs, origin[1] + ii.ravel() * cs
+
+
 @dataclass(frozen=True)
 class NavGridConfig:
     agent_height: float = 0.88
@@ -206,14 +217,7 @@ class NavGrid:
 
         floor = config.floor_height if config.floor_height is not None else cls._floor_level(mesh, normals_y, config)
 
-        # One ring of cells beyond the mesh bounds, so the border is never free. Cell *edges* (not
-        # centres) fall on the bounds, so a floor ending at the bounds ends between two centres.
-        w = int(math.ceil((hi[0] - lo[0]) / cs - 1e-9)) + 2
-        h = int(math.ceil((hi[2] - lo[2]) / cs - 1e-9)) + 2
-        origin = np.array([lo[0] - cs / 2, lo[2] - cs / 2])
-        jj, ii = np.meshgrid(np.arange(w), np.arange(h))
-        xs = origin[0] + jj.ravel() * cs
-        zs = origin[1] + ii.ravel() * cs
+        w, h, origin, xs, zs = grid_cells(lo, hi, cs)
 
         band_lo = floor + config.max_climb
         band_hi = floor + config.agent_height
