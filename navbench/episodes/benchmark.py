@@ -19,11 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from navbench.episodes.generate import SceneGoals, objectnav_episodes
+from navbench.episodes.generate import SceneGoals, objectnav_split
 from navbench.episodes.io import save_dataset
-from navbench.episodes.split_vocabulary import SYNONYMS, TRAIN_CATEGORIES, UNSEEN_CATEGORIES
-from navbench.episodes.types import EpisodeDataset
-from navbench.loop_progress import progress
+from navbench.episodes.split_vocabulary import TRAIN_CATEGORIES, UNSEEN_CATEGORIES
 
 # House seeds are dataset_seed * 1000 + i: 0 (bundled), 1 (policy training) and 2 (policy selection) are
 # taken, so a benchmark generated with --seed S uses dataset seed HOUSE_SEED_BASE + S.
@@ -63,23 +61,13 @@ def generate_benchmark(out: str | Path, houses: int = 36, episodes_per_split: in
     splits = {}
     for i, (split, (cats, synonyms)) in enumerate(SPLITS.items()):
         rng = np.random.default_rng([seed, 7, i])
-        ds = EpisodeDataset()
-        for sg, n in progress(list(zip(goals, counts)), desc=f"{split}: houses"):
-            avail = sg.available(cats)
-            if not avail:
-                raise RuntimeError(f"{sg.scene_id}: none of the {split} categories has a reachable instance")
-            names = {c: SYNONYMS[c][int(rng.integers(len(SYNONYMS[c])))] for c in avail} if synonyms else None
-            eps, table = objectnav_episodes(sg, avail, n, rng, names=names, id_offset=len(ds.episodes))
-            ds.episodes += eps
-            ds.goals_by_category.update(table)
-        used = sorted({e.object_category for e in ds.episodes})
-        ds.category_to_task_category_id = {c: j for j, c in enumerate(used)}
-        ds.category_to_scene_annotation_category_id = {c: j for j, c in enumerate(used)}
+        ds = objectnav_split(list(zip(goals, counts)), cats, synonyms, rng, split, f"{split}: houses")
         path = split_path(out, split, houses)
         save_dataset(ds, path)
         splits[split] = {"file": path.relative_to(out).as_posix(), "episodes": len(ds.episodes),
-                         "categories": len(used)}
-        log(f"{split}: {len(ds.episodes)} episodes over {len(used)} categories in {houses} houses")
+                         "categories": len(ds.category_to_task_category_id)}
+        n_cats = len(ds.category_to_task_category_id)
+        log(f"{split}: {len(ds.episodes)} episodes over {n_cats} categories in {houses} houses")
     sd = SUCCESS_DISTANCE
     manifest = {"houses": houses, "episodes_per_split": episodes_per_split, "seed": seed,
                 "house_dataset_seed": HOUSE_SEED_BASE + seed, "success_distance": sd, "splits": splits,

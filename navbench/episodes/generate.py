@@ -178,6 +178,26 @@ def write_pointnav_split(out_dir: Path, split: str, scene_paths: list[Path], sce
     return len(eps)
 
 
+def objectnav_split(scenes: list[tuple[SceneGoals, int]], categories, synonyms: bool, rng: np.random.Generator,
+                    split: str, desc: str) -> EpisodeDataset:
+    """One ObjectNav split: ``n`` episodes for each ``(scene goals, n)`` over the ``categories`` each scene
+    has a reachable instance of (goal names drawn from their synonyms when ``synonyms``); category ids in
+    name order."""
+    ds = EpisodeDataset()
+    for sg, n in progress(scenes, desc=desc):
+        avail = sg.available(categories)
+        if not avail:
+            raise RuntimeError(f"{sg.scene_id}: none of the {split} categories has a reachable instance")
+        names = {c: SYNONYMS[c][int(rng.integers(len(SYNONYMS[c])))] for c in avail} if synonyms else None
+        eps, table = objectnav_episodes(sg, avail, n, rng, names=names, id_offset=len(ds.episodes))
+        ds.episodes += eps
+        ds.goals_by_category.update(table)
+    used = sorted({e.object_category for e in ds.episodes})
+    ds.category_to_task_category_id = {c: i for i, c in enumerate(used)}
+    ds.category_to_scene_annotation_category_id = {c: i for i, c in enumerate(used)}
+    return ds
+
+
 def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
                             plan: SplitPlan = SplitPlan(), log=print) -> dict[str, int]:
     """Write every bundled split; returns {"task/split": number of episodes}."""
@@ -196,21 +216,11 @@ def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCEN
     }
     for i, (split, (scenes, cats, synonyms, per_scene)) in enumerate(plans.items()):
         rng = np.random.default_rng([seed, 1, i])
-        ds = EpisodeDataset()
-        for sg in progress(scene_goals[scenes], desc=f"objectnav/{split}: scenes"):
-            avail = sg.available(cats)
-            if not avail:
-                raise RuntimeError(f"{sg.scene_id}: none of the {split} categories has a reachable instance")
-            names = {c: SYNONYMS[c][int(rng.integers(len(SYNONYMS[c])))] for c in avail} if synonyms else None
-            eps, table = objectnav_episodes(sg, avail, per_scene, rng, names=names, id_offset=len(ds.episodes))
-            ds.episodes += eps
-            ds.goals_by_category.update(table)
-        used = sorted({e.object_category for e in ds.episodes})
-        ds.category_to_task_category_id = {c: i for i, c in enumerate(used)}
-        ds.category_to_scene_annotation_category_id = {c: i for i, c in enumerate(used)}
+        ds = objectnav_split([(sg, per_scene) for sg in scene_goals[scenes]], cats, synonyms, rng, split,
+                             f"objectnav/{split}: scenes")
         save_dataset(ds, out_dir / "objectnav" / split / f"{split}.json.gz")
         counts[f"objectnav/{split}"] = len(ds.episodes)
-        log(f"objectnav/{split}: {len(ds.episodes)} episodes over {len(used)} categories")
+        log(f"objectnav/{split}: {len(ds.episodes)} episodes over {len(ds.category_to_task_category_id)} categories")
     (out_dir / "objectnav" / "categories.json").write_text(json.dumps(categories_table(), indent=1) + "\n")
     return counts
 
