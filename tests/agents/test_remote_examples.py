@@ -2,6 +2,7 @@
 ``navbench check-agent`` and run episodes; check-agent flags one that breaks the protocol; the client
 ends its session with ``/close``."""
 
+import contextlib
 import importlib.util
 import json
 import shutil
@@ -67,6 +68,19 @@ def _example_module():
     return module
 
 
+@contextlib.contextmanager
+def serving(handler):
+    """``http://127.0.0.1:PORT`` of a server running ``handler`` in a thread, stopped on exit."""
+    server = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        yield f"http://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
 def test_check_agent_flags_a_server_that_breaks_the_protocol(capsys):
     ex = _example_module()
 
@@ -90,15 +104,8 @@ def test_check_agent_flags_a_server_that_breaks_the_protocol(capsys):
                 return
             super().do_GET()
 
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Broken)
-    server.daemon_threads = True
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
-        assert main(["check-agent", f"http://127.0.0.1:{server.server_address[1]}", "--steps", "5"]) == 1
-    finally:
-        server.shutdown()
-        server.server_close()
+    with serving(Broken) as url:
+        assert main(["check-agent", url, "--steps", "5"]) == 1
     out = capsys.readouterr().out
     assert "FAIL  POST /act (session A): action 'move_forward': expected an integer 0-3" in out, out
     assert "FAIL  unknown endpoint -> error: HTTP 404 without a JSON {\"error\": str} body" in out, out
@@ -124,14 +131,8 @@ def test_check_agent_warns_of_the_nagle_stall_of_a_server_without_tcp_nodelay():
             self.end_headers()
             self.wfile.write(body)
 
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Naive)
-    server.daemon_threads = True
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    try:
-        checks = check_server(f"http://127.0.0.1:{server.server_address[1]}", steps=20, log=lambda line: None)
-    finally:
-        server.shutdown()
-        server.server_close()
+    with serving(Naive) as url:
+        checks = check_server(url, steps=20, log=lambda line: None)
     latency = next(c for c in checks if c.name.startswith("latency"))
     assert not latency.ok and latency.warning and "TCP_NODELAY" in latency.detail, latency.line()
     assert all(c.ok for c in checks if c is not latency)  # slow, yet it follows the protocol
@@ -149,14 +150,8 @@ def test_check_agent_tells_a_slow_agent_from_a_stalled_connection():
                 time.sleep(0.04)
             super().do_POST()
 
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Thinking)
-    server.daemon_threads = True
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    try:
-        checks = check_server(f"http://127.0.0.1:{server.server_address[1]}", steps=10, log=lambda line: None)
-    finally:
-        server.shutdown()
-        server.server_close()
+    with serving(Thinking) as url:
+        checks = check_server(url, steps=10, log=lambda line: None)
     latency = next(c for c in checks if c.name.startswith("latency"))
     assert latency.warning and "the time is the agent's own" in latency.detail, latency.line()
 
