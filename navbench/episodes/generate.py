@@ -30,6 +30,10 @@ from navbench.paths import EPISODES_DIR, SCENES_DIR
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.pose import quat_from_yaw
 
+# The version of the generated splits, written first in every file and recorded in run directories
+# (provenance.json); it changes whenever the same seed draws other episodes (CHANGELOG, "Benchmark versions").
+SPLIT_VERSION = 2
+
 
 @dataclass(frozen=True)
 class GeneratorConfig:
@@ -173,7 +177,8 @@ def write_pointnav_split(out_dir: Path, split: str, scene_paths: list[Path], sce
     eps: list[Episode] = []
     for path in scene_paths:
         eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
-    save_dataset(EpisodeDataset(episodes=eps), out_dir / "pointnav" / split / f"{split}.json.gz")
+    ds = EpisodeDataset(episodes=eps, extra={"split_version": SPLIT_VERSION})
+    save_dataset(ds, out_dir / "pointnav" / split / f"{split}.json.gz")
     log(f"pointnav/{split}: {len(eps)} episodes")
     return len(eps)
 
@@ -183,7 +188,7 @@ def objectnav_split(scenes: list[tuple[SceneGoals, int]], categories, synonyms: 
     """One ObjectNav split: ``n`` episodes for each ``(scene goals, n)`` over the ``categories`` each scene
     has a reachable instance of (goal names drawn from their synonyms when ``synonyms``); category ids in
     name order."""
-    ds = EpisodeDataset()
+    ds = EpisodeDataset(extra={"split_version": SPLIT_VERSION})
     for sg, n in progress(scenes, desc=desc):
         avail = sg.available(categories)
         if not avail:

@@ -514,7 +514,10 @@ def episode_to_json(ep: Episode, objectnav: bool) -> dict:
 
 def dataset_to_json(dataset: EpisodeDataset) -> dict:
     objectnav = dataset.task == "objectnav"
-    out: dict[str, Any] = {"episodes": [episode_to_json(e, objectnav) for e in dataset.episodes]}
+    out: dict[str, Any] = {}
+    if "split_version" in dataset.extra:  # first, so a reader finds it without parsing the episodes
+        out["split_version"] = dataset.extra["split_version"]
+    out["episodes"] = [episode_to_json(e, objectnav) for e in dataset.episodes]
     if objectnav:
         gbc = dict(dataset.goals_by_category)
         for ep in dataset.episodes:  # goals attached only to episodes still reach the file
@@ -526,6 +529,18 @@ def dataset_to_json(dataset: EpisodeDataset) -> dict:
         out["category_to_scene_annotation_category_id"] = dataset.category_to_scene_annotation_category_id
     out.update(dataset.extra)
     return out
+
+
+def split_version(path: str | Path) -> int | None:
+    """The ``split_version`` a navbench-generated file states first (``{"split_version":N,...``), else None.
+    Reads at most the first 64 decompressed bytes."""
+    try:
+        with open_input(path) as fh:
+            head = fh.read(64)
+    except (OSError, EOFError, ValueError, zlib.error):
+        return None
+    m = re.match(rb'\{"split_version":(\d{1,6})[,}]', head)
+    return int(m.group(1)) if m else None
 
 
 def save_dataset(dataset: EpisodeDataset, path: str | Path) -> Path:

@@ -3,8 +3,9 @@
 ``OUT/provenance.json`` holds
 
 - ``protocol``: the task, success distance, step limit, action set and step sizes, sensor size, HFOV and
-  depth range, the agent's body (height, radius, climb), the start snapping and the navigability grid's
-  cell size: every rule that changes a score given the same agent. ``protocol_id`` is the first 12 hex
+  depth range, the agent's body (height, radius, climb), the start snapping, the navigability grid's
+  cell size and the version of its rules (``navigability``): every rule that changes a score given the
+  same agent. ``protocol_id`` is the first 12 hex
   digits of the sha256 of its canonical JSON. The policy's decoding is the agent's choice, not the
   protocol's: it is recorded in config.json's ``agent_options`` and shown by ``navbench table``.
 - ``navbench``: version, and the git commit with a dirty flag when run from a checkout;
@@ -12,10 +13,12 @@
   (model and flags); it is rewritten when a run is resumed (the records may then come from two machines);
 - ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
   beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to
-  navbench's data root when it lies under it (``"root": "navbench"``), else as given.
+  navbench's data root when it lies under it (``"root": "navbench"``), else as given; the episode file's
+  ``split_version`` when it states one (navbench's generated splits do).
 
 A run directory without provenance.json (written before it existed) gets its protocol derived from
-config.json and the EnvConfig defaults of the navbench reading it; ``derived: true`` says so.
+config.json and the EnvConfig defaults of the navbench reading it, without ``navigability`` (config.json
+does not say which rules it ran under, so it is never taken for a run under today's); ``derived: true``.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from typing import Any
 from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
+from navbench.scene.navigability import NAVIGABILITY_VERSION
 
 PROVENANCE = "provenance.json"
 PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
@@ -56,6 +60,7 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
         raise ProtocolError(f"'env' is not EnvConfig's ({exc})") from None
     fields = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in _NOT_PROTOCOL}
     fields["success_distance"] = success_distance if success_distance is not None else SUCCESS_DISTANCE.get(task)
+    fields["navigability"] = NAVIGABILITY_VERSION
     return {"task": task, "actions": list(ACTION_NAMES), **dict(sorted(fields.items()))}
 
 
@@ -98,7 +103,9 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
     if not isinstance(task, str) or not (sd is None or (isinstance(sd, (int, float)) and not isinstance(sd, bool))):
         raise ProtocolError(f"{path}: corrupt config ('task' must be a string, 'success_distance' a number)")
     try:
-        return {**protocol(task, sd, cfg.get("env")), "derived": True}
+        proto = protocol(task, sd, cfg.get("env"))
+        del proto["navigability"]
+        return {**proto, "derived": True}
     except ProtocolError as exc:
         raise ProtocolError(f"{path}: corrupt config ({exc})") from None
 
@@ -228,7 +235,12 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
     from navbench.scene.datasets import resolve_scene
 
     proto = config_protocol(cfg)
-    files: dict[str, Any] = {"episodes": file_entry(cfg.episodes), "scene_dir": data_path(cfg.scene_dir),
+    from navbench.episodes.io import split_version
+
+    episodes_entry: dict[str, Any] = file_entry(cfg.episodes)
+    if (version := split_version(cfg.episodes)) is not None:
+        episodes_entry["split_version"] = version
+    files: dict[str, Any] = {"episodes": episodes_entry, "scene_dir": data_path(cfg.scene_dir),
                              "scenes": {}}
     for scene_id in sorted({e.scene_id for e in episodes or []}):
         try:

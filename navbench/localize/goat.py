@@ -33,6 +33,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from navbench.episodes.generate import SPLIT_VERSION
 from navbench.localize.backends.oracle import centre_instance
 from navbench.localize.describe import describe_with_room
 from navbench.localize.pipeline import Query
@@ -195,6 +196,7 @@ def generate_goat_split(out_dir: str | Path, scene_paths: Sequence[str | Path] |
     out_dir = Path(out_dir)
     (out_dir / "images").mkdir(parents=True, exist_ok=True)
     subtasks: list[GoatSubtask] = []
+    scene_ids: list[str] = []
     for si, scene_path in enumerate(scene_paths):
         rng = np.random.default_rng([seed, si])
         asset, grid = load_scene_and_navgrid(scene_path)
@@ -202,6 +204,7 @@ def generate_goat_split(out_dir: str | Path, scene_paths: Sequence[str | Path] |
             scene_id = scene_path.resolve().relative_to(scenes_dir.resolve()).as_posix()
         except ValueError:
             scene_id = scene_path.name
+        scene_ids.append(scene_id)
         stem = scene_path.name.split(".")[0]
         finder = _ViewFinder(asset, grid, config)
         try:
@@ -244,8 +247,8 @@ def generate_goat_split(out_dir: str | Path, scene_paths: Sequence[str | Path] |
             n += 1
 
     path = out_dir / f"{split}.json.gz"
-    info = {"split": split, "seed": seed, "per_type": config.per_type,
-            "scenes": [str(p) for p in scene_paths],
+    info = {"split": split, "split_version": SPLIT_VERSION, "seed": seed, "per_type": config.per_type,
+            "scenes": scene_ids,
             "counts": {t: sum(s.type == t for s in subtasks) for t in ("object", "image", "language")}}
     text = json.dumps({"info": info, "subtasks": [s.to_json() for s in subtasks]}, indent=1)
     with open(path, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as f:  # mtime=0: reproducible bytes

@@ -42,7 +42,7 @@ from navbench.paths import cache_dir
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_navgrid, scene_digest
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, GreedyFollower
-from navbench.scene.navigability import NavGrid
+from navbench.scene.navigability import NAVIGABILITY_VERSION, NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
 
 MEMORY_FILE = "memory.json"
@@ -400,7 +400,9 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
 
 
 def memory_key(digest: str, config: PrescanConfig, encoder_name_: str | None) -> str:
-    blob = json.dumps({"digest": digest, "config": config.to_json(), "encoder": encoder_name_}, sort_keys=True)
+    # the navigability rules place the scan poses, so a memory built under other rules is not reused
+    blob = json.dumps({"digest": digest, "config": config.to_json(), "encoder": encoder_name_,
+                       "navigability": NAVIGABILITY_VERSION}, sort_keys=True)
     return hashlib.sha1(blob.encode()).hexdigest()[:12]
 
 

@@ -31,6 +31,9 @@ from scipy.spatial import cKDTree
 from navbench.scene.asset import SceneError
 
 # A surface is floor-like if its normal is within ~45 deg of vertical.
+# Which rules decide navigability; a change that moves any geodesic or collision bumps it (CHANGELOG).
+# 2: only the passages Habitat's navmesh admits (Recast's voxel erosion, see NavGrid._navmesh_topology).
+NAVIGABILITY_VERSION = 2
 _HORIZONTAL_NY = 0.7
 # Cells the goal's exact-distance disc spans in the fast-marching initialisation (see distance_field).
 _GOAL_DISC_CELLS = 1.5
@@ -206,6 +209,8 @@ class NavGrid:
            grid's boundary on the radius contour: a point belongs to its nearest cell, so the
            navigable area reaches half a cell past the outermost navigable centres, and geodesics
            (computed through navigable centres) are neither shortened nor lengthened on average.
+           Of those, only cells near the area Recast's erosion keeps stay (see :meth:`_navmesh_topology`):
+           a passage or pocket too narrow for Habitat's navmesh is not navigable here either.
         """
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise SceneError(f"navigability needs a non-empty trimesh.Trimesh, got {type(mesh).__name__}")
@@ -251,7 +256,7 @@ class NavGrid:
 
         # 4. erosion by the agent radius, islands
         clearance = cls._clearance(free, blocked, surface, outline, cs, config.agent_radius)
-        navigable = free & (clearance >= config.agent_radius - 0.5 * cs - 1e-9)
+        navigable = free & (clearance >= config.agent_radius - 0.5 * cs - 1e-9) & cls._navmesh_topology(free, config)
         if not navigable.any():
             raise SceneError(f"no floor space at height {floor:.3f} is wide enough for an agent of radius "
                              f"{config.agent_radius} m")
@@ -345,6 +350,23 @@ class NavGrid:
         levels = np.split(heights, np.flatnonzero(np.diff(heights) > config.max_climb / 2) + 1)
         counts = np.array([len(lv) for lv in levels])
         return np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
+
+    @staticmethod
+    def _navmesh_topology(free: np.ndarray, config: NavGridConfig) -> np.ndarray:
+        """Cells within ``k - 1`` cells of one Recast's erosion keeps, ``k = ceil(agent_radius / cell_size)``.
+
+        Habitat's navmesh (Recast, ``walkableRadius = ceil(radius / cs)`` voxels on the same lattice) keeps
+        a walkable voxel only if it is ``k`` voxel steps from every voxel bordering an obstacle voxel, i.e.
+        ``k + 1`` cells from every non-free cell; obstacle voxels are every cell a triangle touches, so a
+        passage needs ~0.45 m of free floor where the exact clearance admits 0.36 m. Keeping the cells
+        within ``k - 1`` cells of that eroded area leaves the boundary along walls where the exact
+        clearance puts it and removes only the passages and pockets the navmesh does not have.
+        """
+        k = int(math.ceil(config.agent_radius / config.cell_size - 1e-9))
+        core = ndimage.distance_transform_edt(free) >= k + 1
+        if not core.any():
+            return core
+        return ndimage.distance_transform_edt(~core) <= k - 1 + 1e-9
 
     @staticmethod
     def _clearance(free: np.ndarray, blocked: np.ndarray, surface: np.ndarray, outline: np.ndarray,

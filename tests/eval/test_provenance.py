@@ -10,9 +10,18 @@ import pytest
 from navbench.agents.pointnav import DEFAULT_CHECKPOINT
 from navbench.agents.registry import make_oracle
 from navbench.cli import main
+from navbench.episodes.generate import SPLIT_VERSION
 from navbench.episodes.io import load_dataset
 from navbench.eval.merge import merge
-from navbench.eval.provenance import PROVENANCE, ProtocolError, config_protocol, protocol_id, provenance, run_protocol
+from navbench.eval.provenance import (
+    PROVENANCE,
+    ProtocolError,
+    check_same_protocol,
+    config_protocol,
+    protocol_id,
+    provenance,
+    run_protocol,
+)
 from navbench.eval.runner import RunConfig, RunError, read_records, run
 from navbench.eval.stats import intervals
 from navbench.eval.table import TableError, group_frame, render, runs_frame
@@ -47,7 +56,8 @@ def test_provenance_checksums_versions_and_relative_paths():
     eps = load_dataset(VAL).episodes[:60]
     doc = provenance(_cfg(agent="pointnav"), eps)
     files = doc["files"]
-    assert files["episodes"] == {"path": "episodes/pointnav/val/val.json.gz", "root": "navbench", "sha256": _sha(VAL)}
+    assert files["episodes"] == {"path": "episodes/pointnav/val/val.json.gz", "root": "navbench", "sha256": _sha(VAL),
+                                 "split_version": SPLIT_VERSION}
     assert files["checkpoint"]["sha256"] == _sha(DEFAULT_CHECKPOINT)
     assert files["checkpoint"]["path"] == "policies/pointnav_navbench.pth"
     assert set(files["scenes"]) == {e.scene_id for e in eps} and len(files["scenes"]) == 2
@@ -78,14 +88,18 @@ def test_a_run_records_provenance_and_intervals_that_reproduce(tmp_path):
         run(_cfg(), make_oracle, tmp_path / "a", resume=True)
 
 
-def test_committed_runs_without_provenance_get_a_derived_protocol():
-    d = RUNS / "objectnav" / "val_unseen" / "frontier"
-    assert not (d / PROVENANCE).exists()
+def test_runs_without_provenance_get_a_derived_protocol_never_taken_for_todays(tmp_path):
+    d = tmp_path / "old"
+    shutil.copytree(RUNS / "objectnav" / "val_unseen" / "frontier", d, ignore=shutil.ignore_patterns("videos"))
+    (d / PROVENANCE).unlink(missing_ok=True)
     proto = run_protocol(d)
     cfg = json.loads((d / "config.json").read_text())
     assert proto.pop("derived") is True
-    assert proto == config_protocol(RunConfig(**{k: v for k, v in cfg.items() if k in RunConfig.__dataclass_fields__}))
-    assert proto == run_protocol(RUNS / "objectnav" / "val_unseen" / "memory")  # recorded: the same rules
+    today = config_protocol(RunConfig(**{k: v for k, v in cfg.items() if k in RunConfig.__dataclass_fields__}))
+    assert today.pop("navigability") >= 2
+    assert proto == today  # every rule config.json states; not which navigability rules it ran under
+    with pytest.raises(ProtocolError, match="navigability"):
+        check_same_protocol([RUNS / "objectnav" / "val_unseen" / "memory", d])
 
 
 def _copy(tmp_path, rel, name, **config):

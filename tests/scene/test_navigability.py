@@ -338,3 +338,17 @@ def test_tight_points_are_navigable_cells_beside_the_edge(wall_grid):
     assert min(p[0] for p in points) < 1.0 < 5.0 < max(p[0] for p in points)
     # nothing that close to an edge on an impossibly tight request
     assert wall_grid.sample_tight_point(rng, 0.0) is None
+
+
+@pytest.mark.parametrize(("gap", "passable"), [(0.40, False), (0.44, False), (0.60, True), (0.80, True)])
+def test_a_gap_is_passable_only_if_habitats_navmesh_admits_it(gap, passable):
+    # A wall across a 6 x 6 m room with one gap: the agent's 0.36 m body fits a 0.40 m gap, but Recast's
+    # erosion (ceil(0.18 / 0.05) = 4 voxels from voxels the wall touches) closes gaps under ~0.45 m.
+    g = NavGrid.from_mesh(scene(floor(6, 6), wall_x(3.0, 0.0, 2.8), wall_x(3.0, 2.8 + gap, 6.0)))
+    d = g.geodesic_distance(P(1.5, 1.5), P(4.5, 1.5))
+    assert math.isfinite(d) == passable
+    if passable:
+        assert d < 5.0  # through the gap
+    # Away from the gap the wall's face stays where the exact clearance puts it.
+    i, j = g.world_to_grid(P(3.0, 1.0))
+    assert np.array_equal(g.navigable[i, :j], g.free[i, :j] & (g._clearance[i, :j] >= R - CS / 2 - 1e-9))
