@@ -21,7 +21,7 @@ from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
 from navbench.episodes.types import Episode
 from navbench.scene.asset import load_scene
-from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.cache import layers_for, load_scene_and_navgrid
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.layers import LayeredNav, LayerView
 from navbench.scene.optimistic import OptimisticFollower
@@ -60,7 +60,7 @@ class OracleAgent:
             return grid
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if self._layered is None or self._layered[0] != path:
-            self._layered = (path, LayeredNav.from_mesh(load_scene(path).mesh, self.nav_config))
+            self._layered = (path, layers_for(load_scene(path), self.nav_config))
         if not self._layered[1].reaches_any(episode.start_position, goals[off]):
             return grid
         self._view = LayerView(self._layered[1], episode.start_position)

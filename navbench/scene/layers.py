@@ -23,8 +23,11 @@ whose head-band rasterisation catches it; the single-storey NavGrid stays the en
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -69,6 +72,20 @@ def _csr(dst: np.ndarray, wt: np.ndarray, n: int) -> sparse.csr_matrix:
     mask = dst >= 0
     indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
     return sparse.csr_matrix((np.asarray(wt)[mask], dst[mask], indptr), shape=(n, n))
+
+
+def _step_lengths(cell: np.ndarray, smooth: np.ndarray, w: int, cs: float, src: np.ndarray,
+                  dst: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
+    """Length of each lattice step ``src`` -> ``dst`` (span indices): its 3-D chord on the smoothed surface,
+    sqrt((cs di)^2 + (cs dj)^2 + dh^2), in chunks of steps (bounded temporaries). The builder and the cache
+    loader both compute the weights here, so a loaded graph is the built one."""
+    row, col = (cell // w).astype(np.int32), (cell % w).astype(np.int32)
+    out = np.empty(len(src))
+    for k in range(0, len(src), chunk):
+        s, t = src[k:k + chunk], dst[k:k + chunk]
+        di, dj = (row[t] - row[s]).astype(np.float64), (col[t] - col[s]).astype(np.float64)
+        out[k:k + chunk] = np.sqrt((cs * di) ** 2 + (cs * dj) ** 2 + (smooth[t] - smooth[s]) ** 2)
+    return out
 
 
 class LayeredNav:
@@ -119,6 +136,7 @@ class LayeredNav:
         above_ny[1:][same] = ny[tri[:-1]][same]
         ok = (np.abs(ny[tri]) >= _HORIZONTAL_NY) & (above - ys >= config.agent_height) & (above_ny <= 0.1)
         cell, height = rid[ok].astype(np.int64), ys[ok]
+        del rays, locs, ray_idx, tri_idx, order, ys, rid, tri, ny, above, above_ny, same, ok
         order = np.lexsort((height, cell))
         cell, height = cell[order], height[order]
         dup = np.zeros(len(cell), bool)
@@ -173,20 +191,67 @@ class LayeredNav:
         # 5. geodesic steps: 32 directions over navigable spans, through navigable joined cells only
         nav_nbr = np.where(navigable[:, None] & (nbr >= 0), nbr, -1)
         nav_nbr[nav_nbr >= 0] = np.where(navigable[nav_nbr[nav_nbr >= 0]], nav_nbr[nav_nbr >= 0], -1)
-        dirs = _directions()
-        dst = np.full((n, len(dirs)), -1, np.int64)
-        wt = np.zeros((n, len(dirs)))
+        # Each direction's (source, target) pairs are int32; they are scattered into the rows of the CSR
+        # arrays in direction order (no dense N x 32 table, no sort), and the step lengths computed last.
+        parts = []
         nav_idx = np.flatnonzero(navigable)
-        for k, (di, dj) in enumerate(dirs):
+        for di, dj in _directions():
             cur = nav_idx
             for d in _unit_path(di, dj):
                 cur = np.where(cur >= 0, nav_nbr[np.maximum(cur, 0), d], -1)
             ok = cur >= 0
-            src, t = nav_idx[ok], cur[ok]
-            dst[src, k] = t
-            wt[src, k] = np.sqrt((cs * di) ** 2 + (cs * dj) ** 2 + (smooth[t] - smooth[src]) ** 2)
-        graph = _csr(dst, wt, n)
+            parts.append((nav_idx[ok].astype(np.int32), cur[ok].astype(np.int32)))
+        del nav_nbr, nbr, unit, adj
+        counts = np.zeros(n, np.int64)
+        for src, _ in parts:
+            counts[src] += 1  # a direction has each source once
+        nnz = int(counts.sum())
+        index_dtype = np.int32 if nnz < np.iinfo(np.int32).max else np.int64
+        indptr = np.zeros(n + 1, index_dtype)
+        indptr[1:] = np.cumsum(counts)
+        fill = indptr[:-1].copy()
+        indices = np.empty(nnz, np.int32)
+        for src, t in parts:
+            indices[fill[src]] = t
+            fill[src] += 1
+        del parts, fill, counts
+        src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
+        graph = sparse.csr_matrix((_step_lengths(cell, smooth, w, cs, src, indices), indices, indptr), shape=(n, n))
+        del src
         return cls(origin, cs, (h, w), cell, height, smooth, navigable, graph, config)
+
+    # ------------------------------------------------------------------ persistence
+
+    def save(self, path: str | Path) -> None:
+        """Write the surfaces to an ``.npz`` file of plain arrays: the graph as its CSR structure (the step
+        lengths follow from the spans and are recomputed on loading, which keeps the file small)."""
+        g = self.graph
+        np.savez_compressed(
+            Path(path), origin=self.origin, cell_size=np.float64(self.cell_size), shape=np.array(self.shape, np.int64),
+            cell=self.cell, height=self.height, smooth=self.smooth, navigable=self.navigable,
+            graph_indices=g.indices, graph_indptr=g.indptr,
+            config=np.array(json.dumps(dataclasses.asdict(self.config))))
+
+    @classmethod
+    def load(cls, path: str | Path) -> LayeredNav:
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as d:
+                config = NavGridConfig(**json.loads(str(d["config"])))
+                cell, smooth, indices, indptr = d["cell"], d["smooth"], d["graph_indices"], d["graph_indptr"]
+                n = len(cell)
+                h, w = (int(v) for v in d["shape"])
+                if len(indptr) != n + 1 or indptr[-1] != len(indices) or (len(indices) and indices.max() >= n):
+                    raise ValueError("graph arrays do not match the spans")
+                src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
+                lengths = _step_lengths(cell, smooth, w, float(d["cell_size"]), src, indices)
+                graph = sparse.csr_matrix((lengths, indices, indptr), shape=(n, n))
+                return cls(d["origin"], float(d["cell_size"]), (h, w), cell, d["height"], smooth,
+                           d["navigable"].astype(bool), graph, config)
+        except FileNotFoundError:
+            raise SceneError(f"{path}: layered navigability file not found") from None
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise SceneError(f"{path}: corrupt layered navigability ({type(exc).__name__}: {exc})") from None
 
     # ------------------------------------------------------------------ queries
 
