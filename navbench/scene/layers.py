@@ -345,6 +345,49 @@ class LayeredNav:
         """Distinct heights (to 5 cm) of the navigable spans, bottom-up: the storeys, landings and treads."""
         return np.unique(np.round(self.height[self.navigable] / 0.05) * 0.05)
 
+    def storeys(self) -> np.ndarray:
+        """Floor heights of the storeys, bottom-up: the navigable spans binned by height in bins of half
+        ``max_climb``, runs of bins each holding at least 5% of the fullest bin's spans, each run's median.
+        Treads, landings, a ramp's slope and furniture tops hold too few spans to be a storey."""
+        h = self.height[self.navigable]
+        if len(h) == 0:
+            return np.zeros(0)
+        step = self.config.max_climb / 2 if self.config.max_climb > 0 else self.cell_size
+        b = np.floor((h - h.min()) / step).astype(np.int64)
+        counts = np.bincount(b)
+        kept = counts >= 0.05 * counts.max()
+        runs = np.split(np.flatnonzero(kept), np.flatnonzero(np.diff(np.flatnonzero(kept)) > 1) + 1)
+        return np.array([float(np.median(h[np.isin(b, r)])) for r in runs])
+
+    def storey_spans(self) -> np.ndarray:
+        """Navigable spans standing on a storey's floor (within half ``max_climb`` of one of :meth:`storeys`)."""
+        floors = self.storeys()
+        idx = np.flatnonzero(self.navigable)
+        if len(floors) == 0:
+            return idx
+        near = np.abs(self.height[idx][:, None] - floors[None, :]).min(axis=1) <= self.config.max_climb / 2
+        return idx[near]
+
+    def walkable(self) -> np.ndarray:
+        """Navigable spans joined to a storey's floor (its stairs and ramps included): the surfaces an agent can
+        be on. A furniture top or a ledge nothing joins to a floor is navigable but no place to walk."""
+        comps = np.unique(self.component[self.storey_spans()])
+        return np.flatnonzero(self.navigable & np.isin(self.component, comps))
+
+    def storey_band(self, y: float) -> tuple[float, float]:
+        """(lowest, highest) surface height on the storey a point at height ``y`` stands on: that storey's floor
+        is the highest at most ``max_climb`` above ``y`` (else the lowest); the band runs from half the agent's
+        height below it to ``max_climb`` below the next floor more than the agent's height up (the NavGrid's
+        storey test, :meth:`~navbench.scene.navigability.NavGrid.on_storey`, on the layered surfaces)."""
+        floors = self.storeys()
+        if len(floors) == 0:
+            return -math.inf, math.inf
+        below = floors[floors <= y + self.config.max_climb]
+        floor = float(below.max()) if len(below) else float(floors.min())
+        above = floors[floors > floor + self.config.agent_height]
+        top = float(above.min()) - self.config.max_climb if len(above) else math.inf
+        return floor - self.config.agent_height / 2, top
+
     # ------------------------------------------------------------------ the env's interface (NavGrid's)
 
     def is_navigable(self, p) -> bool:
