@@ -74,6 +74,71 @@ def _csr(dst: np.ndarray, wt: np.ndarray, n: int) -> sparse.csr_matrix:
     return sparse.csr_matrix((np.asarray(wt)[mask], dst[mask], indptr), shape=(n, n))
 
 
+def _joins(cell: np.ndarray, height: np.ndarray, h: int, w: int, max_climb: float) -> np.ndarray:
+    """(N, 8) joined neighbour of each span in the directions of ``_UNIT`` (-1: none), spans sorted by cell.
+    Orthogonal: the neighbouring cell's span nearest in height, if within ``max_climb``; diagonal: both
+    orthogonal routes round the corner reach the same span."""
+    n = len(cell)
+    start = np.full(h * w, 0, np.int64)
+    count = np.bincount(cell, minlength=h * w)
+    start[1:] = np.cumsum(count)[:-1]
+    ci, cj = cell // w, cell % w
+    nbr = np.full((n, 8), -1, np.int64)
+    for d, (di, dj) in enumerate(_UNIT[:4]):
+        ni, nj = ci + di, cj + dj
+        inside = (ni >= 0) & (ni < h) & (nj >= 0) & (nj < w)
+        nc = np.where(inside, ni * w + nj, 0)
+        best = np.full(n, np.inf)
+        for k in range(int(count.max())):
+            t = start[nc] + k
+            has = inside & (count[nc] > k)
+            dh = np.abs(height[np.where(has, t, 0)] - height)
+            better = has & (dh <= max_climb + 1e-9) & (dh < best)
+            nbr[better, d] = t[better]
+            best[better] = dh[better]
+    for d, (di, dj) in enumerate(_UNIT[4:], start=4):
+        a, b = _UNIT.index((di, 0)), _UNIT.index((0, dj))
+        via_a = np.where(nbr[:, a] >= 0, nbr[np.maximum(nbr[:, a], 0), b], -1)
+        via_b = np.where(nbr[:, b] >= 0, nbr[np.maximum(nbr[:, b], 0), a], -1)
+        nbr[:, d] = np.where((via_a >= 0) & (via_a == via_b), via_a, -1)
+    return nbr
+
+
+def _lattice(nbr: np.ndarray, passable: np.ndarray, cell: np.ndarray, smooth: np.ndarray, w: int,
+             cs: float) -> sparse.csr_matrix:
+    """The geodesic steps between ``passable`` spans: the 32 directions of :func:`_directions`, each a straight
+    lattice step whose cells in between are passable and joined (``nbr``), as long as its 3-D chord on the
+    ``smooth`` surface. Each direction's (source, target) pairs are int32, scattered into the rows of the CSR
+    arrays in direction order (no dense N x 32 table, no sort); the step lengths are computed last."""
+    n = len(cell)
+    nav_nbr = np.where(passable[:, None] & (nbr >= 0), nbr, -1)
+    nav_nbr[nav_nbr >= 0] = np.where(passable[nav_nbr[nav_nbr >= 0]], nav_nbr[nav_nbr >= 0], -1)
+    parts = []
+    nav_idx = np.flatnonzero(passable)
+    for di, dj in _directions():
+        cur = nav_idx
+        for d in _unit_path(di, dj):
+            cur = np.where(cur >= 0, nav_nbr[np.maximum(cur, 0), d], -1)
+        ok = cur >= 0
+        parts.append((nav_idx[ok].astype(np.int32), cur[ok].astype(np.int32)))
+    del nav_nbr
+    counts = np.zeros(n, np.int64)
+    for src, _ in parts:
+        counts[src] += 1  # a direction has each source once
+    nnz = int(counts.sum())
+    index_dtype = np.int32 if nnz < np.iinfo(np.int32).max else np.int64
+    indptr = np.zeros(n + 1, index_dtype)
+    indptr[1:] = np.cumsum(counts)
+    fill = indptr[:-1].copy()
+    indices = np.empty(nnz, np.int32)
+    for src, t in parts:
+        indices[fill[src]] = t
+        fill[src] += 1
+    del parts, fill, counts
+    src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
+    return sparse.csr_matrix((_step_lengths(cell, smooth, w, cs, src, indices), indices, indptr), shape=(n, n))
+
+
 def _step_lengths(cell: np.ndarray, smooth: np.ndarray, w: int, cs: float, src: np.ndarray,
                   dst: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
     """Length of each lattice step ``src`` -> ``dst`` (span indices): its 3-D chord on the smoothed surface,
@@ -148,28 +213,7 @@ class LayeredNav:
 
         # 2. joins between spans of neighbouring cells (orthogonal: |dh| <= max_climb; diagonal: both
         # orthogonal routes round the corner reach the same span)
-        start = np.full(h * w, 0, np.int64)
-        count = np.bincount(cell, minlength=h * w)
-        start[1:] = np.cumsum(count)[:-1]
-        ci, cj = cell // w, cell % w
-        nbr = np.full((n, 8), -1, np.int64)
-        for d, (di, dj) in enumerate(_UNIT[:4]):
-            ni, nj = ci + di, cj + dj
-            inside = (ni >= 0) & (ni < h) & (nj >= 0) & (nj < w)
-            nc = np.where(inside, ni * w + nj, 0)
-            best = np.full(n, np.inf)
-            for k in range(int(count.max())):
-                t = start[nc] + k
-                has = inside & (count[nc] > k)
-                dh = np.abs(height[np.where(has, t, 0)] - height)
-                better = has & (dh <= config.max_climb + 1e-9) & (dh < best)
-                nbr[better, d] = t[better]
-                best[better] = dh[better]
-        for d, (di, dj) in enumerate(_UNIT[4:], start=4):
-            a, b = _UNIT.index((di, 0)), _UNIT.index((0, dj))
-            via_a = np.where(nbr[:, a] >= 0, nbr[np.maximum(nbr[:, a], 0), b], -1)
-            via_b = np.where(nbr[:, b] >= 0, nbr[np.maximum(nbr[:, b], 0), a], -1)
-            nbr[:, d] = np.where((via_a >= 0) & (via_a == via_b), via_a, -1)
+        nbr = _joins(cell, height, h, w, config.max_climb)
 
         # 3. clearance along the surface from the spans missing an orthogonal neighbour
         unit_w = np.array([cs * math.hypot(di, dj) for di, dj in _UNIT])
@@ -189,35 +233,9 @@ class LayeredNav:
             smooth = (smooth + adj @ smooth) / (1.0 + deg)
 
         # 5. geodesic steps: 32 directions over navigable spans, through navigable joined cells only
-        nav_nbr = np.where(navigable[:, None] & (nbr >= 0), nbr, -1)
-        nav_nbr[nav_nbr >= 0] = np.where(navigable[nav_nbr[nav_nbr >= 0]], nav_nbr[nav_nbr >= 0], -1)
-        # Each direction's (source, target) pairs are int32; they are scattered into the rows of the CSR
-        # arrays in direction order (no dense N x 32 table, no sort), and the step lengths computed last.
-        parts = []
-        nav_idx = np.flatnonzero(navigable)
-        for di, dj in _directions():
-            cur = nav_idx
-            for d in _unit_path(di, dj):
-                cur = np.where(cur >= 0, nav_nbr[np.maximum(cur, 0), d], -1)
-            ok = cur >= 0
-            parts.append((nav_idx[ok].astype(np.int32), cur[ok].astype(np.int32)))
-        del nav_nbr, nbr, unit, adj
-        counts = np.zeros(n, np.int64)
-        for src, _ in parts:
-            counts[src] += 1  # a direction has each source once
-        nnz = int(counts.sum())
-        index_dtype = np.int32 if nnz < np.iinfo(np.int32).max else np.int64
-        indptr = np.zeros(n + 1, index_dtype)
-        indptr[1:] = np.cumsum(counts)
-        fill = indptr[:-1].copy()
-        indices = np.empty(nnz, np.int32)
-        for src, t in parts:
-            indices[fill[src]] = t
-            fill[src] += 1
-        del parts, fill, counts
-        src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
-        graph = sparse.csr_matrix((_step_lengths(cell, smooth, w, cs, src, indices), indices, indptr), shape=(n, n))
-        del src
+        del unit, adj
+        graph = _lattice(nbr, navigable, cell, smooth, w, cs)
+        del nbr
         return cls(origin, cs, (h, w), cell, height, smooth, navigable, graph, config)
 
     # ------------------------------------------------------------------ persistence
