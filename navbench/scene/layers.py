@@ -546,6 +546,11 @@ class LayerView:
             self._y = float(self.nav.height[s])
         self._at.clear()
 
+    @property
+    def surface_height(self) -> float:
+        """Height of the surface the agent stood on when last tracked (its start's, before that)."""
+        return self._y
+
     def _nearest(self, x: float, z: float) -> int:
         return self.nav.span_of((x, self._y, z), max_dist=self.nav.cell_size)
 
