@@ -134,7 +134,9 @@ def _layered_pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: n
     for k in range(n):
         for _ in range(cfg.max_tries):
             goal, start = points.sample(rng), points.sample(rng)
-            geo = float(nav.distance_field(goal).distance(start))  # what the env measures (inf: not joined)
+            if not nav.connected(start, goal):  # on storeys nothing joins: never drawn (and no field to build)
+                continue
+            geo = float(nav.distance_field(goal).distance(start))  # what the env measures
             euc = float(np.linalg.norm(goal - start))
             if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
                 break
