@@ -261,6 +261,8 @@ class LayeredNav:
                 h, w = (int(v) for v in d["shape"])
                 if len(indptr) != n + 1 or indptr[-1] != len(indices) or (len(indices) and indices.max() >= n):
                     raise ValueError("graph arrays do not match the spans")
+                if {len(d[k]) for k in ("height", "smooth", "navigable")} != {n} or (n and cell.max() >= h * w):
+                    raise ValueError("span arrays do not match each other or the lattice")
                 src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
                 lengths = _step_lengths(cell, smooth, w, float(d["cell_size"]), src, indices)
                 graph = sparse.csr_matrix((lengths, indices, indptr), shape=(n, n))
@@ -268,7 +270,7 @@ class LayeredNav:
                            d["navigable"].astype(bool), graph, config)
         except FileNotFoundError:
             raise SceneError(f"{path}: layered navigability file not found") from None
-        except (OSError, ValueError, KeyError, TypeError) as exc:
+        except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
             raise SceneError(f"{path}: corrupt layered navigability ({type(exc).__name__}: {exc})") from None
 
     # ------------------------------------------------------------------ queries

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navbench.scene.asset import load_scene
+from navbench.scene.asset import SceneError, load_scene
 from navbench.scene.cache import layers_for, load_scene_and_layers
 from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGridConfig
@@ -61,3 +61,15 @@ def test_key_follows_config_and_scene_bytes(scene, tmp_path):
     house(None).export(scene)  # same name, other bytes
     layers_for(load_scene(scene))
     assert len(list((tmp_path / "cache" / "layers").glob("*.npz"))) == 3
+
+
+def test_a_cache_file_whose_arrays_disagree_is_rebuilt(scene, tmp_path):
+    asset, built = load_scene_and_layers(scene)
+    (cached,) = (tmp_path / "cache" / "layers").glob("*.npz")
+    with np.load(cached) as d:
+        arrays = {k: d[k] for k in d.files}
+    arrays["height"] = arrays["height"][:-1]
+    np.savez(cached, **arrays)
+    with pytest.raises(SceneError, match="do not match"):
+        LayeredNav.load(cached)
+    _same(layers_for(asset), built)
