@@ -3,6 +3,9 @@ joined by a flight of stairs (0.175 m risers), a ramp, or nothing."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import trimesh
 
@@ -31,3 +34,27 @@ def house(join: str | None) -> trimesh.Trimesh:
         pts = [(x, y, z) for z in (Z0, Z1) for x, y in ((X0, 0.0), (X1, 0.0), (X1, UPPER))]
         parts.append(trimesh.convex.convex_hull(np.array(pts)))
     return trimesh.util.concatenate(parts)
+
+
+# Objects for the annotated house: (id, category, aabb min, aabb max); one chair on each storey, the upper one
+# right above the lower one's neighbourhood (x, z the same), and a bed upstairs beyond the flight.
+OBJECTS = [(1, "chair", (1.2, 0.0, 4.6), (1.7, 0.5, 5.1)),
+           (2, "chair", (1.2, UPPER, 4.6), (1.7, UPPER + 0.5, 5.1)),
+           (3, "bed", (8.2, UPPER, 4.0), (9.6, UPPER + 0.6, 5.8))]
+
+
+def write_house(directory: Path, join: str | None, name: str | None = None) -> Path:
+    """The house with :data:`OBJECTS` as ``{name}.glb`` (objects under ``obj_{id}`` nodes) and its
+    ``.semantic.json`` sidecar; returns the GLB's path."""
+    name = name or (join or "none")
+    scene = trimesh.Scene()
+    scene.add_geometry(house(join), node_name="structure", geom_name="structure")
+    objects = []
+    for i, cat, lo, hi in OBJECTS:
+        scene.add_geometry(box(lo, hi), node_name=f"obj_{i}", geom_name=f"obj_{i}")
+        objects.append({"id": i, "category": cat, "room": "hall", "colour": "grey", "colour_rgb": [128, 128, 128],
+                        "aabb": {"min": list(lo), "max": list(hi)}})
+    path = Path(directory) / f"{name}.glb"
+    scene.export(path)
+    path.with_name(f"{name}.semantic.json").write_text(json.dumps({"scene_id": name, "rooms": [], "objects": objects}))
+    return path
