@@ -224,6 +224,14 @@ class LayeredNav:
         else:
             dist = np.full(n, np.inf)
         navigable = dist + 0.5 * cs >= config.agent_radius - 0.5 * cs - 1e-9
+        # only the passages Habitat's navmesh admits, as NavGrid._navmesh_topology: within k - 1 cells of
+        # the spans Recast's erosion (k = ceil(radius / cs) voxels from the edge) keeps
+        k = int(math.ceil(config.agent_radius / cs - 1e-9))
+        core = np.flatnonzero(dist >= k * cs - 1e-9)
+        if len(core):
+            navigable &= csgraph.dijkstra(unit, indices=core, min_only=True) <= (k - 1) * cs + 1e-9
+        else:
+            navigable[:] = False
 
         # 4. heights smoothed over the joined surface (a flight of steps becomes the ramp through it)
         adj = _csr(nbr[:, :4], np.ones((n, 4)), n)  # orthogonal joins
