@@ -48,7 +48,7 @@ def _episodes(root: Path, join: str) -> Path:
 
 def _run(root: Path, episodes: Path) -> dict[str, dict]:
     cfg = RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes), scene_dir=str(root),
-                    success_distance=0.25, env={"max_steps": 300},
+                    success_distance=0.25, env={"max_steps": 500},
                     agent_options={"memory_root": str(root / "memory"), "checkpoint": str(CHECKPOINT)})
     agent = make_memory(cfg)
     env = ObjectNavEnv(episodes, scene_dir=root, config=cfg.env_config(agent.sensors))
