@@ -35,6 +35,9 @@ from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
 from navbench.render.camera import CameraConfig, camera_pose, intrinsics
 from navbench.scene.asset import load_scene
+from navbench.scene.cache import layers_for
+from navbench.scene.layers import LayeredNav
+from navbench.scene.navigability import NavGridConfig
 from navbench.scene.pose import quat_from_yaw
 
 
@@ -117,6 +120,15 @@ class SceneLocalizer:
                      "memory_frames": st.frames, "memory_bytes": st.bytes,
                      "memory_build_s": round(st.build_seconds, 3)}
         return candidates
+
+    def surfaces(self, config: NavGridConfig) -> LayeredNav | None:
+        """The joined walkable surfaces (storeys, stairs, ramps) of the scene last localised in when its
+        memory's keyframes stand on more than one storey (their camera heights differ by more than a step);
+        None for a memory of one storey, where the agent moves and routes on one floor."""
+        if not len(self.memory.store) or float(np.ptp(self.memory.store.positions()[:, 1])) <= config.max_climb:
+            return None
+        path = self._path
+        return _shared(("surfaces", path, config), lambda: layers_for(load_scene(path), config))
 
     def route_lengths(self, position: np.ndarray, candidates: Sequence[GoalCandidate]) -> np.ndarray:
         """Route lengths (m) from ``position`` to ``candidates`` over the memory of the scene last

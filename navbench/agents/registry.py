@@ -127,7 +127,8 @@ def make_memory(cfg):
     def build(policy):
         localizer = SceneLocalizer(cfg.scene_dir, pcfg)
         return MemoryAgent(localizer, policy, agent_cfg, env_cfg, verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg),
-                           route=localizer.route_lengths, route_path=localizer.route_path, seed=cfg.seed)
+                           route=localizer.route_lengths, route_path=localizer.route_path,
+                           surfaces=localizer.surfaces, seed=cfg.seed)
     return _driving(cfg, build)
 
 

@@ -58,3 +58,44 @@ def write_house(directory: Path, join: str | None, name: str | None = None) -> P
     scene.export(path)
     path.with_name(f"{name}.semantic.json").write_text(json.dumps({"scene_id": name, "rooms": [], "objects": objects}))
     return path
+
+
+# Furniture of the furnished houses: (id, category, storey, box lo, box hi), lo's y above the storey's floor.
+# A chair on each storey; the rest on one storey only.
+FURNITURE = [
+    (1, "chair", 0, (0.6, 0.0, 4.6), (1.2, 0.9, 5.2)),
+    (2, "sofa", 0, (8.2, 0.0, 4.8), (9.8, 0.8, 5.7)),
+    (3, "table", 0, (4.0, 0.0, 4.5), (5.2, 0.75, 5.5)),
+    (4, "chair", 1, (8.8, 0.0, 0.4), (9.4, 0.9, 1.0)),
+    (5, "bed", 1, (0.3, 0.0, 4.2), (2.2, 0.6, 5.8)),
+    (6, "plant", 1, (5.0, 0.0, 4.8), (5.6, 1.2, 5.4)),
+]
+COLOURS = {"chair": (200, 40, 40), "sofa": (40, 160, 60), "table": (150, 100, 40), "bed": (40, 60, 200),
+           "plant": (30, 200, 120)}
+
+
+def furnished(join: str | None, directory) -> Path:
+    """:func:`house` with :data:`FURNITURE` as annotated objects (``obj_{id}`` nodes) and a room per storey,
+    written to ``directory/{join}.glb`` with its ``.semantic.json``; returns the glb's path."""
+    directory = Path(directory)
+    name = join or "none"
+    structure = house(join)
+    structure.visual.vertex_colors = (170, 170, 170, 255)
+    scene = trimesh.Scene()
+    scene.add_geometry(structure, node_name="structure", geom_name="structure")
+    objects = []
+    for oid, cat, storey, lo, hi in FURNITURE:
+        lift = np.array([0.0, UPPER * storey, 0.0])
+        lo, hi = np.asarray(lo) + lift, np.asarray(hi) + lift
+        b = box(lo, hi)
+        b.visual.vertex_colors = (*COLOURS[cat], 255)
+        scene.add_geometry(b, node_name=f"obj_{oid}", geom_name=f"obj_{oid}")
+        objects.append({"id": oid, "category": cat, "room": ("ground", "upper")[storey], "colour": "",
+                        "colour_rgb": list(COLOURS[cat]), "aabb": {"min": lo.tolist(), "max": hi.tolist()}})
+    rooms = [{"name": "ground", "aabb": {"min": [0.0, 0.0, 0.0], "max": [10.0, UPPER - 0.1, 6.0]}},
+             {"name": "upper", "aabb": {"min": [0.0, UPPER, 0.0], "max": [10.0, UPPER + 2.7, 6.0]}}]
+    path = directory / f"{name}.glb"
+    scene.export(path)
+    (directory / f"{name}.semantic.json").write_text(json.dumps({"scene_id": name, "rooms": rooms,
+                                                                "objects": objects}))
+    return path
