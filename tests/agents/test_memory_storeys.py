@@ -1,5 +1,6 @@
 """The memory agent in a two-storey house: the pre-scan covers both storeys, and the agent finds goals upstairs
-and downstairs from either storey, over the stairs or the ramp (oracle perception, the shipped policy)."""
+and downstairs from either storey, over the stairs or the ramp (oracle perception, the shipped policy).
+Slow (several minutes on 2 cores: two pre-scans and ten episodes per house): ``pytest -m slow``."""
 
 import json
 import sys
@@ -20,6 +21,7 @@ from navbench.scene.cache import navgrid_for
 sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
 from storeys import UPPER, furnished
 
+pytestmark = pytest.mark.slow
 CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
 STARTS = {"ground": [1.0, 0.0, 1.0], "upper": [2.0, UPPER, 0.8]}
 # (category, start): a goal upstairs from the ground floor, one downstairs from upstairs, the chair (one on
