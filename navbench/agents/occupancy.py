@@ -28,14 +28,32 @@ distance. Path distances are geodesics from the fast marching method (scikit-fmm
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 import skfmm
 from sklearn.cluster import KMeans
+from threadpoolctl import ThreadpoolController
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
+
+_KMEANS_CACHE_SIZE = 256  # split results kept per map: most frontier clusters come back unchanged next step
+_threadpools: ThreadpoolController | None = None
+
+
+def _split_cluster(cells: np.ndarray, k: int) -> np.ndarray:
+    """K-means labels of one long frontier cluster's cells (deterministic: ``random_state=0``).
+
+    Run on one OpenMP thread: the clusters are a few hundred cells, for which sklearn's threads cost ~15x
+    the work itself (they spin between its many tiny parallel loops). The labels are the same for any
+    thread count: the cells are integers, so every centre sum is exact in any order."""
+    global _threadpools
+    if _threadpools is None:
+        _threadpools = ThreadpoolController()
+    with _threadpools.limit(limits=1, user_api="openmp"):
+        return KMeans(n_clusters=k, n_init=1, random_state=0).fit_predict(cells.astype(np.float64))
 
 
 class OccupancyError(ValueError):
@@ -90,6 +108,8 @@ class OccupancyMap:
     def __init__(self, config: OccupancyConfig = OccupancyConfig()):
         self.config = config
         self.n = int(math.ceil(config.size / config.cell_size))
+        # (cells bytes, shape, k) -> k-means labels: a pure function of the cells, so kept across steps
+        self._splits: OrderedDict[tuple, np.ndarray] = OrderedDict()
         self.reset(np.zeros(3))
 
     # ------------------------------------------------------------------------------------ frames
@@ -292,7 +312,7 @@ class OccupancyMap:
             if k == 1:
                 pieces.append(cells)
                 continue
-            parts = KMeans(n_clusters=k, n_init=1, random_state=0).fit_predict(cells.astype(np.float64))
+            parts = self._split(cells, k)
             pieces.extend(cells[parts == i] for i in range(k) if (parts == i).any())
         for cells in pieces:
             r, c = cells[:, 0], cells[:, 1]
@@ -305,6 +325,19 @@ class OccupancyMap:
             out.append(Frontier(cells, (int(r[j]), int(c[j])), self.to_world(cells[j]), float(d[j])))
         out.sort(key=lambda f: f.distance)
         return out
+
+
+    def _split(self, cells: np.ndarray, k: int) -> np.ndarray:
+        """:func:`_split_cluster`, remembered for the last ``_KMEANS_CACHE_SIZE`` distinct clusters."""
+        key = (cells.tobytes(), cells.shape, cells.dtype.str, k)
+        parts = self._splits.get(key)
+        if parts is None:
+            parts = self._splits[key] = _split_cluster(cells, k)
+            if len(self._splits) > _KMEANS_CACHE_SIZE:
+                self._splits.popitem(last=False)
+        else:
+            self._splits.move_to_end(key)
+        return parts
 
 
 def trace_path(distance: np.ndarray, target: tuple[int, int], max_cells: int = 100_000) -> np.ndarray:
