@@ -110,6 +110,8 @@ class OccupancyMap:
         self.n = int(math.ceil(config.size / config.cell_size))
         # (cells bytes, shape, k) -> k-means labels: a pure function of the cells, so kept across steps
         self._splits: OrderedDict[tuple, np.ndarray] = OrderedDict()
+        self._clear_for: np.ndarray | None = None  # the occupied mask self._clear was computed from
+        self._clear: np.ndarray | None = None
         self.reset(np.zeros(3))
 
     # ------------------------------------------------------------------------------------ frames
@@ -228,8 +230,8 @@ class OccupancyMap:
     # ---------------------------------------------------------------------------------- planning
     def _window(self, margin: int = 2) -> tuple[slice, slice]:
         """Bounding box of the explored cells plus a margin: all planning happens inside it."""
-        rows = np.flatnonzero(self.explored.any(axis=1))
-        cols = np.flatnonzero(self.explored.any(axis=0))
+        rows = np.flatnonzero(self.grid.any(axis=1))  # explored = nonzero
+        cols = np.flatnonzero(self.grid.any(axis=0))
         if not len(rows):
             return slice(0, 0), slice(0, 0)
         return (slice(max(rows[0] - margin, 0), min(rows[-1] + margin + 1, self.n)),
@@ -240,10 +242,38 @@ class OccupancyMap:
         occupied cell."""
         r = self.config.agent_radius + self.config.planning_margin if inflation is None else inflation
         free = self.free
-        if r <= 0.0 or not self.occupied.any():
+        if r <= 0.0:
             return free
-        clear = cv2.distanceTransform(np.where(self.occupied, 0, 1).astype(np.uint8), cv2.DIST_L2, 5)
+        clear = self.clearance()
+        if clear is None:
+            return free
         return free & (clear * self.config.cell_size > r)
+
+    def _traversable_in(self, rs: slice, cs: slice, inflation: float | None = None) -> np.ndarray:
+        """``traversable(inflation)[rs, cs]``, computed on that window only (a new array)."""
+        r = self.config.agent_radius + self.config.planning_margin if inflation is None else inflation
+        free = self.grid[rs, cs] == FREE
+        if r <= 0.0:
+            return free
+        clear = self.clearance()
+        if clear is None:
+            return free
+        return free & (clear[rs, cs] * self.config.cell_size > r)
+
+    def clearance(self) -> np.ndarray | None:
+        """Distance (cells; cv2's 5x5 L2 chamfer) from every cell to the nearest occupied cell, None while
+        nothing is occupied. Read-only: the transform is kept and handed out again until the occupied cells
+        change (of the whole 800 x 800 grid it was the planner's largest cost, and the agent plans up to
+        three times a step, most steps mapping no new obstacle)."""
+        occupied = self.occupied
+        if self._clear_for is not None and np.array_equal(occupied, self._clear_for):
+            return self._clear
+        clear = None
+        if occupied.any():
+            clear = cv2.distanceTransform(np.where(occupied, 0, 1).astype(np.uint8), cv2.DIST_L2, 5)
+            clear.flags.writeable = False
+        self._clear_for, self._clear = occupied, clear
+        return clear
 
     def path_distance(self, source: np.ndarray, inflation: float | None = None) -> np.ndarray:
         """Geodesic distance (m) over traversable cells from the world point ``source`` to every cell
@@ -255,13 +285,13 @@ class OccupancyMap:
         if not self.inside(src):
             return out
         rs, cs = self._window()
-        trav = self.traversable(inflation)[rs, cs].copy()
+        trav = self._traversable_in(rs, cs, inflation)
         r0, c0 = int(src[0]) - rs.start, int(src[1]) - cs.start
         if not (0 <= r0 < trav.shape[0] and 0 <= c0 < trav.shape[1]):
             return out
         foot = np.zeros(trav.shape, np.uint8)
         cv2.circle(foot, (c0, r0), max(1, int(round(self.config.agent_radius / self.config.cell_size))), 1, -1)
-        trav |= (foot > 0) & self.free[rs, cs]
+        trav |= (foot > 0) & (self.grid[rs, cs] == FREE)
         trav[r0, c0] = True
         phi = np.ones(trav.shape)
         phi[r0, c0] = -1.0
@@ -278,10 +308,20 @@ class OccupancyMap:
 
     def frontier_mask(self) -> np.ndarray:
         """Free cells 8-adjacent to unknown space and not 8-adjacent to an occupied cell."""
+        mask = np.zeros(self.grid.shape, bool)
+        rs, cs = self._window()
+        if rs.start < rs.stop and cs.start < cs.stop:
+            mask[rs, cs] = self._frontier_mask_in(rs, cs)
+        return mask
+
+    def _frontier_mask_in(self, rs: slice, cs: slice) -> np.ndarray:
+        """:meth:`frontier_mask` inside the explored window (all free cells are there, each with its 8
+        neighbours: the window's margin is 2; where it ends at the grid's edge, so does the full grid)."""
+        grid = self.grid[rs, cs]
         k = np.ones((3, 3), np.uint8)
-        near_unknown = cv2.dilate((self.grid == UNKNOWN).astype(np.uint8), k) > 0
-        near_occupied = cv2.dilate(self.occupied.astype(np.uint8), k) > 0
-        return self.free & near_unknown & ~near_occupied
+        near_unknown = cv2.dilate((grid == UNKNOWN).astype(np.uint8), k) > 0
+        near_occupied = cv2.dilate((grid == OCCUPIED).astype(np.uint8), k) > 0
+        return (grid == FREE) & near_unknown & ~near_occupied
 
     def frontiers(self, distance: np.ndarray | None = None, exclude: np.ndarray | None = None) -> list[Frontier]:
         """Frontier clusters (8-connected components of :meth:`frontier_mask` minus the ``exclude`` mask,
@@ -289,17 +329,25 @@ class OccupancyMap:
         ``max_frontier_size``), nearest first by ``distance`` (a :meth:`path_distance` field; without
         one, all distances are inf)."""
         cfg = self.config
-        mask = self.frontier_mask()
+        # The mask is built in the explored window, but labelled on the whole grid: cv2 numbers the components
+        # in an order that depends on the image (its size, parity, stripes), and that order breaks distance ties.
+        rs, cs = self._window()
+        if not (rs.start < rs.stop and cs.start < cs.stop):
+            return []
+        window = self._frontier_mask_in(rs, cs)
         if exclude is not None:
-            mask &= ~exclude
-        n_lab, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+            window &= ~exclude[rs, cs]
+        mask = np.zeros(self.grid.shape, np.uint8)
+        mask[rs, cs] = window
+        n_lab, labels = cv2.connectedComponents(mask, connectivity=8)
         min_cells = max(1, int(round(cfg.min_frontier_size / cfg.cell_size)))
         max_cells = max(min_cells, int(round(cfg.max_frontier_size / cfg.cell_size)))
         out: list[Frontier] = []
         if n_lab <= 1:
             return out
-        rows, cols = np.nonzero(labels)
-        lab = labels[rows, cols]
+        rows, cols = np.nonzero(labels[rs, cs])  # every label lies in the window; raster order as on the grid
+        lab = labels[rs, cs][rows, cols]
+        rows, cols = rows + rs.start, cols + cs.start
         order = np.argsort(lab, kind="stable")
         rows, cols, lab = rows[order], cols[order], lab[order]
         splits = np.flatnonzero(np.diff(lab)) + 1
