@@ -192,7 +192,13 @@ class OccupancyMap:
         pts = np.round((fan - self.origin) / cfg.cell_size * (1 << shift)).astype(np.int32)
         free_mask = np.zeros_like(self.grid)
         cv2.fillPoly(free_mask, [pts.reshape(-1, 1, 2)], 1, lineType=cv2.LINE_8, shift=shift)
-        self.grid[(free_mask > 0) & (self.grid != OCCUPIED)] = FREE
+        # The fill lies within the fan's bounding box (vertices rounded to cells, plus a cell of slack): only
+        # that part of the grid needs updating.
+        lo = np.maximum((pts.min(axis=0) >> shift) - 2, 0)
+        hi = np.minimum((pts.max(axis=0) >> shift) + 3, self.n)  # (x, y) = (col, row)
+        box = (slice(lo[1], hi[1]), slice(lo[0], hi[0]))
+        sub = self.grid[box]
+        sub[(free_mask[box] > 0) & (sub != OCCUPIED)] = FREE
 
         rows, cols = np.nonzero(obstacle)
         if len(rows):
@@ -208,9 +214,15 @@ class OccupancyMap:
         """The agent stands here: its disk is free (it would otherwise stay unknown below the camera's view)."""
         cell = self.to_cell(np.asarray(position, np.float64)[[0, 2]])
         r = max(1, int(round(self.config.agent_radius / self.config.cell_size)))
-        disk = np.zeros_like(self.grid)
-        cv2.circle(disk, (int(cell[1]), int(cell[0])), r, 1, -1)
-        self.grid[(disk > 0) & (self.grid != OCCUPIED)] = FREE
+        # The disk drawn in a patch around it (integer centre and radius: the same cells as on the whole grid).
+        r0, c0 = max(int(cell[0]) - r - 1, 0), max(int(cell[1]) - r - 1, 0)
+        r1, c1 = min(int(cell[0]) + r + 2, self.n), min(int(cell[1]) + r + 2, self.n)
+        if r0 >= r1 or c0 >= c1:
+            return
+        disk = np.zeros((r1 - r0, c1 - c0), np.uint8)
+        cv2.circle(disk, (int(cell[1]) - c0, int(cell[0]) - r0), r, 1, -1)
+        sub = self.grid[r0:r1, c0:c1]
+        sub[(disk > 0) & (sub != OCCUPIED)] = FREE
 
     def mark_occupied(self, point: np.ndarray) -> None:
         """Mark the cell of a world point occupied (e.g. a bump the depth camera could not see)."""
