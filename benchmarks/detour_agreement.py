@@ -22,8 +22,11 @@ Detour's: the narrowest passage each admits.
 Per split it prints the share of episodes whose d0 agrees within ``--tol`` (3%), every episode outside
 it (worst first) and every reachability disagreement (one finite, the other not). ``--anchor DIR``
 (or ``NAVBENCH_DETOUR_ANCHOR``) names the anchor directory (default ``../shared/detour-anchor`` beside
-the repository), ``--recast`` the npm prefix holding ``@recast-navigation``. Detour's paths follow
-navmesh polygon edges, so on open floors they run up to ~1-2% longer than navbench's any-angle paths.
+the repository), ``--recast`` the npm prefix holding ``@recast-navigation``. Where the two
+differ by more than 3% navbench is shorter, for two reasons (results/detour_agreement.md): Recast
+rounds the agent radius up to whole voxels, so the navmesh's edge sits ~0.22 m from walls where the
+grid's sits at 0.18 m (each corner costs Detour a few cm more), and Detour's search over large navmesh
+polygons can pick a route up to ~9% longer than the shortest one on its own navmesh.
 """
 
 from __future__ import annotations

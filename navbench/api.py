@@ -106,7 +106,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
              backend: str = "local", address: str | None = None, retries: int = 2,
              step_timeout: float | None = None, fail_fast: bool = False,
              progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
-             on_run_dir: Callable[[Path], None] | None = None) -> RunSummary:
+             on_run_dir: Callable[[Path], None] | None = None,
+             _episodes: tuple[str, str | None, Path, float] | None = None) -> RunSummary:
     """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary; what
     ``navbench run`` does, flag for flag.
 
@@ -167,7 +168,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                           step_timeout=step_timeout, fail_fast=fail_fast)
     if video not in VIDEOS:
         raise ValueError(f"--video {video!r}: choose from {', '.join(VIDEOS)}")
-    task, split, episodes_path, default_sd = resolve_episodes(task, split, episodes)
+    # `navbench run` resolved the episodes already (for the task's default agent): a user's file is read once
+    task, split, episodes_path, default_sd = _episodes or resolve_episodes(task, split, episodes)
     agent = default_agent(task) if agent is None else agent
     options = dict(options or {})
     if isinstance(agent, str):

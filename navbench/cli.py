@@ -49,7 +49,8 @@ def cmd_run(args) -> int:
     from navbench.eval.run_progress import Progress
     from navbench.eval.table import summary_markdown
 
-    task, split, _, _ = resolve_episodes(args.task, args.split, args.episodes)
+    episodes = resolve_episodes(args.task, args.split, args.episodes)  # evaluate() takes it, not again
+    task, split = episodes[:2]
     args.agent = args.agent or default_agent(task)
     options = _agent_request(args)
     workers = args.workers if args.workers is not None or args.address is not None else 2
@@ -62,7 +63,7 @@ def cmd_run(args) -> int:
             out=args.out, runs_dir=args.runs_dir, resume=args.resume, overwrite=args.overwrite, workers=workers,
             envs_per_worker=args.envs_per_worker, backend=args.backend, address=args.address, retries=args.retries,
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, progress=None if args.quiet else Progress(),
-            video=args.video, on_run_dir=where.append)
+            video=args.video, on_run_dir=where.append, _episodes=episodes)
     out = where[0]
     print(summary_markdown(summary))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")

@@ -4,7 +4,7 @@ recipes).
 In a checkout (and an editable install) they are the top-level directories beside the package. An installed
 wheel carries them as package data, ``navbench/_data/``, found through :mod:`importlib.resources`.
 ``NAVBENCH_DATA`` overrides the root (a directory holding ``envs/``, ``episodes/``, ``policies/``,
-``configs/``); ``NAVBENCH_CACHE`` moves the cache (navigability grids, keyframe memories; default
+``configs/``); ``NAVBENCH_CACHE`` moves the cache (navigability grids and layered surfaces, keyframe memories; default
 ~/.cache/navbench).
 
     python -c "from navbench.paths import ROOT; print(ROOT)"

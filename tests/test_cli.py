@@ -142,3 +142,23 @@ def test_default_run_directory_is_task_split_label(pointnav_file, tmp_path, monk
                  "-q"]) == 0
     stem = pointnav_file.name.split(".")[0]
     assert (tmp_path / "runs" / "pointnav" / stem / "oracle" / "episodes.jsonl").is_file()
+
+
+def test_run_resolves_the_episode_source_once(objectnav_file, tmp_path, monkeypatch):
+    """`navbench run` picks the task's default agent from the resolved episodes and hands them to
+    navbench.evaluate, so a user's file (its first episode tells the task) is read for it once."""
+    import navbench.api
+    import navbench.cli
+
+    calls = []
+    resolve = navbench.api.resolve_episodes
+
+    def counted(*args):
+        calls.append(args)
+        return resolve(*args)
+
+    monkeypatch.setattr(navbench.api, "resolve_episodes", counted)
+    monkeypatch.setattr(navbench.cli, "resolve_episodes", counted)
+    assert main(["run", "--episodes", str(objectnav_file), "--agent", "oracle", "--limit", "1", "--workers", "1",
+                 "--out", str(tmp_path / "run"), "-q"]) == 0
+    assert calls == [(None, None, str(objectnav_file))]

@@ -185,8 +185,9 @@ class ObjectNavAgentBase:
         """The visibility test: enough of the target's in-view points are visible."""
         return in_view > 0 and len(visible) / in_view >= self.config.visible_fraction
 
-    def stop_radius_for(self, points: np.ndarray) -> float:
-        """``stop_radius``, grown for a target (``points``) the camera cannot see from within it."""
-        cfg, h = self.config, self.env_config.agent_height
+    def stop_radius_for(self, points: np.ndarray, floor: float = 0.0) -> float:
+        """``stop_radius``, grown for a target (``points``) the camera cannot see from within it (the camera
+        ``agent_height`` above ``floor``, the height of the surface the agent stands on)."""
+        cfg, h = self.config, floor + self.env_config.agent_height
         return fov_stop_radius(nearest_to_height(points, h), cfg.stop_radius, cfg.fov_stop_margin, h,
                                self._tan_half_vfov)

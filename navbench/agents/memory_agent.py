@@ -40,11 +40,14 @@ from scipy.spatial import cKDTree
 
 from navbench.agents.base import fov_leave_distance, log_value, nearest_to_height, xz_dist, xz_dists
 from navbench.agents.common import Detector, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch, subsample
+from navbench.agents.storeys import Storeys
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.grouping import nearest_distances
+from navbench.scene.layers import LayeredNav
+from navbench.scene.navigability import NavGridConfig
 from navbench.scene.pose import wrap_angle, yaw_towards
 
 
@@ -145,6 +148,8 @@ class Frame:
 RouteLengths = Callable[[np.ndarray, Sequence[GoalCandidate]], np.ndarray]
 # (position, candidate) -> (K, 3) positions along the route to it, (0, 3) if none (SceneLocalizer.route_path)
 RoutePath = Callable[[np.ndarray, GoalCandidate], np.ndarray]
+# nav config -> the joined surfaces of the scene when its memory spans storeys, else None (SceneLocalizer.surfaces)
+Surfaces = Callable[[NavGridConfig], LayeredNav | None]
 
 
 def nearest_first(cands: Sequence[GoalCandidate], position: np.ndarray,
@@ -167,16 +172,22 @@ def log_route(metres: float) -> float | None:
 class MemoryAgent(ObjectNavAgentBase):
     """The memory agent (module docstring). ``verify`` is the detector that checks a target before a STOP,
     ``route``/``route_path`` the memory's route lengths and route points; without them (unit tests) the
-    agent stops unchecked and orders candidates by straight-line distance."""
+    agent stops unchecked and orders candidates by straight-line distance. ``surfaces`` gives the scene's
+    joined walkable surfaces when the memory spans several storeys: the agent then knows the height of the
+    surface it stands on, ranks candidates and routes to them over those surfaces, and drives towards a
+    candidate on another storey along the shortest path, over the stairs or ramp (:mod:`navbench.agents.storeys`)."""
 
     config: MemoryAgentConfig
 
     def __init__(self, localize: Callable[[Episode], list[GoalCandidate]], policy: StepPolicy,
                  config: MemoryAgentConfig = MemoryAgentConfig(), env_config: EnvConfig = EnvConfig(),
                  verify: Detector | None = None, route: RouteLengths | None = None,
-                 route_path: RoutePath | None = None, seed: int = 0):
+                 route_path: RoutePath | None = None, surfaces: Surfaces | None = None, seed: int = 0):
         super().__init__(policy, config, env_config, seed)
         self.localize, self.verify, self.route, self.route_path = localize, verify, route, route_path
+        self.surfaces = surfaces
+        self.storeys: Storeys | None = None
+        self.floor = 0.0  # height of the surface the agent stands on (the camera is agent_height above it)
         # The policy and the visibility test read depth only; the detector adds the image it segments.
         self.sensors: tuple[str, ...] = ("depth",) + (tuple(verify.sensors) if verify is not None else ())
 
@@ -185,7 +196,12 @@ class MemoryAgent(ObjectNavAgentBase):
         cfg = self.config
         start = np.asarray(episode.start_position, np.float64)
         cands = self.localize(episode)
-        order, route = nearest_first(cands, start, self.route)
+        nav = self.surfaces(self.env_config.nav_grid_config()) if self.surfaces is not None else None
+        self.storeys = None if nav is None else Storeys(nav, start, self.env_config.forward_step,
+                                                        self.env_config.turn_angle_deg)
+        self.climbing = False
+        self.floor = float(start[1]) if self.storeys is None else self.storeys.height
+        order, route = nearest_first(cands, start, self._route())
         self.candidates = [cands[j] for j in order]
         rng = np.random.default_rng(0)  # deterministic subsample of each cloud
         self._clouds = [subsample(c.points, cfg.max_projected_points, rng) for c in self.candidates]
@@ -219,6 +235,9 @@ class MemoryAgent(ObjectNavAgentBase):
             mode, point = "goal", self.goal
         return [mode, self.current, round(float(point[0]), 1), round(float(point[2]), 1)]
 
+    def _route(self) -> RouteLengths | None:
+        return self.storeys.lengths if self.storeys is not None else self.route
+
     def _new_target(self) -> None:
         """Forget what was known of the previous target."""
         self.sighting, self.detour, self.guidance = Sighting(), Detour(), Guidance()
@@ -233,21 +252,25 @@ class MemoryAgent(ObjectNavAgentBase):
     def _height_point(self) -> np.ndarray:
         """The current target's point nearest the camera height (the goal point if it has no cloud)."""
         cloud = self._clouds[self.current]
-        return nearest_to_height(cloud, self.env_config.agent_height) if len(cloud) else self.goal
+        return nearest_to_height(cloud, self.floor + self.env_config.agent_height) if len(cloud) else self.goal
 
     def fov_distance(self) -> float:
         """xz distance below which all of the current target is above or below the vertical field of view."""
-        return fov_leave_distance(self._height_point(), self.env_config.agent_height, self._tan_half_vfov)
+        return fov_leave_distance(self._height_point(), self.floor + self.env_config.agent_height,
+                                  self._tan_half_vfov)
 
     def stop_radius(self) -> float:
         """The current target's STOP radius (``stop_radius``, grown for targets far above or below the camera)."""
-        return self.stop_radius_for(self._height_point()[None])
+        return self.stop_radius_for(self._height_point()[None], self.floor)
 
     # -------------------------------------------------------------------------------------- act
     def act(self, observations: dict[str, np.ndarray]) -> int:
         """One step: look, then the first phase with an action decides (module docstring)."""
         self.step += 1
         position, yaw = self._pose(observations)
+        if self.storeys is not None:
+            position = self.storeys.track(position)
+            self.floor = self.storeys.height
         if self.watch.positions and xz_dist(position, self.watch.positions[-1]) > 0.05:
             self.move_yaw = yaw_towards(self.watch.positions[-1], position)
         self.watch.add(position)
@@ -455,10 +478,11 @@ class MemoryAgent(ObjectNavAgentBase):
         """Follow the memory's route to the current target: the keyframe positions along the pre-scan's
         walk, which leads round the wall a PointNav policy turns about in front of. Once per target."""
         g = self.guidance
-        if self.route_path is None or g.started or self.detour.goal is not None:
+        route_path = self.storeys.path if self.storeys is not None else self.route_path
+        if route_path is None or g.started or self.detour.goal is not None:
             return False
         g.started = True
-        path = np.asarray(self.route_path(position, self.candidates[self.current]), np.float64).reshape(-1, 3)
+        path = np.asarray(route_path(position, self.candidates[self.current]), np.float64).reshape(-1, 3)
         if not len(path):
             return False
         g.waypoints = list(path)
@@ -495,7 +519,8 @@ class MemoryAgent(ObjectNavAgentBase):
         """Next nearest remaining candidate (from here), fresh policy memory and history."""
         untried = list(range(self.current + 1, len(self.candidates)))
         # Re-sort the untried candidates by distance from where the agent now is.
-        remaining = [untried[k] for k in nearest_first([self.candidates[j] for j in untried], position, self.route)[0]]
+        remaining = [untried[k] for k in nearest_first([self.candidates[j] for j in untried], position,
+                                                       self._route())[0]]
         nxt = remaining[0]
         order = list(range(self.current + 1)) + remaining
         self.candidates = [self.candidates[j] for j in order]
@@ -513,6 +538,10 @@ class MemoryAgent(ObjectNavAgentBase):
     def _navigate(self, f: Frame) -> int:
         """Act with the policy on the goal's polar coordinates; a policy STOP the agent does not take is
         overridden (:meth:`_override_stop`)."""
+        climb = self._climb(f)
+        if climb is not None:
+            self.watch.taken(climb)
+            return climb
         goal = pointgoal_polar(self._policy_goal(f.position), f.position, f.yaw)
         action = int(self.policy.act(f.observations["depth"][None], goal[None])[0])
         if action == STOP:
@@ -520,6 +549,20 @@ class MemoryAgent(ObjectNavAgentBase):
         else:
             self.overrides = 0
         self.watch.taken(action)
+        return action
+
+    def _climb(self, f: Frame) -> int | None:
+        """On or at a flight of stairs (or a ramp) to a target on another storey: the follower's next step
+        along it (:meth:`Storeys.climb`); the policy takes over, with fresh memory, where the flight ends."""
+        if self.storeys is None or self.detour.goal is not None:
+            return None
+        target = self.candidates[self.current]
+        action = self.storeys.climb(f.position, f.yaw, target) if self.storeys.elsewhere(target) else None
+        if (action is not None) != self.climbing:
+            self.climbing = action is not None
+            if not self.climbing:
+                self.policy.reset_hidden()
+            self._event("climb" if self.climbing else "climb_end")
         return action
 
     def _override_stop(self, f: Frame) -> int:
@@ -559,6 +602,14 @@ class MemoryAgent(ObjectNavAgentBase):
             return g.waypoints[0]
         d = xz_dist(position, self.goal)
         seen_recently = self.step - self.sighting.last_pass <= self.config.visibility_memory
+        target = self.candidates[self.current]
+        if self.storeys is not None and (self.storeys.elsewhere(target)
+                                         or not seen_recently and d > self.config.near_radius):
+            # along the shortest path over the joined surfaces: to the stairs or ramp on another storey than
+            # the target, round the stairwell (a hole a PointNav policy never met) on its storey
+            ahead = self.storeys.carrot(position, target)
+            if ahead is not None:
+                return ahead
         if not seen_recently or d <= self.stop_radius():
             return self.goal
         return position + (self.goal - position) * (max(d - self.config.goal_standoff, 0.0) / d)

@@ -28,14 +28,32 @@ distance. Path distances are geodesics from the fast marching method (scikit-fmm
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 import skfmm
 from sklearn.cluster import KMeans
+from threadpoolctl import ThreadpoolController
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
+
+_KMEANS_CACHE_SIZE = 256  # split results kept per map: most frontier clusters come back unchanged next step
+_threadpools: ThreadpoolController | None = None
+
+
+def _split_cluster(cells: np.ndarray, k: int) -> np.ndarray:
+    """K-means labels of one long frontier cluster's cells (deterministic: ``random_state=0``).
+
+    Run on one OpenMP thread: the clusters are a few hundred cells, for which sklearn's threads cost ~15x
+    the work itself (they spin between its many tiny parallel loops). The labels are the same for any
+    thread count: the cells are integers, so every centre sum is exact in any order."""
+    global _threadpools
+    if _threadpools is None:
+        _threadpools = ThreadpoolController()
+    with _threadpools.limit(limits=1, user_api="openmp"):
+        return KMeans(n_clusters=k, n_init=1, random_state=0).fit_predict(cells.astype(np.float64))
 
 
 class OccupancyError(ValueError):
@@ -90,6 +108,10 @@ class OccupancyMap:
     def __init__(self, config: OccupancyConfig = OccupancyConfig()):
         self.config = config
         self.n = int(math.ceil(config.size / config.cell_size))
+        # (cells bytes, shape, k) -> k-means labels: a pure function of the cells, so kept across steps
+        self._splits: OrderedDict[tuple, np.ndarray] = OrderedDict()
+        self._clear_for: np.ndarray | None = None  # the occupied mask self._clear was computed from
+        self._clear: np.ndarray | None = None
         self.reset(np.zeros(3))
 
     # ------------------------------------------------------------------------------------ frames
@@ -170,7 +192,13 @@ class OccupancyMap:
         pts = np.round((fan - self.origin) / cfg.cell_size * (1 << shift)).astype(np.int32)
         free_mask = np.zeros_like(self.grid)
         cv2.fillPoly(free_mask, [pts.reshape(-1, 1, 2)], 1, lineType=cv2.LINE_8, shift=shift)
-        self.grid[(free_mask > 0) & (self.grid != OCCUPIED)] = FREE
+        # The fill lies within the fan's bounding box (vertices rounded to cells, plus a cell of slack): only
+        # that part of the grid needs updating.
+        lo = np.maximum((pts.min(axis=0) >> shift) - 2, 0)
+        hi = np.minimum((pts.max(axis=0) >> shift) + 3, self.n)  # (x, y) = (col, row)
+        box = (slice(lo[1], hi[1]), slice(lo[0], hi[0]))
+        sub = self.grid[box]
+        sub[(free_mask[box] > 0) & (sub != OCCUPIED)] = FREE
 
         rows, cols = np.nonzero(obstacle)
         if len(rows):
@@ -186,9 +214,15 @@ class OccupancyMap:
         """The agent stands here: its disk is free (it would otherwise stay unknown below the camera's view)."""
         cell = self.to_cell(np.asarray(position, np.float64)[[0, 2]])
         r = max(1, int(round(self.config.agent_radius / self.config.cell_size)))
-        disk = np.zeros_like(self.grid)
-        cv2.circle(disk, (int(cell[1]), int(cell[0])), r, 1, -1)
-        self.grid[(disk > 0) & (self.grid != OCCUPIED)] = FREE
+        # The disk drawn in a patch around it (integer centre and radius: the same cells as on the whole grid).
+        r0, c0 = max(int(cell[0]) - r - 1, 0), max(int(cell[1]) - r - 1, 0)
+        r1, c1 = min(int(cell[0]) + r + 2, self.n), min(int(cell[1]) + r + 2, self.n)
+        if r0 >= r1 or c0 >= c1:
+            return
+        disk = np.zeros((r1 - r0, c1 - c0), np.uint8)
+        cv2.circle(disk, (int(cell[1]) - c0, int(cell[0]) - r0), r, 1, -1)
+        sub = self.grid[r0:r1, c0:c1]
+        sub[(disk > 0) & (sub != OCCUPIED)] = FREE
 
     def mark_occupied(self, point: np.ndarray) -> None:
         """Mark the cell of a world point occupied (e.g. a bump the depth camera could not see)."""
@@ -208,8 +242,8 @@ class OccupancyMap:
     # ---------------------------------------------------------------------------------- planning
     def _window(self, margin: int = 2) -> tuple[slice, slice]:
         """Bounding box of the explored cells plus a margin: all planning happens inside it."""
-        rows = np.flatnonzero(self.explored.any(axis=1))
-        cols = np.flatnonzero(self.explored.any(axis=0))
+        rows = np.flatnonzero(self.grid.any(axis=1))  # explored = nonzero
+        cols = np.flatnonzero(self.grid.any(axis=0))
         if not len(rows):
             return slice(0, 0), slice(0, 0)
         return (slice(max(rows[0] - margin, 0), min(rows[-1] + margin + 1, self.n)),
@@ -220,10 +254,38 @@ class OccupancyMap:
         occupied cell."""
         r = self.config.agent_radius + self.config.planning_margin if inflation is None else inflation
         free = self.free
-        if r <= 0.0 or not self.occupied.any():
+        if r <= 0.0:
             return free
-        clear = cv2.distanceTransform(np.where(self.occupied, 0, 1).astype(np.uint8), cv2.DIST_L2, 5)
+        clear = self.clearance()
+        if clear is None:
+            return free
         return free & (clear * self.config.cell_size > r)
+
+    def _traversable_in(self, rs: slice, cs: slice, inflation: float | None = None) -> np.ndarray:
+        """``traversable(inflation)[rs, cs]``, computed on that window only (a new array)."""
+        r = self.config.agent_radius + self.config.planning_margin if inflation is None else inflation
+        free = self.grid[rs, cs] == FREE
+        if r <= 0.0:
+            return free
+        clear = self.clearance()
+        if clear is None:
+            return free
+        return free & (clear[rs, cs] * self.config.cell_size > r)
+
+    def clearance(self) -> np.ndarray | None:
+        """Distance (cells; cv2's 5x5 L2 chamfer) from every cell to the nearest occupied cell, None while
+        nothing is occupied. Read-only: the transform is kept and handed out again until the occupied cells
+        change (of the whole 800 x 800 grid it was the planner's largest cost, and the agent plans up to
+        three times a step, most steps mapping no new obstacle)."""
+        occupied = self.occupied
+        if self._clear_for is not None and np.array_equal(occupied, self._clear_for):
+            return self._clear
+        clear = None
+        if occupied.any():
+            clear = cv2.distanceTransform(np.where(occupied, 0, 1).astype(np.uint8), cv2.DIST_L2, 5)
+            clear.flags.writeable = False
+        self._clear_for, self._clear = occupied, clear
+        return clear
 
     def path_distance(self, source: np.ndarray, inflation: float | None = None) -> np.ndarray:
         """Geodesic distance (m) over traversable cells from the world point ``source`` to every cell
@@ -235,13 +297,13 @@ class OccupancyMap:
         if not self.inside(src):
             return out
         rs, cs = self._window()
-        trav = self.traversable(inflation)[rs, cs].copy()
+        trav = self._traversable_in(rs, cs, inflation)
         r0, c0 = int(src[0]) - rs.start, int(src[1]) - cs.start
         if not (0 <= r0 < trav.shape[0] and 0 <= c0 < trav.shape[1]):
             return out
         foot = np.zeros(trav.shape, np.uint8)
         cv2.circle(foot, (c0, r0), max(1, int(round(self.config.agent_radius / self.config.cell_size))), 1, -1)
-        trav |= (foot > 0) & self.free[rs, cs]
+        trav |= (foot > 0) & (self.grid[rs, cs] == FREE)
         trav[r0, c0] = True
         phi = np.ones(trav.shape)
         phi[r0, c0] = -1.0
@@ -258,10 +320,20 @@ class OccupancyMap:
 
     def frontier_mask(self) -> np.ndarray:
         """Free cells 8-adjacent to unknown space and not 8-adjacent to an occupied cell."""
+        mask = np.zeros(self.grid.shape, bool)
+        rs, cs = self._window()
+        if rs.start < rs.stop and cs.start < cs.stop:
+            mask[rs, cs] = self._frontier_mask_in(rs, cs)
+        return mask
+
+    def _frontier_mask_in(self, rs: slice, cs: slice) -> np.ndarray:
+        """:meth:`frontier_mask` inside the explored window (all free cells are there, each with its 8
+        neighbours: the window's margin is 2; where it ends at the grid's edge, so does the full grid)."""
+        grid = self.grid[rs, cs]
         k = np.ones((3, 3), np.uint8)
-        near_unknown = cv2.dilate((self.grid == UNKNOWN).astype(np.uint8), k) > 0
-        near_occupied = cv2.dilate(self.occupied.astype(np.uint8), k) > 0
-        return self.free & near_unknown & ~near_occupied
+        near_unknown = cv2.dilate((grid == UNKNOWN).astype(np.uint8), k) > 0
+        near_occupied = cv2.dilate((grid == OCCUPIED).astype(np.uint8), k) > 0
+        return (grid == FREE) & near_unknown & ~near_occupied
 
     def frontiers(self, distance: np.ndarray | None = None, exclude: np.ndarray | None = None) -> list[Frontier]:
         """Frontier clusters (8-connected components of :meth:`frontier_mask` minus the ``exclude`` mask,
@@ -269,17 +341,25 @@ class OccupancyMap:
         ``max_frontier_size``), nearest first by ``distance`` (a :meth:`path_distance` field; without
         one, all distances are inf)."""
         cfg = self.config
-        mask = self.frontier_mask()
+        # The mask is built in the explored window, but labelled on the whole grid: cv2 numbers the components
+        # in an order that depends on the image (its size, parity, stripes), and that order breaks distance ties.
+        rs, cs = self._window()
+        if not (rs.start < rs.stop and cs.start < cs.stop):
+            return []
+        window = self._frontier_mask_in(rs, cs)
         if exclude is not None:
-            mask &= ~exclude
-        n_lab, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+            window &= ~exclude[rs, cs]
+        mask = np.zeros(self.grid.shape, np.uint8)
+        mask[rs, cs] = window
+        n_lab, labels = cv2.connectedComponents(mask, connectivity=8)
         min_cells = max(1, int(round(cfg.min_frontier_size / cfg.cell_size)))
         max_cells = max(min_cells, int(round(cfg.max_frontier_size / cfg.cell_size)))
         out: list[Frontier] = []
         if n_lab <= 1:
             return out
-        rows, cols = np.nonzero(labels)
-        lab = labels[rows, cols]
+        rows, cols = np.nonzero(labels[rs, cs])  # every label lies in the window; raster order as on the grid
+        lab = labels[rs, cs][rows, cols]
+        rows, cols = rows + rs.start, cols + cs.start
         order = np.argsort(lab, kind="stable")
         rows, cols, lab = rows[order], cols[order], lab[order]
         splits = np.flatnonzero(np.diff(lab)) + 1
@@ -292,7 +372,7 @@ class OccupancyMap:
             if k == 1:
                 pieces.append(cells)
                 continue
-            parts = KMeans(n_clusters=k, n_init=1, random_state=0).fit_predict(cells.astype(np.float64))
+            parts = self._split(cells, k)
             pieces.extend(cells[parts == i] for i in range(k) if (parts == i).any())
         for cells in pieces:
             r, c = cells[:, 0], cells[:, 1]
@@ -305,6 +385,19 @@ class OccupancyMap:
             out.append(Frontier(cells, (int(r[j]), int(c[j])), self.to_world(cells[j]), float(d[j])))
         out.sort(key=lambda f: f.distance)
         return out
+
+
+    def _split(self, cells: np.ndarray, k: int) -> np.ndarray:
+        """:func:`_split_cluster`, remembered for the last ``_KMEANS_CACHE_SIZE`` distinct clusters."""
+        key = (cells.tobytes(), cells.shape, cells.dtype.str, k)
+        parts = self._splits.get(key)
+        if parts is None:
+            parts = self._splits[key] = _split_cluster(cells, k)
+            if len(self._splits) > _KMEANS_CACHE_SIZE:
+                self._splits.popitem(last=False)
+        else:
+            self._splits.move_to_end(key)
+        return parts
 
 
 def trace_path(distance: np.ndarray, target: tuple[int, int], max_cells: int = 100_000) -> np.ndarray:

@@ -3,9 +3,10 @@ distance, like Habitat's ShortestPathFollower. Its SR/SPL are the ceiling a benc
 if they are low, the geodesics, view points or motion model are wrong.
 
 ``optimistic``: the same follower planning on the map its own depth frames have shown it (unseen
-cells count as free; :mod:`navbench.scene.optimistic`). It knows where the goal is and what it has
-seen, which is what a PointNav policy can know, so its SR/SPL are the ceiling for a learner that
-imitates well: the distance between the two oracles is what knowing the map is worth.
+cells count as free; :mod:`navbench.scene.optimistic`), on the start's storey or, for a goal on another
+storey the env joins to it, on every storey over the stairs and ramps between them. It knows where the
+goal is and what it has seen, which is what a PointNav policy can know, so its SR/SPL are the ceiling
+for a learner that imitates well: the distance between the two oracles is what knowing the map is worth.
 
     navbench run --task pointnav --split val --agent optimistic
 """
@@ -21,10 +22,10 @@ from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
 from navbench.episodes.types import Episode
 from navbench.scene.asset import load_scene
-from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.cache import layers_for, load_scene_and_navgrid
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.layers import LayeredNav, LayerView
-from navbench.scene.optimistic import OptimisticFollower
+from navbench.scene.optimistic import LayeredOptimisticFollower, OptimisticFollower
 from navbench.scene.pose import quat_from_yaw
 
 
@@ -60,7 +61,7 @@ class OracleAgent:
             return grid
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if self._layered is None or self._layered[0] != path:
-            self._layered = (path, LayeredNav.from_mesh(load_scene(path).mesh, self.nav_config))
+            self._layered = (path, layers_for(load_scene(path), self.nav_config))
         if not self._layered[1].reaches_any(episode.start_position, goals[off]):
             return grid
         self._view = LayerView(self._layered[1], episode.start_position)
@@ -85,11 +86,15 @@ class OptimisticOracleAgent(OracleAgent):
     def reset(self, episode: Episode) -> None:
         self._pose.reset(episode)
         c = self.env_config
-        self._follower = OptimisticFollower(self._navgrid(episode), episode.goal_positions(), self.success_distance,
-                                            c.hfov_deg, c.min_depth, c.max_depth, forward_step=c.forward_step,
-                                            turn_angle_deg=c.turn_angle_deg)
+        motion = self._motion(episode)  # the start storey's grid, or the joined storeys for a goal upstairs
+        follower = LayeredOptimisticFollower if isinstance(motion, LayerView) else OptimisticFollower
+        self._follower = follower(motion, episode.goal_positions(), self.success_distance,  # type: ignore[arg-type]
+                                  c.hfov_deg, c.min_depth, c.max_depth, forward_step=c.forward_step,
+                                  turn_angle_deg=c.turn_angle_deg)
 
     def act(self, observations: dict[str, np.ndarray]) -> int:
         position, yaw = self._pose(observations)
+        if self._view is not None:
+            self._view.track(position)
         self._follower.observe(observations["depth"], position, yaw)
         return int(self._follower.next_action(position, quat_from_yaw(yaw)))

@@ -34,7 +34,10 @@ from navbench.localize.route import KeyframeRoutes
 from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
 from navbench.render.camera import CameraConfig, camera_pose, intrinsics
-from navbench.scene.asset import load_scene
+from navbench.scene.asset import load_scene, semantic_path
+from navbench.scene.cache import layers_for, scene_digest
+from navbench.scene.layers import LayeredNav
+from navbench.scene.navigability import NavGridConfig
 from navbench.scene.pose import quat_from_yaw
 
 
@@ -81,14 +84,33 @@ def _memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
     return _shared(("memory", scene_path, cfg), lambda: scene_memory(scene_path, cfg))
 
 
+def is_bundled(scene_path: str | Path, scene_id: str) -> bool:
+    """Whether ``scene_path`` (the mesh episode ``scene_id`` names) is one of navbench's bundled houses: a
+    file under :data:`~navbench.paths.SCENES_DIR`, or a copy of the one ``scene_id`` names there (the
+    same mesh and annotation bytes), as a Ray actor runs on. Where the file lies must not decide it: the
+    grounding it selects changes the candidates, so a copy would localise differently from the original."""
+    scene_path = Path(scene_path)
+    if SCENES_DIR.resolve() in scene_path.resolve().parents:
+        return True
+    if Path(scene_id).is_absolute():
+        return False
+    twin = SCENES_DIR / scene_id
+    if not twin.is_file() or scene_digest(twin) != scene_digest(scene_path):
+        return False
+    mine, theirs = semantic_path(scene_path), semantic_path(twin)
+    if mine.is_file() != theirs.is_file():
+        return False
+    return not mine.is_file() or mine.read_bytes() == theirs.read_bytes()
+
+
 def _teach_goals(stack: Perception, episode: Episode, scene_path: Path) -> None:
-    """The episode's goals say which instances its goal name means, except in the bundled houses, which
-    are annotated in navbench's own vocabulary: there that vocabulary grounds every name it knows."""
+    """The episode's goals say which instances its goal name means, except in the bundled houses (see
+    :func:`is_bundled`), which are annotated in navbench's own vocabulary: there that vocabulary grounds
+    every name it knows."""
     name = episode.object_category
     if not name:
         return
-    bundled = SCENES_DIR.resolve() in Path(scene_path).resolve().parents
-    if not bundled or parse(name) is None:
+    if not is_bundled(scene_path, episode.scene_id) or parse(name) is None:
         teach(stack, name, [g.position for g in episode.goals])
 
 
@@ -117,6 +139,15 @@ class SceneLocalizer:
                      "memory_frames": st.frames, "memory_bytes": st.bytes,
                      "memory_build_s": round(st.build_seconds, 3)}
         return candidates
+
+    def surfaces(self, config: NavGridConfig) -> LayeredNav | None:
+        """The joined walkable surfaces (storeys, stairs, ramps) of the scene last localised in when its
+        memory's keyframes stand on more than one storey (their camera heights differ by more than a step);
+        None for a memory of one storey, where the agent moves and routes on one floor."""
+        if not len(self.memory.store) or float(np.ptp(self.memory.store.positions()[:, 1])) <= config.max_climb:
+            return None
+        path = self._path
+        return _shared(("surfaces", path, config), lambda: layers_for(load_scene(path), config))
 
     def route_lengths(self, position: np.ndarray, candidates: Sequence[GoalCandidate]) -> np.ndarray:
         """Route lengths (m) from ``position`` to ``candidates`` over the memory of the scene last

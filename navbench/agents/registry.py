@@ -127,7 +127,8 @@ def make_memory(cfg):
     def build(policy):
         localizer = SceneLocalizer(cfg.scene_dir, pcfg)
         return MemoryAgent(localizer, policy, agent_cfg, env_cfg, verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg),
-                           route=localizer.route_lengths, route_path=localizer.route_path, seed=cfg.seed)
+                           route=localizer.route_lengths, route_path=localizer.route_path,
+                           surfaces=localizer.surfaces, seed=cfg.seed)
     return _driving(cfg, build)
 
 
@@ -192,6 +193,8 @@ class AgentSpec:
     # ... and per scene, as (path under a directory, file), the directory named by option ``scene_option``.
     scene_files: Callable[[Any, Path], list[tuple[str, Path]]] | None = None
     scene_option: str | None = None
+    # Explores the house for its goal: `navbench viz` shades the cells its depth camera saw unless told not to.
+    explores: bool = False
 
     def __call__(self, cfg: Any) -> Any:
         return self.factory(cfg)
@@ -215,7 +218,7 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory, localisation, then the PointNav policy",
               prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
-              **_POLICY_FILES),
+              explores=True, **_POLICY_FILES),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}

@@ -22,7 +22,7 @@ from navbench.paths import SCENES_DIR
 from navbench.render.camera import CameraConfig
 from navbench.render.renderer import Renderer
 from navbench.scene.asset import SceneAsset
-from navbench.scene.cache import load_scene_and_navgrid, navgrid_for
+from navbench.scene.cache import layers_for, load_scene_and_navgrid, navgrid_for
 from navbench.scene.datasets import resolve_scene
 from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid
@@ -149,7 +149,7 @@ class NavEnv(gym.Env):
             # joined surfaces instead (goals on storeys nothing joins never count, on either engine).
             if self.layered is None:
                 assert self.asset is not None  # loaded with the episode's scene
-                self.layered = LayeredNav.from_mesh(self.asset.mesh, self.nav_config)
+                self.layered = layers_for(self.asset, self.nav_config)
             declared = np.asarray(episode.start_position, np.float64)
             on = self.layered.snap_point(declared, self.config.start_snap_tolerance)
             if np.isfinite(on).all() and self.layered.reaches_any(on, self._goals[off]):

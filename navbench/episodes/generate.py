@@ -10,6 +10,14 @@ rejected with probability 0.9 (Habitat keeps a few easy straight-line episodes t
 headings are uniform. ObjectNav goals are every instance of the category in the scene, each with
 its dense view points (:mod:`navbench.episodes.viewpoints`), and ``info.geodesic_distance`` is the
 distance to the nearest view point.
+
+Multi-storey scenes (``layered=True``) run on the scene's joined walkable surfaces
+(:class:`~navbench.scene.layers.LayeredNav`): starts and PointNav goals are drawn uniformly over the
+spans standing on any storey's floor that the env accepts as a start there (navigable on that storey's
+grid), ``info.geodesic_distance`` is the layered 3-D geodesic (stairs and ramps included, as the env
+measures a cross-storey episode) and ``euclidean_distance`` the 3-D straight line (Habitat's), and a
+goal the start's surface does not reach has an infinite geodesic, so it is never drawn. ObjectNav view
+points lie on their object's storey (:mod:`navbench.episodes.viewpoints`).
 """
 
 from __future__ import annotations
@@ -27,7 +35,10 @@ from navbench.episodes.types import AgentState, Episode, EpisodeDataset, Navigat
 from navbench.episodes.viewpoints import ViewPointConfig, ViewPointFinder
 from navbench.loop_progress import progress
 from navbench.paths import EPISODES_DIR, SCENES_DIR
-from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.asset import SceneAsset
+from navbench.scene.cache import load_scene_and_layers, load_scene_and_navgrid, navgrid_for
+from navbench.scene.layers import LayeredNav
+from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import quat_from_yaw
 
 # The version of the generated splits, written first in every file and recorded in run directories
@@ -59,9 +70,42 @@ def _accept(rng: np.random.Generator, geo: float, euc: float, cfg: GeneratorConf
     return ratio >= cfg.min_ratio or rng.random() > cfg.low_ratio_reject_prob
 
 
+class StoreyPoints:
+    """Start (and PointNav goal) points of a multi-storey scene: the :class:`LayeredNav` spans on a storey's
+    floor that the env accepts as a start, each navigable on its storey's grid (the grid
+    :func:`~navbench.scene.cache.navgrid_for` gives the env for a start at that height)."""
+
+    def __init__(self, asset: SceneAsset, nav: LayeredNav):
+        self.nav = nav
+        spans = nav.storey_spans()
+        keep = np.zeros(len(spans), bool)
+        for floor in nav.storeys():
+            on = np.abs(nav.height[spans] - floor) <= nav.config.max_climb / 2
+            if not on.any():
+                continue
+            grid = navgrid_for(asset, nav.config, floor_hint=float(floor))
+            xz = nav.xz(nav.cell[spans[on]])
+            ij = grid.world_to_grid(np.column_stack([xz[:, 0], nav.height[spans[on]], xz[:, 1]]))
+            inside = (ij >= 0).all(axis=1) & (ij[:, 0] < grid.shape[0]) & (ij[:, 1] < grid.shape[1])
+            ok = np.zeros(len(ij), bool)
+            ok[inside] = grid.navigable[ij[inside, 0], ij[inside, 1]]
+            keep[on] = ok
+        self.spans = spans[keep]
+        if len(self.spans) == 0:
+            raise RuntimeError(f"{asset.path}: no storey has a navigable start")
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        """A uniformly random start span's centre, on its surface."""
+        return self.nav.position(int(self.spans[rng.integers(len(self.spans))]))
+
+
 # ------------------------------------------------------------------------------------------- PointNav
 def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.Generator,
-                      cfg: GeneratorConfig = GeneratorConfig(), id_offset: int = 0) -> list[Episode]:
+                      cfg: GeneratorConfig = GeneratorConfig(), id_offset: int = 0,
+                      layered: bool = False) -> list[Episode]:
+    """``n`` PointNav episodes in one scene; ``layered`` for a multi-storey scene (module docstring)."""
+    if layered:
+        return _layered_pointnav_episodes(scene_path, scene_dir, n, rng, cfg, id_offset)
     _, grid = load_scene_and_navgrid(scene_path)
     scene_id = _rel(scene_path, scene_dir)
     episodes: list[Episode] = []
@@ -85,12 +129,46 @@ def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.
     return episodes
 
 
+def _layered_pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.Generator,
+                               cfg: GeneratorConfig, id_offset: int) -> list[Episode]:
+    asset, nav = load_scene_and_layers(scene_path)
+    points = StoreyPoints(asset, nav)
+    scene_id = _rel(scene_path, scene_dir)
+    episodes: list[Episode] = []
+    for k in range(n):
+        for _ in range(cfg.max_tries):
+            goal, start = points.sample(rng), points.sample(rng)
+            if not nav.connected(start, goal):  # on storeys nothing joins: never drawn (and no field to build)
+                continue
+            geo = float(nav.distance_field(goal).distance(start))  # what the env measures
+            euc = float(np.linalg.norm(goal - start))
+            if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
+                break
+        else:
+            raise RuntimeError(f"{scene_path}: no PointNav episode satisfies {cfg} after {cfg.max_tries} tries")
+        episodes.append(Episode(
+            episode_id=str(id_offset + k), scene_id=scene_id,
+            start_position=[float(v) for v in start], start_rotation=_random_yaw_quat(rng),
+            goals=[NavigationGoal(position=[float(v) for v in goal], radius=None)],
+            info={"geodesic_distance": geo, "euclidean_distance": euc,
+                  "difficulty": "easy" if geo < 6 else "medium" if geo < 12 else "hard"},
+        ))
+    return episodes
+
+
 # ------------------------------------------------------------------------------------------ ObjectNav
 class SceneGoals:
     """Per-scene ObjectNav goals: each category's instances with view points, computed once."""
 
-    def __init__(self, scene_path: Path, scene_dir: Path, vp_config: ViewPointConfig = ViewPointConfig()):
-        self.asset, self.grid = load_scene_and_navgrid(scene_path)
+    def __init__(self, scene_path: Path, scene_dir: Path, vp_config: ViewPointConfig = ViewPointConfig(),
+                 layered: bool = False):
+        self.layered = layered
+        self.grid: NavGrid | LayeredNav
+        if layered:  # a multi-storey scene (module docstring)
+            self.asset, self.grid = load_scene_and_layers(scene_path)
+            self._starts = StoreyPoints(self.asset, self.grid)
+        else:
+            self.asset, self.grid = load_scene_and_navgrid(scene_path)
         self.scene_id = _rel(scene_path, scene_dir)
         self._finder = ViewPointFinder(self.asset, self.grid, vp_config)
         self._cache: dict[str, list[ObjectGoal]] = {}
@@ -115,6 +193,17 @@ class SceneGoals:
         """Categories with at least one reachable goal instance on the main island."""
         return [c for c in categories if self.goals(c)]
 
+    def sample_start(self, rng: np.random.Generator) -> np.ndarray:
+        if self.layered:
+            return self._starts.sample(rng)
+        assert isinstance(self.grid, NavGrid)
+        return self.grid.sample_navigable_point(rng)
+
+    def euclidean(self, start: np.ndarray, points: np.ndarray) -> float:
+        """Straight distance to the nearest of ``points``: in xz on one storey, in 3-D on several."""
+        d = points - start if self.layered else (points - start)[:, [0, 2]]
+        return float(np.min(np.linalg.norm(d, axis=1)))
+
 
 def objectnav_episodes(sg: SceneGoals, categories: list[str], n: int, rng: np.random.Generator,
                        names: dict[str, str] | None = None, cfg: GeneratorConfig = GeneratorConfig(),
@@ -132,9 +221,9 @@ def objectnav_episodes(sg: SceneGoals, categories: list[str], n: int, rng: np.ra
         vps = np.concatenate([g.view_point_positions() for g in goals])
         field = sg.grid.distance_field(vps)
         for _ in range(cfg.max_tries):
-            start = sg.grid.sample_navigable_point(rng)
+            start = sg.sample_start(rng)
             geo = float(field.distance(start))
-            euc = float(np.min(np.linalg.norm((vps - start)[:, [0, 2]], axis=1)))
+            euc = sg.euclidean(start, vps)
             if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
                 break
         else:

@@ -8,6 +8,14 @@ field of view and not hidden by other geometry. Visibility is decided by casting
 point through the scene mesh (Embree): it is the same test a rendered instance-id image would make
 at the samples, far cheaper than rendering every cell. The stored ``iou`` is that
 visible fraction.
+
+On a multi-storey scene (a :class:`~navbench.scene.layers.LayeredNav`) the candidates are the walkable
+spans of every storey, stairs and ramps (not a furniture top nothing joins to a floor), each at its own
+surface height, and a span counts only on the
+object's storey (:meth:`~navbench.scene.layers.LayeredNav.storey_band` of the object's bottom: the band
+the NavGrid's storey test keeps). A view point of an object upstairs therefore lies on the upper storey's
+surface (or the top of the flight leading to it), never on the floor below, whatever the rays would see
+through an opening; one of an object downstairs never lies on the floor above it.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ import trimesh
 
 from navbench.scene.annotations import ObjectAnnotation
 from navbench.scene.asset import SceneAsset
+from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import quat_from_yaw
 
@@ -37,12 +46,17 @@ class ViewPointConfig:
 class ViewPointFinder:
     """Computes view points for objects of one scene (one ray intersector, reused)."""
 
-    def __init__(self, asset: SceneAsset, navgrid: NavGrid, config: ViewPointConfig = ViewPointConfig()):
+    def __init__(self, asset: SceneAsset, navgrid: NavGrid | LayeredNav, config: ViewPointConfig = ViewPointConfig()):
         self.asset, self.navgrid, self.config = asset, navgrid, config
         self._rays = trimesh.ray.ray_pyembree.RayMeshIntersector(asset.mesh) \
             if trimesh.ray.has_embree else asset.mesh.ray
-        ii, jj = np.nonzero(navgrid.navigable)
-        self._cells = navgrid.grid_to_world(np.stack([ii, jj], axis=1))  # (N, 3) at floor height
+        if isinstance(navgrid, LayeredNav):
+            spans = navgrid.walkable()
+            xz = navgrid.xz(navgrid.cell[spans])
+            self._cells = np.column_stack([xz[:, 0], navgrid.height[spans], xz[:, 1]])  # (N, 3) on their surfaces
+        else:
+            ii, jj = np.nonzero(navgrid.navigable)
+            self._cells = navgrid.grid_to_world(np.stack([ii, jj], axis=1))  # (N, 3) at floor height
 
     def surface_points(self, obj: ObjectAnnotation) -> np.ndarray:
         faces = np.nonzero(self.asset.face_ids == obj.id)[0]
@@ -57,7 +71,11 @@ class ViewPointFinder:
         # xz distance from each navigable cell to the object's footprint rectangle
         dx = np.maximum(np.maximum(lo[0] - self._cells[:, 0], self._cells[:, 0] - hi[0]), 0.0)
         dz = np.maximum(np.maximum(lo[2] - self._cells[:, 2], self._cells[:, 2] - hi[2]), 0.0)
-        cand = self._cells[np.hypot(dx, dz) <= c.max_distance]
+        near = np.hypot(dx, dz) <= c.max_distance
+        if isinstance(self.navgrid, LayeredNav):  # the object's own storey (module docstring)
+            low, high = self.navgrid.storey_band(float(lo[1]))
+            near &= (self._cells[:, 1] >= low) & (self._cells[:, 1] < high)
+        cand = self._cells[near]
         empty = (np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0))
         if len(cand) == 0:
             return empty

@@ -224,7 +224,10 @@ def _checkpoint(cfg: Any) -> str | Path | None:
     ckpt = (cfg.agent_options or {}).get("checkpoint")
     if ckpt:
         return ckpt
-    if cfg.agent in ("pointnav", "memory", "frontier"):
+    from navbench.agents.registry import AGENTS
+
+    spec = AGENTS.get(cfg.agent)
+    if spec is not None and spec.drives_policy:
         from navbench.agents.pointnav import DEFAULT_CHECKPOINT
         return DEFAULT_CHECKPOINT
     return None

@@ -23,7 +23,8 @@ Every machine needs the same navbench (checked) and the agent's code; model dire
 An actor that dies (killed, out of memory, its machine lost) keeps the records it sent; the other
 episodes of its task are retried on a fresh actor up to ``retries`` times and then recorded as failed
 ("ray worker died (ActorDiedError)"). An agent call slower than ``step_timeout`` fails its episode when
-it returns; a call that never returns is not killed on this backend.
+it returns; a call that never returns is not killed on this backend. When the run ends (also early) the
+driver has each actor close its worker, hence the agent (a remote agent ends its session), then stops it.
 """
 
 from __future__ import annotations
@@ -64,6 +65,7 @@ File = tuple[str, str, Any]  # (path under the actor's copy, sha1 of the bytes, 
 
 EXTRA = "pip install navbench[ray]"
 _POLL_S = 0.2  # how often the driver takes the records that actors sent while their tasks run
+_CLOSE_S = 5.0  # how long the driver waits for its actors to close their agents at the end of a run
 
 
 def require_ray():
@@ -263,6 +265,13 @@ class NavbenchWorker:
             return records, _portable(exc)
         return records, None
 
+    def close(self) -> None:
+        """Close the worker: its envs, then the agent's ``close()`` (a remote agent ends its session on the
+        server), as a local pool worker does when it stops. Only the first call closes anything."""
+        worker, self.worker = self.worker, None
+        if worker is not None:
+            worker.close()
+
 
 # ------------------------------------------------------------------------------------------- driver
 def _death_errors(ray) -> tuple[type[BaseException], ...]:
@@ -424,7 +433,25 @@ def run_ray(cfg: RunConfig, make_agent: AgentFactory, keys: list[Key],
             if error is not None:
                 raise error
     finally:
-        for s in slots:
-            _kill(ray, s.handle)
+        _close_actors(ray, [s.handle for s in slots])
         if started:
             ray.shutdown()
+
+
+def _close_actors(ray, handles: list, wait_s: float = _CLOSE_S) -> None:
+    """Close each actor's worker (so its agent's ``close()`` runs), then kill the actors. An actor still
+    running a task (the run ended early) closes once the task returns; one that does not within
+    ``wait_s`` seconds (for all of them) is killed without, as a busy local pool worker is."""
+    refs = []
+    for handle in handles:
+        try:
+            refs.append(handle.close.remote())
+        except Exception:  # the actor or the cluster is gone: nothing to close
+            pass
+    if refs:
+        try:
+            ray.wait(refs, num_returns=len(refs), timeout=wait_s)
+        except Exception:  # the cluster went away meanwhile
+            pass
+    for handle in handles:
+        _kill(ray, handle)

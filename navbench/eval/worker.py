@@ -359,10 +359,16 @@ class EpisodeWorker:
         self.cfg = cfg
         self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard)
         self.agent = make_agent(cfg)
-        self.batched = is_batch_agent(self.agent)
-        sensors = tuple(getattr(self.agent, "sensors", ("rgb", "depth")))
-        n_envs = max(1, int(getattr(self.agent, "num_envs", 1))) if self.batched else 1
-        self.envs = [make_env(cfg, self.dataset, sensors) for _ in range(n_envs)]
+        self.envs: list[NavEnv] = []
+        try:  # an env that fails to start (a bad first episode, a bad scene) still closes the agent
+            self.batched = is_batch_agent(self.agent)
+            sensors = tuple(getattr(self.agent, "sensors", ("rgb", "depth")))
+            n_envs = max(1, int(getattr(self.agent, "num_envs", 1))) if self.batched else 1
+            for _ in range(n_envs):
+                self.envs.append(make_env(cfg, self.dataset, sensors))
+        except BaseException:
+            self.close()
+            raise
         self._by_key = {(e.scene_id, e.episode_id): e for e in self.dataset.episodes}
 
     def episode(self, key: Key) -> Episode:

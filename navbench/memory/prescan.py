@@ -5,7 +5,10 @@ nearest the room's centre (inside the room, on the main navigable island) is a *
 viewpoints are ordered by a greedy nearest-neighbour tour over geodesic distances, the camera is
 driven between them with :class:`~navbench.scene.follower.GreedyFollower` and
 :meth:`NavGrid.try_step` (the agent's own discrete motion model, no sliding) and looks around with
-``look_around_turns`` turns at each. Like a hand-held video, every action is recorded as
+``look_around_turns`` turns at each. Rooms on other storeys are visited when stairs or a ramp join
+them to the first viewpoint's (:class:`~navbench.scene.layers.LayeredNav`): each storey's rooms in a
+tour of their own, the walk between storeys driven over the joined surfaces, the camera always
+``camera_height`` above the surface under it. Like a hand-held video, every action is recorded as
 ``frames_per_action`` frames (the motion interpolated), which is what keyframe selection thins.
 
 Keyframes depend on the poses alone, so the whole trajectory is planned first, keyframes are selected,
@@ -39,14 +42,15 @@ from navbench.memory.index import EmbeddingIndex
 from navbench.memory.keyframes import select_keyframes
 from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig, read_versioned_json
 from navbench.paths import cache_dir
-from navbench.scene.asset import SceneAsset
-from navbench.scene.cache import load_scene_and_navgrid, scene_digest
+from navbench.scene.asset import SceneAsset, SceneError
+from navbench.scene.cache import layers_for, load_scene_and_navgrid, navgrid_for, scene_digest
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, GreedyFollower
+from navbench.scene.layers import LayeredNav, LayerView
 from navbench.scene.navigability import NAVIGABILITY_VERSION, NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
 
 MEMORY_FILE = "memory.json"
-MEMORY_VERSION = 1
+MEMORY_VERSION = 2
 MODALITIES = ("rgb", "instance_ids")
 
 
@@ -214,13 +218,61 @@ def tour_order(grid: NavGrid, points: Sequence[np.ndarray], start: int = 0) -> l
     return order
 
 
-def plan_trajectory(asset: SceneAsset, grid: NavGrid, config: PrescanConfig = PrescanConfig()) -> Trajectory:
-    """The scan's camera poses (see the module docstring); deterministic for a scene and config."""
+def _other_storeys(asset: SceneAsset, grid: NavGrid, config: PrescanConfig, first: np.ndarray,
+                   ) -> tuple[LayeredNav, list[tuple[NavGrid, list[tuple[str, np.ndarray]]]]] | None:
+    """The viewpoints of the rooms on other storeys than ``grid``'s that the joined walkable surfaces (stairs,
+    ramps) connect to ``first``, grouped by storey with each storey's grid; None when no room lies on
+    another storey (the surfaces are not built then)."""
+    others = [r for r in asset.rooms if not r.aabb_min[1] - 0.5 <= grid.floor_height <= r.aabb_max[1]]
+    if not others:
+        return None
+    nav = layers_for(asset, grid.config)
+    s = nav.span_of(first)
+    groups: dict[float, tuple[NavGrid, list[tuple[str, np.ndarray]]]] = {}
+    for room in others:
+        try:
+            g = navgrid_for(asset, grid.config, floor_hint=float(room.aabb_min[1]))
+        except SceneError:
+            continue  # no walkable floor with headroom at that height
+        if abs(g.floor_height - grid.floor_height) <= grid.config.max_climb or g.floor_height in groups:
+            continue
+        found, _ = room_viewpoints(asset, g, config.room_margin, config.viewpoint_spacing)
+        found = [(r, p) for r, p in found if s >= 0 and nav.span_of(p) >= 0
+                 and nav.component[nav.span_of(p)] == nav.component[s]]
+        if found:
+            groups[g.floor_height] = (g, found)
+    return nav, list(groups.values())
+
+
+def _scan_plan(asset: SceneAsset, grid: NavGrid, config: PrescanConfig
+               ) -> tuple[list[tuple[str, np.ndarray]], list[NavGrid | LayerView]]:
+    """The viewpoints in tour order and what each leg to one is driven on: its storey's grid, or, for the
+    first viewpoint of another storey, the joined surfaces over the stairs or ramp between them. The
+    start storey's rooms come first; the other storeys follow, nearest (along the surfaces) first."""
     viewpoints, missed = room_viewpoints(asset, grid, config.room_margin, config.viewpoint_spacing)
     if not viewpoints:
         raise PrescanError(f"{asset.path}: no room has a navigable viewpoint")
     order = tour_order(grid, [p for _, p in viewpoints])
     viewpoints = [viewpoints[i] for i in order]
+    legs: list[NavGrid | LayerView] = [grid] * len(viewpoints)
+    found = _other_storeys(asset, grid, config, viewpoints[0][1]) if missed else None
+    if found is None:
+        return viewpoints, legs
+    nav, groups = found
+    while groups:
+        field = nav.distance_field(viewpoints[-1][1])
+        near = [min(range(len(pts)), key=lambda j: (field.distance(pts[j][1]), j)) for _, pts in groups]
+        k = min(range(len(groups)), key=lambda i: (field.distance(groups[i][1][near[i]][1]), i))
+        g, pts = groups.pop(k)
+        order = tour_order(g, [p for _, p in pts], start=near[k])
+        viewpoints += [pts[i] for i in order]
+        legs += [LayerView(nav, viewpoints[-len(order) - 1][1])] + [g] * (len(order) - 1)
+    return viewpoints, legs
+
+
+def plan_trajectory(asset: SceneAsset, grid: NavGrid, config: PrescanConfig = PrescanConfig()) -> Trajectory:
+    """The scan's camera poses (see the module docstring); deterministic for a scene and config."""
+    viewpoints, legs = _scan_plan(asset, grid, config)
     lift = np.array([0.0, config.camera_height, 0.0])
     turn = math.radians(config.turn_deg)
     n = config.frames_per_action
@@ -241,19 +293,24 @@ def plan_trajectory(asset: SceneAsset, grid: NavGrid, config: PrescanConfig = Pr
     visited = []
     for vi, (room, goal) in enumerate(viewpoints):
         if vi > 0:
-            follower = GreedyFollower(grid, goal, config.success_distance, config.forward_step, config.turn_deg)
+            motion = legs[vi]
+            follower = GreedyFollower(motion, goal, config.success_distance, config.forward_step, config.turn_deg)
             for _ in range(config.max_leg_actions):
+                if isinstance(motion, LayerView):
+                    motion.track(pos)
                 action = follower.next_action(pos, quat_from_yaw(yaw))
                 if action == STOP:
                     break
                 if action == MOVE_FORWARD:
-                    new, _ = grid.try_step(pos, pos + config.forward_step * heading_vector(yaw))
+                    new, _ = motion.try_step(pos, pos + config.forward_step * heading_vector(yaw))
                     emit(pos, new, yaw, yaw)
                     pos = new
                 else:
                     new_yaw = yaw + (turn if action == TURN_LEFT else -turn)
                     emit(pos, pos, yaw, new_yaw)
                     yaw = new_yaw
+            if isinstance(motion, LayerView):
+                motion.track(pos)
             if follower.distance(pos) >= config.success_distance:
                 continue  # could not get there (the room counts as missed unless another viewpoint works)
         visited.append((room, pos.copy()))

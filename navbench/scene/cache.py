@@ -1,7 +1,9 @@
-"""Load a scene together with its navigability grid, caching the grid on disk.
+"""Load a scene together with its navigability grid, caching the grid on disk; the same for the layered
+surfaces of a multi-storey scene (:class:`~navbench.scene.layers.LayeredNav`).
 
-The grid is keyed by the mesh file's bytes and the grid config, so editing a scene or changing the
-agent's radius rebuilds it, and nothing else does.
+Both are keyed by the mesh file's bytes, the mesh's placement, the grid config and the source of the
+modules that build them, so editing a scene, changing the agent's radius or the building code rebuilds
+them, and nothing else does. Arrays are stored as ``.npz`` (never pickles).
 """
 
 from __future__ import annotations
@@ -16,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from navbench.paths import cache_dir
-from navbench.scene import navigability
+from navbench.scene import layers, navigability
 from navbench.scene.asset import SceneAsset, SceneError, load_scene
+from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid, NavGridConfig
 
 
@@ -42,6 +45,12 @@ def scene_digest(path: str | Path) -> str:
 @lru_cache(maxsize=1)
 def _builder_digest() -> str:
     return hashlib.sha1(Path(navigability.__file__).read_bytes()).hexdigest()
+
+
+@lru_cache(maxsize=1)
+def _layers_digest() -> str:
+    # LayeredNav is built with the grid module's lattice and floor test too: both sources are in its key.
+    return hashlib.sha1(Path(layers.__file__).read_bytes() + Path(navigability.__file__).read_bytes()).hexdigest()
 
 
 # Largest grid built (250 m x 250 m at 5 cm): bigger means a scene in other units or stray geometry.
@@ -79,15 +88,20 @@ def navgrid_for(asset: SceneAsset, config: NavGridConfig = NavGridConfig(), use_
     return _cached_grid(asset, dataclasses.replace(config, floor_height=floor), use_cache)
 
 
-def _cached_grid(asset: SceneAsset, config: NavGridConfig, use_cache: bool) -> NavGrid:
+def _cache_file(asset: SceneAsset, config: NavGridConfig, builder: str, kind: str) -> Path:
     path = Path(asset.path)
     # The key covers the scene's bytes, its placement (a dataset config may rotate the mesh), the grid
-    # config and the grid-building code itself, so a change to any of them rebuilds instead of
-    # silently reusing a grid made by other rules.
+    # config and the building code itself, so a change to any of them rebuilds instead of silently
+    # reusing a grid made by other rules.
     placement = json.dumps(np.round(asset.mesh.bounds, 4).tolist())
     key = hashlib.sha1((scene_digest(path) + placement + json.dumps(dataclasses.asdict(config), sort_keys=True)
-                        + _builder_digest()).encode())
-    cached = cache_dir("navgrid") / f"{path.name.split('.')[0]}-{key.hexdigest()[:16]}.npz"
+                        + builder).encode())
+    return cache_dir(kind) / f"{path.name.split('.')[0]}-{key.hexdigest()[:16]}.npz"
+
+
+def _cached_grid(asset: SceneAsset, config: NavGridConfig, use_cache: bool) -> NavGrid:
+    path = Path(asset.path)
+    cached = _cache_file(asset, config, _builder_digest(), "navgrid")
     if use_cache and cached.is_file():
         try:
             return NavGrid.load(cached)
@@ -105,3 +119,31 @@ def _cached_grid(asset: SceneAsset, config: NavGridConfig, use_cache: bool) -> N
         grid.save(tmp)
         tmp.replace(cached)
     return grid
+
+
+def load_scene_and_layers(path: str | Path, config: NavGridConfig = NavGridConfig(),
+                          use_cache: bool = True) -> tuple[SceneAsset, LayeredNav]:
+    """The scene and its layered surfaces (every storey, joined over stairs and ramps; disk-cached)."""
+    asset = load_scene(Path(path))
+    return asset, layers_for(asset, config, use_cache)
+
+
+def layers_for(asset: SceneAsset, config: NavGridConfig = NavGridConfig(), use_cache: bool = True) -> LayeredNav:
+    """The (disk-cached) :class:`LayeredNav` of ``asset``, keyed as the grid is (see the module docstring)."""
+    path = Path(asset.path)
+    cached = _cache_file(asset, config, _layers_digest(), "layers")
+    if use_cache and cached.is_file():
+        try:
+            return LayeredNav.load(cached)
+        except SceneError:
+            pass  # a stale or partial cache file is rebuilt below
+    try:
+        _check_extent(asset.mesh.bounds, config.cell_size)
+        nav = LayeredNav.from_mesh(asset.mesh, config)
+    except ValueError as exc:
+        raise SceneError(f"{path}: {exc}") from None
+    if use_cache:
+        tmp = cached.with_name(f"{cached.stem}.{os.getpid()}.tmp.npz")  # per process, as for the grid
+        nav.save(tmp)
+        tmp.replace(cached)
+    return nav

@@ -23,8 +23,11 @@ whose head-band rasterisation catches it; the single-storey NavGrid stays the en
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -69,6 +72,85 @@ def _csr(dst: np.ndarray, wt: np.ndarray, n: int) -> sparse.csr_matrix:
     mask = dst >= 0
     indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
     return sparse.csr_matrix((np.asarray(wt)[mask], dst[mask], indptr), shape=(n, n))
+
+
+def _joins(cell: np.ndarray, height: np.ndarray, h: int, w: int, max_climb: float) -> np.ndarray:
+    """(N, 8) joined neighbour of each span in the directions of ``_UNIT`` (-1: none), spans sorted by cell.
+    Orthogonal: the neighbouring cell's span nearest in height, if within ``max_climb``; diagonal: both
+    orthogonal routes round the corner reach the same span."""
+    n = len(cell)
+    start = np.full(h * w, 0, np.int64)
+    count = np.bincount(cell, minlength=h * w)
+    start[1:] = np.cumsum(count)[:-1]
+    ci, cj = cell // w, cell % w
+    nbr = np.full((n, 8), -1, np.int64)
+    for d, (di, dj) in enumerate(_UNIT[:4]):
+        ni, nj = ci + di, cj + dj
+        inside = (ni >= 0) & (ni < h) & (nj >= 0) & (nj < w)
+        nc = np.where(inside, ni * w + nj, 0)
+        best = np.full(n, np.inf)
+        for k in range(int(count.max())):
+            t = start[nc] + k
+            has = inside & (count[nc] > k)
+            dh = np.abs(height[np.where(has, t, 0)] - height)
+            better = has & (dh <= max_climb + 1e-9) & (dh < best)
+            nbr[better, d] = t[better]
+            best[better] = dh[better]
+    for d, (di, dj) in enumerate(_UNIT[4:], start=4):
+        a, b = _UNIT.index((di, 0)), _UNIT.index((0, dj))
+        via_a = np.where(nbr[:, a] >= 0, nbr[np.maximum(nbr[:, a], 0), b], -1)
+        via_b = np.where(nbr[:, b] >= 0, nbr[np.maximum(nbr[:, b], 0), a], -1)
+        nbr[:, d] = np.where((via_a >= 0) & (via_a == via_b), via_a, -1)
+    return nbr
+
+
+def _lattice(nbr: np.ndarray, passable: np.ndarray, cell: np.ndarray, smooth: np.ndarray, w: int,
+             cs: float) -> sparse.csr_matrix:
+    """The geodesic steps between ``passable`` spans: the 32 directions of :func:`_directions`, each a straight
+    lattice step whose cells in between are passable and joined (``nbr``), as long as its 3-D chord on the
+    ``smooth`` surface. Each direction's (source, target) pairs are int32, scattered into the rows of the CSR
+    arrays in direction order (no dense N x 32 table, no sort); the step lengths are computed last."""
+    n = len(cell)
+    nav_nbr = np.where(passable[:, None] & (nbr >= 0), nbr, -1)
+    nav_nbr[nav_nbr >= 0] = np.where(passable[nav_nbr[nav_nbr >= 0]], nav_nbr[nav_nbr >= 0], -1)
+    parts = []
+    nav_idx = np.flatnonzero(passable)
+    for di, dj in _directions():
+        cur = nav_idx
+        for d in _unit_path(di, dj):
+            cur = np.where(cur >= 0, nav_nbr[np.maximum(cur, 0), d], -1)
+        ok = cur >= 0
+        parts.append((nav_idx[ok].astype(np.int32), cur[ok].astype(np.int32)))
+    del nav_nbr
+    counts = np.zeros(n, np.int64)
+    for src, _ in parts:
+        counts[src] += 1  # a direction has each source once
+    nnz = int(counts.sum())
+    index_dtype = np.int32 if nnz < np.iinfo(np.int32).max else np.int64
+    indptr = np.zeros(n + 1, index_dtype)
+    indptr[1:] = np.cumsum(counts)
+    fill = indptr[:-1].copy()
+    indices = np.empty(nnz, np.int32)
+    for src, t in parts:
+        indices[fill[src]] = t
+        fill[src] += 1
+    del parts, fill, counts
+    src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
+    return sparse.csr_matrix((_step_lengths(cell, smooth, w, cs, src, indices), indices, indptr), shape=(n, n))
+
+
+def _step_lengths(cell: np.ndarray, smooth: np.ndarray, w: int, cs: float, src: np.ndarray,
+                  dst: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
+    """Length of each lattice step ``src`` -> ``dst`` (span indices): its 3-D chord on the smoothed surface,
+    sqrt((cs di)^2 + (cs dj)^2 + dh^2), in chunks of steps (bounded temporaries). The builder and the cache
+    loader both compute the weights here, so a loaded graph is the built one."""
+    row, col = (cell // w).astype(np.int32), (cell % w).astype(np.int32)
+    out = np.empty(len(src))
+    for k in range(0, len(src), chunk):
+        s, t = src[k:k + chunk], dst[k:k + chunk]
+        di, dj = (row[t] - row[s]).astype(np.float64), (col[t] - col[s]).astype(np.float64)
+        out[k:k + chunk] = np.sqrt((cs * di) ** 2 + (cs * dj) ** 2 + (smooth[t] - smooth[s]) ** 2)
+    return out
 
 
 class LayeredNav:
@@ -119,6 +201,7 @@ class LayeredNav:
         above_ny[1:][same] = ny[tri[:-1]][same]
         ok = (np.abs(ny[tri]) >= _HORIZONTAL_NY) & (above - ys >= config.agent_height) & (above_ny <= 0.1)
         cell, height = rid[ok].astype(np.int64), ys[ok]
+        del rays, locs, ray_idx, tri_idx, order, ys, rid, tri, ny, above, above_ny, same, ok
         order = np.lexsort((height, cell))
         cell, height = cell[order], height[order]
         dup = np.zeros(len(cell), bool)
@@ -130,28 +213,7 @@ class LayeredNav:
 
         # 2. joins between spans of neighbouring cells (orthogonal: |dh| <= max_climb; diagonal: both
         # orthogonal routes round the corner reach the same span)
-        start = np.full(h * w, 0, np.int64)
-        count = np.bincount(cell, minlength=h * w)
-        start[1:] = np.cumsum(count)[:-1]
-        ci, cj = cell // w, cell % w
-        nbr = np.full((n, 8), -1, np.int64)
-        for d, (di, dj) in enumerate(_UNIT[:4]):
-            ni, nj = ci + di, cj + dj
-            inside = (ni >= 0) & (ni < h) & (nj >= 0) & (nj < w)
-            nc = np.where(inside, ni * w + nj, 0)
-            best = np.full(n, np.inf)
-            for k in range(int(count.max())):
-                t = start[nc] + k
-                has = inside & (count[nc] > k)
-                dh = np.abs(height[np.where(has, t, 0)] - height)
-                better = has & (dh <= config.max_climb + 1e-9) & (dh < best)
-                nbr[better, d] = t[better]
-                best[better] = dh[better]
-        for d, (di, dj) in enumerate(_UNIT[4:], start=4):
-            a, b = _UNIT.index((di, 0)), _UNIT.index((0, dj))
-            via_a = np.where(nbr[:, a] >= 0, nbr[np.maximum(nbr[:, a], 0), b], -1)
-            via_b = np.where(nbr[:, b] >= 0, nbr[np.maximum(nbr[:, b], 0), a], -1)
-            nbr[:, d] = np.where((via_a >= 0) & (via_a == via_b), via_a, -1)
+        nbr = _joins(cell, height, h, w, config.max_climb)
 
         # 3. clearance along the surface from the spans missing an orthogonal neighbour
         unit_w = np.array([cs * math.hypot(di, dj) for di, dj in _UNIT])
@@ -162,6 +224,14 @@ class LayeredNav:
         else:
             dist = np.full(n, np.inf)
         navigable = dist + 0.5 * cs >= config.agent_radius - 0.5 * cs - 1e-9
+        # only the passages Habitat's navmesh admits, as NavGrid._navmesh_topology: within k - 1 cells of
+        # the spans Recast's erosion (k = ceil(radius / cs) voxels from the edge) keeps
+        k = int(math.ceil(config.agent_radius / cs - 1e-9))
+        core = np.flatnonzero(dist >= k * cs - 1e-9)
+        if len(core):
+            navigable &= csgraph.dijkstra(unit, indices=core, min_only=True) <= (k - 1) * cs + 1e-9
+        else:
+            navigable[:] = False
 
         # 4. heights smoothed over the joined surface (a flight of steps becomes the ramp through it)
         adj = _csr(nbr[:, :4], np.ones((n, 4)), n)  # orthogonal joins
@@ -171,22 +241,45 @@ class LayeredNav:
             smooth = (smooth + adj @ smooth) / (1.0 + deg)
 
         # 5. geodesic steps: 32 directions over navigable spans, through navigable joined cells only
-        nav_nbr = np.where(navigable[:, None] & (nbr >= 0), nbr, -1)
-        nav_nbr[nav_nbr >= 0] = np.where(navigable[nav_nbr[nav_nbr >= 0]], nav_nbr[nav_nbr >= 0], -1)
-        dirs = _directions()
-        dst = np.full((n, len(dirs)), -1, np.int64)
-        wt = np.zeros((n, len(dirs)))
-        nav_idx = np.flatnonzero(navigable)
-        for k, (di, dj) in enumerate(dirs):
-            cur = nav_idx
-            for d in _unit_path(di, dj):
-                cur = np.where(cur >= 0, nav_nbr[np.maximum(cur, 0), d], -1)
-            ok = cur >= 0
-            src, t = nav_idx[ok], cur[ok]
-            dst[src, k] = t
-            wt[src, k] = np.sqrt((cs * di) ** 2 + (cs * dj) ** 2 + (smooth[t] - smooth[src]) ** 2)
-        graph = _csr(dst, wt, n)
+        del unit, adj
+        graph = _lattice(nbr, navigable, cell, smooth, w, cs)
+        del nbr
         return cls(origin, cs, (h, w), cell, height, smooth, navigable, graph, config)
+
+    # ------------------------------------------------------------------ persistence
+
+    def save(self, path: str | Path) -> None:
+        """Write the surfaces to an ``.npz`` file of plain arrays: the graph as its CSR structure (the step
+        lengths follow from the spans and are recomputed on loading, which keeps the file small)."""
+        g = self.graph
+        np.savez_compressed(
+            Path(path), origin=self.origin, cell_size=np.float64(self.cell_size), shape=np.array(self.shape, np.int64),
+            cell=self.cell, height=self.height, smooth=self.smooth, navigable=self.navigable,
+            graph_indices=g.indices, graph_indptr=g.indptr,
+            config=np.array(json.dumps(dataclasses.asdict(self.config))))
+
+    @classmethod
+    def load(cls, path: str | Path) -> LayeredNav:
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as d:
+                config = NavGridConfig(**json.loads(str(d["config"])))
+                cell, smooth, indices, indptr = d["cell"], d["smooth"], d["graph_indices"], d["graph_indptr"]
+                n = len(cell)
+                h, w = (int(v) for v in d["shape"])
+                if len(indptr) != n + 1 or indptr[-1] != len(indices) or (len(indices) and indices.max() >= n):
+                    raise ValueError("graph arrays do not match the spans")
+                if {len(d[k]) for k in ("height", "smooth", "navigable")} != {n} or (n and cell.max() >= h * w):
+                    raise ValueError("span arrays do not match each other or the lattice")
+                src = np.repeat(np.arange(n, dtype=np.int32), np.diff(indptr))
+                lengths = _step_lengths(cell, smooth, w, float(d["cell_size"]), src, indices)
+                graph = sparse.csr_matrix((lengths, indices, indptr), shape=(n, n))
+                return cls(d["origin"], float(d["cell_size"]), (h, w), cell, d["height"], smooth,
+                           d["navigable"].astype(bool), graph, config)
+        except FileNotFoundError:
+            raise SceneError(f"{path}: layered navigability file not found") from None
+        except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
+            raise SceneError(f"{path}: corrupt layered navigability ({type(exc).__name__}: {exc})") from None
 
     # ------------------------------------------------------------------ queries
 
@@ -279,6 +372,49 @@ class LayeredNav:
     def levels(self) -> np.ndarray:
         """Distinct heights (to 5 cm) of the navigable spans, bottom-up: the storeys, landings and treads."""
         return np.unique(np.round(self.height[self.navigable] / 0.05) * 0.05)
+
+    def storeys(self) -> np.ndarray:
+        """Floor heights of the storeys, bottom-up: the navigable spans binned by height in bins of half
+        ``max_climb``, runs of bins each holding at least 5% of the fullest bin's spans, each run's median.
+        Treads, landings, a ramp's slope and furniture tops hold too few spans to be a storey."""
+        h = self.height[self.navigable]
+        if len(h) == 0:
+            return np.zeros(0)
+        step = self.config.max_climb / 2 if self.config.max_climb > 0 else self.cell_size
+        b = np.floor((h - h.min()) / step).astype(np.int64)
+        counts = np.bincount(b)
+        kept = counts >= 0.05 * counts.max()
+        runs = np.split(np.flatnonzero(kept), np.flatnonzero(np.diff(np.flatnonzero(kept)) > 1) + 1)
+        return np.array([float(np.median(h[np.isin(b, r)])) for r in runs])
+
+    def storey_spans(self) -> np.ndarray:
+        """Navigable spans standing on a storey's floor (within half ``max_climb`` of one of :meth:`storeys`)."""
+        floors = self.storeys()
+        idx = np.flatnonzero(self.navigable)
+        if len(floors) == 0:
+            return idx
+        near = np.abs(self.height[idx][:, None] - floors[None, :]).min(axis=1) <= self.config.max_climb / 2
+        return idx[near]
+
+    def walkable(self) -> np.ndarray:
+        """Navigable spans joined to a storey's floor (its stairs and ramps included): the surfaces an agent can
+        be on. A furniture top or a ledge nothing joins to a floor is navigable but no place to walk."""
+        comps = np.unique(self.component[self.storey_spans()])
+        return np.flatnonzero(self.navigable & np.isin(self.component, comps))
+
+    def storey_band(self, y: float) -> tuple[float, float]:
+        """(lowest, highest) surface height on the storey a point at height ``y`` stands on: that storey's floor
+        is the highest at most ``max_climb`` above ``y`` (else the lowest); the band runs from half the agent's
+        height below it to ``max_climb`` below the next floor more than the agent's height up (the NavGrid's
+        storey test, :meth:`~navbench.scene.navigability.NavGrid.on_storey`, on the layered surfaces)."""
+        floors = self.storeys()
+        if len(floors) == 0:
+            return -math.inf, math.inf
+        below = floors[floors <= y + self.config.max_climb]
+        floor = float(below.max()) if len(below) else float(floors.min())
+        above = floors[floors > floor + self.config.agent_height]
+        top = float(above.min()) - self.config.max_climb if len(above) else math.inf
+        return floor - self.config.agent_height / 2, top
 
     # ------------------------------------------------------------------ the env's interface (NavGrid's)
 
@@ -419,6 +555,11 @@ class LayerView:
         if s >= 0:
             self._y = float(self.nav.height[s])
         self._at.clear()
+
+    @property
+    def surface_height(self) -> float:
+        """Height of the surface the agent stood on when last tracked (its start's, before that)."""
+        return self._y
 
     def _nearest(self, x: float, z: float) -> int:
         return self.nav.span_of((x, self._y, z), max_dist=self.nav.cell_size)

@@ -38,6 +38,16 @@ def write_videos(run_dir: Path, which: str, quiet: bool = False, episode: str | 
     return out
 
 
+def shades_explored(agent: str, flag: bool | None) -> bool:
+    """Whether ``navbench viz`` shades what the depth camera saw: ``--[no-]explored`` if given, else
+    whether the run's agent explores (its registry spec says so; a plug-in agent does not)."""
+    if flag is not None:
+        return flag
+    from navbench.agents.registry import AGENTS
+    spec = AGENTS.get(agent)
+    return spec is not None and spec.explores
+
+
 def cmd_viz(args) -> int:
     import cv2
 
@@ -57,10 +67,11 @@ def cmd_viz(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     rp = Replayer(run)
     names = UniqueNames()
+    shade = shades_explored(run.cfg.agent, args.explored)
     try:
         for r in recs:
             explored = None
-            if args.explored or (args.explored is None and run.cfg.agent == "frontier"):
+            if shade:
                 from navbench.viz.video import explored_mask
                 explored = explored_mask(rp, r)
             # replays the actions, checking every recorded pose
@@ -97,7 +108,7 @@ def add_parsers(sub) -> None:
     v.add_argument("--failures", action="store_true", help="every failed episode")
     v.add_argument("--video", action="store_true", help="also write RUN/videos/EPISODE.mp4")
     v.add_argument("--explored", action=argparse.BooleanOptionalAction, default=None,
-                   help="shade the cells the depth camera saw (default: on for the frontier agent)")
+                   help="shade the cells the depth camera saw (default: on for an agent that explores)")
     v.add_argument("--size", type=int, default=640, help="longest side of the map in pixels (default 640)")
     v.add_argument("-o", "--out", help="where the PNGs go (default RUN/viz)")
     v.set_defaults(func=cmd_viz)

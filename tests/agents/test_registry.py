@@ -19,3 +19,8 @@ def test_policy_agents_decode_as_their_options_record(agent):
     assert built.policy.config.decoding == DEFAULT_DECODING[agent]
     built = AGENTS[agent](_cfg(agent, agent_options(agent, decoding="sample", temperature=0.5)))
     assert (built.policy.config.decoding, built.policy.config.temperature) == ("sample", 0.5)
+
+
+def test_only_the_frontier_agent_explores():
+    """`navbench viz` shades the seen cells by default for these (the spec says so, viz names no agent)."""
+    assert [n for n, s in AGENTS.items() if s.explores] == ["frontier"]

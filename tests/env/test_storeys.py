@@ -119,3 +119,26 @@ def test_objectnav_category_on_two_storeys_scores_against_the_reachable_instance
         obs, _, term, trunc, info = env.step(agent.act(obs))
         done = term or trunc
     assert info["success"] == 1.0 and env.agent_position[1] == pytest.approx(end_y), info
+
+
+@pytest.mark.parametrize(("join", "start", "goal"), [("stairs", [1.0, 0.0, 1.0], [8.5, UPPER, 5.0]),
+                                                     ("ramp", [8.5, UPPER, 5.0], [1.0, 0.0, 1.0])])
+def test_optimistic_agent_plans_over_the_join_to_a_goal_on_another_storey(tmp_path, join, start, goal):
+    from navbench.agents.oracle import OptimisticOracleAgent
+
+    house(join).export(tmp_path / f"{join}.glb")
+    data = {"episodes": [{"episode_id": "0", "scene_id": f"{join}.glb", "start_position": start,
+                          "start_rotation": [0.0, 0.0, 0.0, 1.0], "goals": [{"position": goal, "radius": None}],
+                          "info": {}}]}
+    (tmp_path / "eps.json").write_text(json.dumps(data))
+    config = EnvConfig(rgb=False, depth=True, width=64, height=64)
+    env = PointNavEnv(tmp_path / "eps.json", scene_dir=tmp_path, config=config)
+    obs, info = env.reset(options={"episode": 0})
+    agent = OptimisticOracleAgent(tmp_path, env.success_distance, config)
+    agent.reset(env.episode)
+    done = False
+    while not done:
+        obs, _, term, trunc, info = env.step(agent.act(obs))
+        done = term or trunc
+    assert info["success"] == 1.0 and info["spl"] > 0.9, info
+    assert env.agent_position[1] == pytest.approx(goal[1], abs=1e-6)

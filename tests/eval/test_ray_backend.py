@@ -226,3 +226,46 @@ def test_a_bad_episode_ends_a_ray_run_naming_the_users_file(tmp_path, pointnav_f
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("navbench:")]
     assert len(err) == 1 and str(path) in err[0] and "not navigable" in err[0]
     assert len(read_records(out / "episodes.jsonl")) == 2
+
+
+CLOSING_AGENT = '''
+import os
+
+class Closing:
+    """Stops at once; its close() appends its process id to the file ``marker``."""
+    def __init__(self, marker):
+        self.marker = marker
+
+    def reset(self, episode):
+        pass
+
+    def act(self, observations):
+        return 0
+
+    def close(self):
+        with open(self.marker, "a") as f:
+            f.write(f"{os.getpid()}\\n")
+'''
+
+
+@pytest.mark.parametrize("bad", [False, True], ids=["run-ends", "bad-episode-ends-it-early"])
+def test_a_ray_actor_closes_its_agent_once_when_the_run_ends(tmp_path, monkeypatch, pointnav_file, bad):
+    """As the local pool does: a plug-in agent's close() runs in the actor (a remote agent's POST /close),
+    also when a bad second episode ends the run (exit 2)."""
+    pytest.importorskip("ray")
+    from navbench.episodes.io import load_dataset, save_dataset
+
+    ds = load_dataset(pointnav_file)
+    if bad:
+        ds.episodes[1].start_position = [400.0, 0.0, 400.0]
+    episodes = save_dataset(ds, tmp_path / "eps.json.gz")
+    (tmp_path / "closing_agent.py").write_text(CLOSING_AGENT)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(tmp_path), str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    marker = tmp_path / "closed"
+    assert main(["run", "--episodes", str(episodes), "--agent", "closing_agent:Closing", "--agent-opt",
+                 f"marker={marker}", "--limit", "2", "--backend", "ray", "--workers", "1",
+                 "--out", str(tmp_path / "run"), "-q"]) == (2 if bad else 0)
+    assert bad or len(read_records(tmp_path / "run" / "episodes.jsonl")) == 2
+    pids = marker.read_text().split()
+    assert len(pids) == 1 and int(pids[0]) != os.getpid()  # closed once, in the actor

@@ -219,3 +219,29 @@ def test_batched_policy_records_equal_one_at_a_time(pointnav_file, tmp_path):
         assert len(records[3, sample]) == 6 and records[1, sample] == records[3, sample]
     assert json.loads((tmp_path / "b3_False" / "config.json").read_text())["envs_per_worker"] == 3
     assert records[1, True] != records[1, False]  # sampling reached the agent
+
+
+def test_a_worker_whose_env_cannot_start_closes_its_agent(pointnav_file, tmp_path):
+    """The env's first reset (a bad episode) fails after the agent is built: the agent is closed anyway."""
+    from navbench.episodes.types import EpisodeError
+    from navbench.eval.worker import EpisodeWorker
+
+    ds = load_dataset(pointnav_file)
+    for ep in ds.episodes:
+        ep.start_position = [400.0, 0.0, 400.0]
+    closed = []
+
+    class Agent:
+        def reset(self, episode):
+            pass
+
+        def act(self, observations):
+            return 0
+
+        def close(self):
+            closed.append(True)
+
+    cfg = _cfg(save_dataset(ds, tmp_path / "bad.json.gz"), "pointnav")
+    with pytest.raises(EpisodeError, match="not navigable"):
+        EpisodeWorker(cfg, lambda cfg: Agent())
+    assert closed == [True]

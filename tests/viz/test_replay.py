@@ -1,8 +1,10 @@
 """`navbench viz` replays a finished run from its records: the recorded path exactly, or one line and exit 2."""
 
+import dataclasses
 import json
 
 import numpy as np
+import pytest
 
 from navbench.cli import main
 from navbench.eval.runner import read_records
@@ -83,3 +85,19 @@ def test_map_marks_start_and_stop_where_the_trace_says(oracle_run):
     u, v = view.px(x1, z1)
     patch = img[v - 6:v + 7, u - 6:u + 7].reshape(-1, 3)
     assert (patch == np.array(STOP_MARK)).all(axis=1).any()
+
+
+@pytest.mark.parametrize("explores,flag,shaded", [
+    (True, [], True), (False, [], False), (True, ["--no-explored"], False), (False, ["--explored"], True)])
+def test_the_explored_overlay_defaults_to_what_the_agents_spec_says(oracle_run, monkeypatch, tmp_path,
+                                                                    explores, flag, shaded):
+    """`navbench viz` shades the seen cells by default for an agent whose registry spec explores."""
+    import navbench.viz.video
+    from navbench.agents.registry import AGENTS
+
+    monkeypatch.setitem(AGENTS, "oracle", dataclasses.replace(AGENTS["oracle"], explores=explores))
+    calls = []
+    monkeypatch.setattr(navbench.viz.video, "explored_mask", lambda rp, r: calls.append(r["episode_id"]))
+    episode = read_records(oracle_run / "episodes.jsonl")[0]["episode_id"]
+    assert main(["viz", str(oracle_run), "--episode", episode, *flag, "-o", str(tmp_path / "maps")]) == 0
+    assert calls == ([episode] if shaded else [])

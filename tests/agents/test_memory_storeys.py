@@ -1,0 +1,107 @@
+"""The memory agent in a two-storey house: the pre-scan covers both storeys, and the agent finds goals upstairs
+and downstairs from either storey, over the stairs or the ramp (oracle perception, the shipped policy).
+Slow (several minutes on 2 cores: two pre-scans and ten episodes per house): ``pytest -m slow``."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navbench.agents.registry import make_memory
+from navbench.env.objectnav import ObjectNavEnv
+from navbench.episodes.viewpoints import ViewPointFinder
+from navbench.eval.runner import RunConfig
+from navbench.memory.prescan import Memory
+from navbench.paths import POLICIES_DIR
+from navbench.scene.asset import load_scene
+from navbench.scene.cache import navgrid_for
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
+from storeys import UPPER, furnished
+
+pytestmark = pytest.mark.slow
+CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
+STARTS = {"ground": [1.0, 0.0, 1.0], "upper": [2.0, UPPER, 0.8]}
+# (category, start): a goal upstairs from the ground floor, one downstairs from upstairs, the chair (one on
+# each storey) from either storey, and a goal on the start's own storey upstairs.
+EPISODES = [("bed", "ground"), ("sofa", "upper"), ("chair", "ground"), ("chair", "upper"), ("plant", "upper")]
+
+
+def _episodes(root: Path, join: str) -> Path:
+    path = furnished(join, root)
+    asset = load_scene(path)
+    finders = [ViewPointFinder(asset, navgrid_for(asset, floor_hint=y)) for y in (0.0, UPPER)]
+    eps = []
+    for cat, start in EPISODES:
+        goals = []
+        for o in sorted(asset.objects_of(cat), key=lambda o: o.id):
+            pos, rot, frac = finders[int(o.aabb_min[1] > UPPER / 2)].find(o)
+            goals.append({"object_id": o.id, "object_category": cat, "position": o.center.tolist(),
+                          "view_points": [{"agent_state": {"position": p.tolist(), "rotation": q.tolist()},
+                                           "iou": float(f)} for p, q, f in zip(pos, rot, frac)]})
+        eps.append({"episode_id": f"{cat}-{start}", "scene_id": path.name, "start_position": STARTS[start],
+                    "start_rotation": [0.0, 0.0, 0.0, 1.0], "object_category": cat, "goals": goals, "info": {}})
+    out = root / f"{join}.json"
+    out.write_text(json.dumps({"episodes": eps}))
+    return out
+
+
+def _run(root: Path, episodes: Path) -> dict[str, dict]:
+    cfg = RunConfig(task="objectnav", split=None, agent="memory", episodes=str(episodes), scene_dir=str(root),
+                    success_distance=0.25, env={"max_steps": 500},
+                    agent_options={"memory_root": str(root / "memory"), "checkpoint": str(CHECKPOINT)})
+    agent = make_memory(cfg)
+    env = ObjectNavEnv(episodes, scene_dir=root, config=cfg.env_config(agent.sensors))
+    out = {}
+    for ep in env.dataset.episodes:
+        obs, info = env.reset(options={"episode": ep})
+        agent.reset(env.episode)
+        done = False
+        while not done:
+            obs, _, term, trunc, info = env.step(agent.act(obs))
+            done = term or trunc
+        out[ep.episode_id] = {**info, "log": agent.episode_log(), "y": float(env.agent_position[1])}
+    env.close()
+    return out
+
+
+@pytest.fixture(scope="module", params=["stairs", "ramp"])
+def house_run(request, tmp_path_factory):
+    if not CHECKPOINT.is_file():
+        pytest.skip("no shipped PointNav checkpoint")
+    root = tmp_path_factory.mktemp(request.param)
+    return root, _run(root, _episodes(root, request.param))
+
+
+def test_prescan_covers_both_storeys(house_run):
+    root, _ = house_run
+    (directory,) = (root / "memory").iterdir()
+    memory = Memory.open(directory)
+    floors = memory.store.positions()[:, 1] - memory.config.camera_height
+    assert memory.stats.rooms_missed == () and set(memory.stats.rooms_visited) == {"ground", "upper"}
+    assert (np.abs(floors) < 0.01).sum() > 50 and (np.abs(floors - UPPER) < 0.01).sum() > 50
+    # the cameras stand on the surface: storeys, treads or the ramp, never in the air between them
+    assert floors.min() > -0.01 and floors.max() < UPPER + 0.01
+
+
+def test_memory_agent_finds_goals_on_either_storey(house_run):
+    _, results = house_run
+    found = {k: r["success"] == 1.0 for k, r in results.items()}
+    # both cross-storey goals (up the flight and down it) and most of the rest
+    assert found["bed-ground"] and found["sofa-upper"], results
+    assert sum(found.values()) >= len(EPISODES) - 1, found
+    assert results["bed-ground"]["y"] == pytest.approx(UPPER) and results["sofa-upper"]["y"] == pytest.approx(0.0)
+    events = [e["event"] for e in results["bed-ground"]["log"]["events"]]
+    assert "climb" in events  # over the stairs or ramp, not to the point under the bed
+
+
+@pytest.mark.parametrize("start", ["ground", "upper"])
+def test_a_category_on_both_storeys_is_sought_on_the_start_storey_first(house_run, start):
+    _, results = house_run
+    r = results[f"chair-{start}"]
+    first = r["log"]["candidates"][0]
+    storey_y = STARTS[start][1]
+    assert len(r["log"]["candidates"]) == 2 and storey_y <= first[1] < storey_y + 1.0
+    assert r["success"] == 1.0 and r["y"] == pytest.approx(storey_y)
