@@ -107,6 +107,11 @@ def _copy(tmp_path, rel, name, **config):
     shutil.copytree(RUNS / rel, d, ignore=shutil.ignore_patterns("videos"))
     cfg = json.loads((d / "config.json").read_text())
     (d / "config.json").write_text(json.dumps({**cfg, **config}))
+    prov = d / "provenance.json"  # the recorded protocol states the same change
+    if prov.is_file():
+        doc = json.loads(prov.read_text())
+        doc["protocol"].update({k: v for k, v in config.items() if k in doc["protocol"]})
+        prov.write_text(json.dumps(doc))
     return d
 
 
@@ -122,7 +127,10 @@ def test_table_refuses_mixed_protocols_unless_told_and_then_marks_it(tmp_path, c
 
 
 def test_table_shows_intervals_from_summary_or_records_in_every_format(tmp_path):
-    old = RUNS / "objectnav" / "val_unseen" / "frontier"  # a summary.json written without ci95
+    old = _copy(tmp_path, "objectnav/val_unseen/frontier", "frontier")  # a summary.json written without ci95
+    s = json.loads((old / "summary.json").read_text())
+    s.pop("ci95")
+    (old / "summary.json").write_text(json.dumps(s))
     new = _copy(tmp_path, "objectnav/val_unseen/memory", "memory")
     s = json.loads((new / "summary.json").read_text())
     s["ci95"] = intervals(read_records(new / "episodes.jsonl"))

@@ -248,7 +248,7 @@ def test_shards_merged_equal_the_unsharded_run(pointnav_file, tmp_path, capsys):
     run(_cfg(pointnav_file, shard="1/3", seed=5), _misbehaving, tmp_path / "other_seed")
     dup = tmp_path / "dup"
     dup.mkdir()
-    for f in ("config.json", "episodes.jsonl"):
+    for f in ("config.json", "episodes.jsonl", "provenance.json"):
         (dup / f).write_text((dirs[0] / f).read_text().replace('"1/3"', '"2/3"'))
     for argv, needle in [
         ([dirs[0], dirs[1]], "are in none of the runs"),

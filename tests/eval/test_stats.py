@@ -166,6 +166,11 @@ def _copy_run(tmp_path, name, **config):
     shutil.copytree(VAL_UNSEEN / name, d, ignore=shutil.ignore_patterns("videos"))
     cfg = json.loads((d / "config.json").read_text())
     (d / "config.json").write_text(json.dumps({**cfg, **config}))
+    prov = d / "provenance.json"  # the recorded protocol states the same change
+    if prov.is_file():
+        doc = json.loads(prov.read_text())
+        doc["protocol"].update({k: v for k, v in config.items() if k in doc["protocol"]})
+        prov.write_text(json.dumps(doc))
     return d
 
 

@@ -52,7 +52,8 @@ def test_warmup_trains_only_the_critic_then_the_actor_moves_and_runs_resume(tmp_
     second = train_ppo(cfg2, out, init, resume=True, state_dir=state, log_every=lambda _: None)
     assert second["update"] == 2 and second["frames"] == 32 and second["actor"] == 1
     final = _params(load_checkpoint(out))
-    assert any(not torch.allclose(after[n], final[n], atol=1e-4)
+    # stored as fp16 from the same fp32 weights, an unchanged tensor reads back equal
+    assert any(not torch.equal(after[n], final[n])
                for n in final if n.startswith(("action_distribution.", "net.state_encoder.")))
     assert all(torch.equal(after[n], final[n]) for n in final if n.startswith("net.visual_encoder."))
     assert len((tmp_path / "ppo.log.csv").read_text().strip().splitlines()) == 3  # header + two updates
@@ -90,9 +91,9 @@ def test_bc_weight_labels_the_rollout_with_the_expert_and_pulls_the_actor_toward
     data["adv"].zero_()  # no advantage: only the imitation term can move the actor
     opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=1e-3)
     first = ppo_update(policy, opt, data, cfg, actor=True, rng=np.random.default_rng(0))["bc_loss"]
-    for _ in range(10):
+    for _ in range(20):
         last = ppo_update(policy, opt, data, cfg, actor=True, rng=np.random.default_rng(0))["bc_loss"]
-    assert last < 0.8 * first  # 1.39 (uniform over 4 actions) -> 0.98 here
+    assert last < 0.8 * first  # 1.39 (uniform over 4 actions) -> 0.66 here
     assert "bc_loss" not in ppo_update(policy, opt, data, PPOConfig(num_minibatches=1), actor=True,
                                        rng=np.random.default_rng(0))
 

@@ -93,7 +93,7 @@ def test_rendered_frames_have_targets_and_a_few_updates_reduce_the_loss() -> Non
     opt = torch.optim.Adam(params, lr=cfg.lr)
     batch = batch_tensors(data, np.arange(8))
     history = []
-    for _ in range(25):
+    for _ in range(40):  # 0.90 -> 0.26 on the bundled train houses
         loss = losses(policy, head, batch, mask, cfg)["loss"]
         opt.zero_grad()
         loss.backward()
