@@ -37,7 +37,8 @@ def _grounding(path, episode):
 def test_a_copy_of_a_bundled_house_grounds_goal_names_as_the_original(tmp_path):
     # Two of the house's three pictures are the episode's goals (as in val_unseen episode 84, whose
     # third picture no navigable view point reaches): the vocabulary still grounds all three.
-    goals = [ObjectGoal([0.125275, 1.31769, 5.345315], 19, "picture"), ObjectGoal([0.972335, 1.45275, 5.825785], 23, "picture")]
+    goals = [ObjectGoal([0.125275, 1.31769, 5.345315], 19, "picture"),
+             ObjectGoal([0.972335, 1.45275, 5.825785], 23, "picture")]
     episode = Episode("84", SCENE, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], goals=goals, object_category="picture")
     copy = _copy(tmp_path)
     assert is_bundled(SCENES_DIR / SCENE, SCENE) and is_bundled(copy, SCENE)
