@@ -100,6 +100,18 @@ class StoreyPoints:
 
 
 # ------------------------------------------------------------------------------------------- PointNav
+def _pointnav_episode(episode_id: str, scene_id: str, start: np.ndarray, goal: np.ndarray, geo: float, euc: float,
+                      rng: np.random.Generator) -> Episode:
+    """The episode of an accepted (start, goal) draw; its heading is the next draw of ``rng``."""
+    return Episode(
+        episode_id=episode_id, scene_id=scene_id,
+        start_position=[float(v) for v in start], start_rotation=_random_yaw_quat(rng),
+        goals=[NavigationGoal(position=[float(v) for v in goal], radius=None)],
+        info={"geodesic_distance": geo, "euclidean_distance": euc,
+              "difficulty": "easy" if geo < 6 else "medium" if geo < 12 else "hard"},
+    )
+
+
 def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.Generator,
                       cfg: GeneratorConfig = GeneratorConfig(), id_offset: int = 0,
                       layered: bool = False) -> list[Episode]:
@@ -119,13 +131,7 @@ def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.
                 break
         else:
             raise RuntimeError(f"{scene_path}: no PointNav episode satisfies {cfg} after {cfg.max_tries} tries")
-        episodes.append(Episode(
-            episode_id=str(id_offset + k), scene_id=scene_id,
-            start_position=[float(v) for v in start], start_rotation=_random_yaw_quat(rng),
-            goals=[NavigationGoal(position=[float(v) for v in goal], radius=None)],
-            info={"geodesic_distance": geo, "euclidean_distance": euc,
-                  "difficulty": "easy" if geo < 6 else "medium" if geo < 12 else "hard"},
-        ))
+        episodes.append(_pointnav_episode(str(id_offset + k), scene_id, start, goal, geo, euc, rng))
     return episodes
 
 
@@ -146,13 +152,7 @@ def _layered_pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: n
                 break
         else:
             raise RuntimeError(f"{scene_path}: no PointNav episode satisfies {cfg} after {cfg.max_tries} tries")
-        episodes.append(Episode(
-            episode_id=str(id_offset + k), scene_id=scene_id,
-            start_position=[float(v) for v in start], start_rotation=_random_yaw_quat(rng),
-            goals=[NavigationGoal(position=[float(v) for v in goal], radius=None)],
-            info={"geodesic_distance": geo, "euclidean_distance": euc,
-                  "difficulty": "easy" if geo < 6 else "medium" if geo < 12 else "hard"},
-        ))
+        episodes.append(_pointnav_episode(str(id_offset + k), scene_id, start, goal, geo, euc, rng))
     return episodes
 
 
