@@ -42,7 +42,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
 
     Returns:
         (task, split or None for a user's file, episode file, the default success distance: a user's
-        ObjectNav file in HM3D-OVON's format (:func:`navbench.episodes.io.is_ovon`) gets OVON's).
+        ObjectNav file in HM3D-OVON's format (:func:`navbench.episodes.io.is_ovon`) or drawn by navbench
+        (``navbench generate benchmark``: it states a ``split_version``) gets OVON's).
 
     >>> resolve_episodes("pointnav", None, None)[::3]
     ('pointnav', 0.2)
@@ -54,7 +55,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
             # the first episode (and the goals by category) tell the task and the format: streamed
             dataset = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), 1)))
             task = task or dataset.task
-            if task == "objectnav" and is_ovon(dataset):
+            # OVON's files, and navbench's own OVON-style ones (they state the split_version they were drawn under)
+            if task == "objectnav" and (is_ovon(dataset) or "split_version" in dataset.extra):
                 return task, split, episodes, SUCCESS_DISTANCE["ovon"]
         return task, split, episodes, SUCCESS_DISTANCE[task]
     split = split or ("val" if task == "pointnav" else "val_unseen")

@@ -6,9 +6,10 @@ writes ``DIR/scenes/val/house_NNN.glb`` (+ ``.semantic.json``; houses of their o
 bundled, training and selection houses), the three OVON-style splits ``DIR/objectnav/SPLIT_hH.json.gz``
 (val_seen, val_seen_synonyms, val_unseen; the episodes spread evenly over the houses), ``DIR/benchmark.json``
 (its arguments, episode counts and how to run it) and ``DIR/SHA256SUMS`` (``sha256sum -c`` checks it).
-Run a split with the command ``benchmark.json`` holds, e.g.
+Run a split with the command ``benchmark.json`` holds (its files state their ``split_version``, so they are
+scored at the OVON-style splits' 0.25 m without a flag), e.g.
 
-    navbench run --episodes DIR/objectnav/val_unseen_h36.json.gz --scene-dir DIR/scenes --success-distance 0.25
+    navbench run --episodes DIR/objectnav/val_unseen_h36.json.gz --scene-dir DIR/scenes
 """
 
 from __future__ import annotations
@@ -71,8 +72,7 @@ def generate_benchmark(out: str | Path, houses: int = 36, episodes_per_split: in
     sd = SUCCESS_DISTANCE
     manifest = {"houses": houses, "episodes_per_split": episodes_per_split, "seed": seed,
                 "house_dataset_seed": HOUSE_SEED_BASE + seed, "success_distance": sd, "splits": splits,
-                "run": f"navbench run --episodes DIR/{splits['val_unseen']['file']} --scene-dir DIR/scenes "
-                       f"--success-distance {sd:g}"}
+                "run": f"navbench run --episodes DIR/{splits['val_unseen']['file']} --scene-dir DIR/scenes"}
     (out / "benchmark.json").write_text(json.dumps(manifest, indent=1) + "\n")
     files = sorted(p for p in out.rglob("*") if p.is_file() and p.name != "SHA256SUMS")
     (out / "SHA256SUMS").write_text("".join(f"{_sha256(p)}  {p.relative_to(out).as_posix()}\n" for p in files))
