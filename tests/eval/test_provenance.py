@@ -102,22 +102,9 @@ def test_runs_without_provenance_get_a_derived_protocol_never_taken_for_todays(t
         check_same_protocol([RUNS / "objectnav" / "val_unseen" / "memory", d])
 
 
-def _copy(tmp_path, rel, name, **config):
-    d = tmp_path / name
-    shutil.copytree(RUNS / rel, d, ignore=shutil.ignore_patterns("videos"))
-    cfg = json.loads((d / "config.json").read_text())
-    (d / "config.json").write_text(json.dumps({**cfg, **config}))
-    prov = d / "provenance.json"  # the recorded protocol states the same change
-    if prov.is_file():
-        doc = json.loads(prov.read_text())
-        doc["protocol"].update({k: v for k, v in config.items() if k in doc["protocol"]})
-        prov.write_text(json.dumps(doc))
-    return d
-
-
-def test_table_refuses_mixed_protocols_unless_told_and_then_marks_it(tmp_path, capsys):
+def test_table_refuses_mixed_protocols_unless_told_and_then_marks_it(copy_run, capsys):
     mem = RUNS / "objectnav" / "val_unseen" / "memory"
-    far = _copy(tmp_path, "objectnav/val_unseen/frontier", "frontier", success_distance=1.0)
+    far = copy_run(RUNS / "objectnav/val_unseen/frontier", "frontier", success_distance=1.0)
     with pytest.raises(TableError, match="success_distance"):
         runs_frame([mem, far])
     text = render(runs_frame([mem, far], mix_protocols=True))
@@ -126,12 +113,12 @@ def test_table_refuses_mixed_protocols_unless_told_and_then_marks_it(tmp_path, c
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-def test_table_shows_intervals_from_summary_or_records_in_every_format(tmp_path):
-    old = _copy(tmp_path, "objectnav/val_unseen/frontier", "frontier")  # a summary.json written without ci95
+def test_table_shows_intervals_from_summary_or_records_in_every_format(copy_run):
+    old = copy_run(RUNS / "objectnav/val_unseen/frontier", "frontier")  # a summary.json written without ci95
     s = json.loads((old / "summary.json").read_text())
     s.pop("ci95")
     (old / "summary.json").write_text(json.dumps(s))
-    new = _copy(tmp_path, "objectnav/val_unseen/memory", "memory")
+    new = copy_run(RUNS / "objectnav/val_unseen/memory", "memory")
     s = json.loads((new / "summary.json").read_text())
     s["ci95"] = intervals(read_records(new / "episodes.jsonl"))
     (new / "summary.json").write_text(json.dumps(s))

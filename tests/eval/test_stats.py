@@ -4,7 +4,6 @@ and the committed val_unseen runs compared as the README describes."""
 import json
 import math
 import random
-import shutil
 
 import numpy as np
 import pytest
@@ -161,26 +160,13 @@ def test_pairing_drops_episodes_one_run_lacks_and_says_which():
         compare_records(base[:3], [])
 
 
-def _copy_run(tmp_path, name, **config):
-    d = tmp_path / name
-    shutil.copytree(VAL_UNSEEN / name, d, ignore=shutil.ignore_patterns("videos"))
-    cfg = json.loads((d / "config.json").read_text())
-    (d / "config.json").write_text(json.dumps({**cfg, **config}))
-    prov = d / "provenance.json"  # the recorded protocol states the same change
-    if prov.is_file():
-        doc = json.loads(prov.read_text())
-        doc["protocol"].update({k: v for k, v in config.items() if k in doc["protocol"]})
-        prov.write_text(json.dumps(doc))
-    return d
-
-
-def test_cli_compare_json_self_and_refusals(tmp_path, capsys):
+def test_cli_compare_json_self_and_refusals(copy_run, capsys):
     mem = VAL_UNSEEN / "memory"
     assert main(["compare", str(mem), str(mem), "--json", "--metric", "spl"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["episodes"] == 160 and doc["scenes"] == 4 and list(doc["metrics"]) == ["spl"]
     assert doc["metrics"]["spl"]["diff"] == 0 and doc["metrics"]["spl"]["ci95"] == [0, 0]
-    far = _copy_run(tmp_path, "frontier", success_distance=1.0)
+    far = copy_run(VAL_UNSEEN / "frontier", "frontier", success_distance=1.0)
     assert main(["compare", str(mem), str(far)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "success_distance 0.25 vs 1.0" in err[0]
@@ -191,8 +177,8 @@ def test_cli_compare_json_self_and_refusals(tmp_path, capsys):
     assert "another episode file" in capsys.readouterr().err
 
 
-def test_cli_compare_text_names_the_dropped_episodes(tmp_path, capsys):
-    short = _copy_run(tmp_path, "memory")
+def test_cli_compare_text_names_the_dropped_episodes(copy_run, capsys):
+    short = copy_run(VAL_UNSEEN / "memory", "memory")
     lines = (short / "episodes.jsonl").read_text().splitlines()
     (short / "episodes.jsonl").write_text("\n".join(lines[3:]) + "\n")
     assert main(["compare", str(VAL_UNSEEN / "frontier"), str(short)]) == 0
@@ -201,10 +187,10 @@ def test_cli_compare_text_names_the_dropped_episodes(tmp_path, capsys):
     assert "SPL %" in out and "P(other better)" in out
 
 
-def test_a_run_with_provenance_pairs_with_one_written_before_it(tmp_path, capsys):
-    old = _copy_run(tmp_path, "frontier")
+def test_a_run_with_provenance_pairs_with_one_written_before_it(copy_run, capsys):
+    old = copy_run(VAL_UNSEEN / "frontier", "frontier")
     (old / "provenance.json").unlink(missing_ok=True)
-    new = _copy_run(tmp_path, "memory")
+    new = copy_run(VAL_UNSEEN / "memory", "memory")
     proto = {k: v for k, v in run_protocol(old).items() if k != "derived"}
     doc = {"protocol": proto, "files": {"episodes": {"sha256": sha256(split_file("objectnav", "val_unseen"))}}}
     (new / "provenance.json").write_text(json.dumps(doc))
