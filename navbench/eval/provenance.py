@@ -38,7 +38,7 @@ from typing import Any
 from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
-from navbench.scene.navigability import NAVIGABILITY_VERSION
+from navbench.scene import NAVIGABILITY_VERSION
 
 PROVENANCE = "provenance.json"
 PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")

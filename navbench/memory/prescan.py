@@ -42,11 +42,12 @@ from navbench.memory.index import EmbeddingIndex
 from navbench.memory.keyframes import select_keyframes
 from navbench.memory.store import Frame, Intrinsics, KeyframeStore, StoreConfig, read_versioned_json
 from navbench.paths import cache_dir
+from navbench.scene import NAVIGABILITY_VERSION
 from navbench.scene.asset import SceneAsset, SceneError
 from navbench.scene.cache import layers_for, load_scene_and_navgrid, navgrid_for, scene_digest
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, GreedyFollower
 from navbench.scene.layers import LayeredNav, LayerView
-from navbench.scene.navigability import NAVIGABILITY_VERSION, NavGrid
+from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw
 
 MEMORY_FILE = "memory.json"

@@ -31,9 +31,6 @@ from scipy.spatial import cKDTree
 from navbench.scene.asset import SceneError
 
 # A surface is floor-like if its normal is within ~45 deg of vertical.
-# Which rules decide navigability; a change that moves any geodesic or collision bumps it (CHANGELOG).
-# 2: only the passages Habitat's navmesh admits (Recast's voxel erosion, see NavGrid._navmesh_topology).
-NAVIGABILITY_VERSION = 2
 _HORIZONTAL_NY = 0.7
 # Cells the goal's exact-distance disc spans in the fast-marching initialisation (see distance_field).
 _GOAL_DISC_CELLS = 1.5
