@@ -372,11 +372,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
                        description="Pairs OTHER with BASE on the episodes both scored and, per metric, prints "
-                       "both means, the difference OTHER - BASE, its 95%% interval (two-stage bootstrap: scenes, "
+                       "both means, the difference OTHER - BASE, its 95% interval (two-stage bootstrap: scenes, "
                        "then episodes within each drawn scene; 2,000 resamples, seed 0), P(other better) (the "
                        "share of resamples whose difference favours OTHER, ties half; lower is better for DTG) "
                        "and the smallest difference this episode set could detect: 2.8 x the bootstrap "
-                       "standard error of the difference (80%% power, two-sided alpha 0.05). Runs under "
+                       "standard error of the difference (80% power, two-sided alpha 0.05). Runs under "
                        "different protocols or on different episode files are refused.")
     c.add_argument("base")
     c.add_argument("others", nargs="+", metavar="other")

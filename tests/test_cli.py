@@ -1,5 +1,7 @@
 """`navbench run`'s options: what reaches the agent's config, the per-agent defaults, and the run's name."""
 
+import argparse
+
 import pytest
 
 from navbench.agents.registry import AGENTS, DEFAULT_DECODING, agent_factory, agent_options, decoding_of, run_label
@@ -162,3 +164,11 @@ def test_run_resolves_the_episode_source_once(objectnav_file, tmp_path, monkeypa
     assert main(["run", "--episodes", str(objectnav_file), "--agent", "oracle", "--limit", "1", "--workers", "1",
                  "--out", str(tmp_path / "run"), "-q"]) == 0
     assert calls == [(None, None, str(objectnav_file))]
+
+
+def test_every_help_text_renders_its_percent_signs_once():
+    # argparse %-formats `help` strings but prints a `description` as written
+    parser = build_parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, sub in subs.choices.items():
+        assert "%%" not in sub.format_help(), name
