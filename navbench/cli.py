@@ -30,6 +30,7 @@ import json
 import math
 import sys
 import warnings
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,7 @@ from navbench.agents.options import add_flags, flag_of, given_flags
 from navbench.agents.plugins import parse_options, resolve_agent
 from navbench.agents.registry import AGENTS, agent_options, default_agent, scan_config
 from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
+from navbench.loop_progress import silenced
 from navbench.paths import EPISODES_DIR, SCENES_DIR
 
 METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
@@ -55,7 +57,9 @@ def cmd_run(args) -> int:
     options = _agent_request(args)
     workers = args.workers if args.workers is not None or args.address is not None else 2
     where: list[Path] = []
-    with warnings.catch_warnings():  # failed episodes are reported below, in one line, with exit 3
+    # -q: no run progress, and no loop progress either (memory pre-scans, workers)
+    with warnings.catch_warnings(), silenced() if args.quiet else nullcontext():
+        # failed episodes are reported below, in one line, with exit 3
         warnings.filterwarnings("ignore", r".* episode\(s\) failed", RuntimeWarning)
         summary = evaluate(
             args.agent, task, split, args.episodes, options=options, limit=args.limit, per_scene=args.per_scene,

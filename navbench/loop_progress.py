@@ -1,6 +1,7 @@
 """Progress of long loops on stderr: a tqdm bar on a terminal, else a plain line every 10 % (or 30 s).
 
-``NAVBENCH_PROGRESS=0`` turns it off. It only prints; the loop's items pass through unchanged.
+``NAVBENCH_PROGRESS=0`` turns it off (``silenced()`` sets it for a block). It only prints; the loop's items
+pass through unchanged.
 """
 
 from __future__ import annotations
@@ -9,13 +10,29 @@ import os
 import sys
 import time
 from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from typing import TypeVar
 
 T = TypeVar("T")
+ENV = "NAVBENCH_PROGRESS"
+
+
+@contextmanager
+def silenced() -> Iterator[None]:
+    """No loop progress inside the block, in this process and in the worker processes it starts."""
+    before = os.environ.get(ENV)
+    os.environ[ENV] = "0"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(ENV, None)
+        else:
+            os.environ[ENV] = before
 
 
 def progress(items: Iterable[T], total: int | None = None, desc: str = "") -> Iterator[T]:
-    if os.environ.get("NAVBENCH_PROGRESS", "1") == "0":
+    if os.environ.get(ENV, "1") == "0":
         yield from items
         return
     if total is None and hasattr(items, "__len__"):

@@ -1,6 +1,7 @@
 """`navbench run`'s options: what reaches the agent's config, the per-agent defaults, and the run's name."""
 
 import argparse
+import os
 
 import pytest
 
@@ -172,3 +173,22 @@ def test_every_help_text_renders_its_percent_signs_once():
     subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     for name, sub in subs.choices.items():
         assert "%%" not in sub.format_help(), name
+
+
+@pytest.mark.parametrize("quiet", [True, False])
+def test_quiet_run_silences_the_loops_it_starts(quiet, monkeypatch):
+    # -q reaches the memory pre-scans and the workers, which print through navbench.loop_progress
+    import navbench.api
+
+    class Seen(Exception):
+        pass
+
+    def evaluate(*args, **kwargs):
+        raise Seen(os.environ.get("NAVBENCH_PROGRESS"))
+
+    monkeypatch.delenv("NAVBENCH_PROGRESS", raising=False)
+    monkeypatch.setattr(navbench.api, "evaluate", evaluate)
+    with pytest.raises(Seen) as seen:
+        main(["run", "--split", "val_unseen", "--limit", "1", *(["-q"] if quiet else [])])
+    assert seen.value.args[0] == ("0" if quiet else None)
+    assert "NAVBENCH_PROGRESS" not in os.environ

@@ -1,6 +1,8 @@
 """The shared progress helper: items pass through; off a terminal, one plain line per 10 %."""
 
-from navbench.loop_progress import progress
+import os
+
+from navbench.loop_progress import progress, silenced
 
 
 def test_plain_lines_off_a_terminal(capsys, monkeypatch):
@@ -14,3 +16,13 @@ def test_off_by_environment(capsys, monkeypatch):
     monkeypatch.setenv("NAVBENCH_PROGRESS", "0")
     assert list(progress([1, 2, 3], desc="x")) == [1, 2, 3]
     assert capsys.readouterr().err == ""
+
+
+def test_silenced_block_and_restored_after(capsys, monkeypatch):
+    monkeypatch.setenv("NAVBENCH_PROGRESS", "1")
+    with silenced():
+        assert list(progress(range(3), desc="x")) == [0, 1, 2]
+    assert capsys.readouterr().err == ""
+    assert os.environ["NAVBENCH_PROGRESS"] == "1"
+    list(progress(range(3), desc="x"))
+    assert capsys.readouterr().err
