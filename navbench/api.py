@@ -159,6 +159,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     from navbench.agents.habitat_compat import check_agent
     from navbench.agents.plugins import ResolvedAgent, can_batch, check_options, plugin_label, resolve_agent
     from navbench.agents.registry import default_agent
+    from navbench.episodes.io import file_split
     from navbench.eval.config import Execution, RunConfig, parse_shard
     from navbench.eval.runner import run, run_dataset
 
@@ -210,7 +211,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     cfg.label = label or resolved.label
     parsed_shard = parse_shard(shard)
     if out is None:
-        out = run_dir(task, split or episodes_path.name.split(".")[0], cfg.label, runs_dir)
+        out = run_dir(task, split or file_split(episodes_path), cfg.label, runs_dir)
         if parsed_shard:
             out = out / f"shard{parsed_shard[0]}of{parsed_shard[1]}"
     out = Path(out)

@@ -38,6 +38,7 @@ from navbench.agents.options import add_flags, flag_of, given_flags
 from navbench.agents.plugins import parse_options, resolve_agent
 from navbench.agents.registry import AGENTS, agent_options, default_agent, scan_config
 from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
+from navbench.episodes.io import file_split
 from navbench.loop_progress import silenced
 from navbench.paths import EPISODES_DIR, SCENES_DIR
 
@@ -69,7 +70,7 @@ def cmd_run(args) -> int:
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, progress=None if args.quiet else Progress(),
             video=args.video, on_run_dir=where.append, _episodes=episodes)
     out = where[0]
-    print(summary_markdown(summary))
+    print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
     if summary["num_failed"]:
         print(f"navbench: {summary['num_failed']} episode(s) failed (listed in {out}/summary.json), e.g. "

@@ -47,6 +47,12 @@ _OBJECT_GOAL_KEYS = {"position", "radius", "object_id", "object_category", "obje
                      "view_points"}
 
 
+def file_split(path: str | Path) -> str:
+    """The split name a user's episode file goes by (its name up to the first dot): runs of it are filed
+    under ``runs/<task>/<file_split>/`` and tabulated with it."""
+    return Path(path).name.split(".")[0]
+
+
 def goals_key(scene_id: str, category: str) -> str:
     """Habitat's ``goals_by_category`` key: basename of the scene path (with its extension) + category."""
     return f"{os.path.basename(scene_id)}_{category}"

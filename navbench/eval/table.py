@@ -121,6 +121,16 @@ def first_summary(run_dir: str | Path, first: int) -> dict[str, Any]:
 IDENTITY = ("checkpoint", "decoding", "seed", "perception")
 
 
+def run_split(run_dir: str | Path, summary: dict[str, Any]) -> str | None:
+    """The run's bundled split, else the name of the episode file it ran (as its directory is named)."""
+    from navbench.episodes.io import file_split
+
+    if summary.get("split"):
+        return summary["split"]
+    episodes = load_config(run_dir).get("episodes")
+    return file_split(episodes) if episodes else None
+
+
 def run_identity(run_dir: str | Path) -> dict[str, Any]:
     """What makes a run what it is, beyond its agent and split: the table's identity columns (those the
     run's agent has, from its options; "-" for the others and for a plug-in agent's run)."""
@@ -203,7 +213,7 @@ def runs_frame(run_dirs: list[str | Path], wide: bool = True, first: int | None 
     rows = []
     for i, (d, s) in enumerate(zip(run_dirs, summaries)):
         ident = {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})}
-        rows.append(summary_row(s, ident, run_intervals(d, s, first)))
+        rows.append(summary_row({**s, "split": run_split(d, s)}, ident, run_intervals(d, s, first)))
     df = pd.DataFrame(rows)
     if protocols:
         df.attrs["note"] = f"mixed protocols ({', '.join(dict.fromkeys(protocols))}): figures are not comparable"
@@ -241,8 +251,8 @@ def group_frame(run_dirs: list[str | Path], by: str, first: int | None = None,
             agg = aggregate(rs)
             if not agg["num_episodes"]:
                 continue
-            row = summary_row({**s, **agg}, {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})},
-                              intervals(rs))
+            ident = {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})}
+            row = summary_row({**s, **agg, "split": run_split(d, s)}, ident, intervals(rs))
             rows.append({**{k: v for k, v in row.items() if k != "task"}, by: g})
     df = pd.DataFrame(rows)
     cols = [c for c in df.columns if c not in (by, "episodes") and c not in COLUMNS and not c.endswith((" lo", " hi"))]

@@ -43,6 +43,19 @@ def test_wide_table_keeps_identity_columns_and_one_row_per_agent(tmp_path):
     assert render(runs_frame(runs), "csv").splitlines()[0].startswith("agent,checkpoint,decoding,seed,perception")
 
 
+def test_a_user_files_runs_are_tabulated_under_the_files_name(tmp_path):
+    # as `navbench run --episodes DIR/val_unseen_h36.json.gz` files them: runs/objectnav/val_unseen_h36/
+    runs = []
+    for a in ("memory", "frontier"):
+        d = _run(tmp_path, a, a, None, {"decoding": "argmax", "perception": "oracle"})
+        cfg = json.loads((d / "config.json").read_text())
+        (d / "config.json").write_text(json.dumps({**cfg, "episodes": "/data/bench/objectnav/val_unseen_h36.json.gz"}))
+        runs.append(d)
+    assert list(runs_frame(runs, wide=False)["split"]) == ["val_unseen_h36"] * 2
+    bundled = _run(tmp_path, "bundled", "memory", "val_unseen", {"decoding": "argmax", "perception": "oracle"})
+    assert "val_unseen_h36 SR" in render(runs_frame([*runs, bundled])).splitlines()[0]
+
+
 def test_missing_config_is_a_one_line_error(tmp_path):
     d = _run(tmp_path, "x", "oracle", "val", {})
     (d / "config.json").unlink()
