@@ -45,6 +45,12 @@ def split_path(out: Path, split: str, houses: int) -> Path:
     return Path(out) / "objectnav" / f"{split}_h{houses}.json.gz"
 
 
+def split_rng(seed: int, split: str) -> np.random.Generator:
+    """The generator a split's episodes are drawn from, house after house in name order (so the first
+    house's episodes can be redrawn from that house alone)."""
+    return np.random.default_rng([seed, 7, list(SPLITS).index(split)])
+
+
 def generate_benchmark(out: str | Path, houses: int = 36, episodes_per_split: int = 3000, seed: int = 0,
                        log=print) -> dict:
     """Write the benchmark into ``out`` (see the module docstring); returns benchmark.json's content."""
@@ -60,8 +66,8 @@ def generate_benchmark(out: str | Path, houses: int = 36, episodes_per_split: in
     goals = [SceneGoals(p, scene_dir) for p in sorted((scene_dir / "val").glob("*.glb"))]
     counts = per_scene_counts(episodes_per_split, houses)
     splits = {}
-    for i, (split, (cats, synonyms)) in enumerate(SPLITS.items()):
-        rng = np.random.default_rng([seed, 7, i])
+    for split, (cats, synonyms) in SPLITS.items():
+        rng = split_rng(seed, split)
         ds = objectnav_split(list(zip(goals, counts)), cats, synonyms, rng, split, f"{split}: houses")
         path = split_path(out, split, houses)
         save_dataset(ds, path)
