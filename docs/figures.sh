@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The README's pictures: a top-down map of a failed frontier episode and a screenshot of a run report.
+# The README's pictures: a top-down map of a frontier episode that explores much of its house, and a screenshot
+# of a run report.
 # Needs the viz extra (make setup installs it) and Debian's chromium for the screenshot.
 #     bash docs/figures.sh   (or: make figures)
 set -euo pipefail

@@ -15,7 +15,7 @@ from navbench.env.config import MOVE_FORWARD, STOP, EnvConfig
 from navbench.env.pointnav import PointNavEnv
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
-from storeys import RISE, UPPER, X0, X1, house
+from storeys import RISE, UPPER, X0, X1, drive, house
 
 START, GOAL = [1.0, 0.0, 2.6], [9.0, UPPER, 2.6]
 FACING_PLUS_X = [0.0, -math.sqrt(0.5), 0.0, math.sqrt(0.5)]  # yaw -90 deg: the agent faces +x
@@ -78,11 +78,9 @@ def test_oracle_climbs_to_a_goal_upstairs_and_back_down(tmp_path, join, start, g
     obs, info = env.reset(options={"episode": 0})
     agent = OracleAgent(tmp_path, env.success_distance, config)
     agent.reset(env.episode)
-    d0, done = info["distance_to_goal"], False
+    d0 = info["distance_to_goal"]
     assert math.isfinite(d0) and d0 > 8.0
-    while not done:
-        obs, _, term, trunc, info = env.step(agent.act(obs))
-        done = term or trunc
+    info = drive(env, agent, obs)
     assert info["success"] == 1.0 and info["spl"] > 0.9, info
 
 
@@ -114,10 +112,7 @@ def test_objectnav_category_on_two_storeys_scores_against_the_reachable_instance
     assert info["distance_to_goal"] == pytest.approx(expected, rel=0.03)
     agent = OracleAgent(tmp_path, env.success_distance, config)
     agent.reset(env.episode)
-    done = False
-    while not done:
-        obs, _, term, trunc, info = env.step(agent.act(obs))
-        done = term or trunc
+    info = drive(env, agent, obs)
     assert info["success"] == 1.0 and env.agent_position[1] == pytest.approx(end_y), info
 
 
@@ -136,9 +131,6 @@ def test_optimistic_agent_plans_over_the_join_to_a_goal_on_another_storey(tmp_pa
     obs, info = env.reset(options={"episode": 0})
     agent = OptimisticOracleAgent(tmp_path, env.success_distance, config)
     agent.reset(env.episode)
-    done = False
-    while not done:
-        obs, _, term, trunc, info = env.step(agent.act(obs))
-        done = term or trunc
+    info = drive(env, agent, obs)
     assert info["success"] == 1.0 and info["spl"] > 0.9, info
     assert env.agent_position[1] == pytest.approx(goal[1], abs=1e-6)

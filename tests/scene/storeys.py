@@ -99,3 +99,12 @@ def furnished(join: str | None, directory) -> Path:
     (directory / f"{name}.semantic.json").write_text(json.dumps({"scene_id": name, "rooms": rooms,
                                                                 "objects": objects}))
     return path
+
+
+def drive(env, agent, obs) -> dict:
+    """Step ``env`` with ``agent`` from ``obs`` until the episode ends; the last step's info."""
+    done = False
+    while not done:
+        obs, _, term, trunc, info = env.step(agent.act(obs))
+        done = term or trunc
+    return info
