@@ -8,19 +8,16 @@ NB := $(BIN)/navbench
 RUNS := results/runs
 RUN := $(NB) run --runs-dir $(RUNS) --overwrite -q
 OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen
-LIMIT ?=
-LIMIT_ARG := $(if $(LIMIT),--limit $(LIMIT),)
+LIMIT_ARG = $(if $(LIMIT),--limit $(LIMIT),)
+BENCH ?= runs/benchmark_h36
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
-	figures wheel-check lint
+	figures wheel-check lint results-benchmark
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
-# OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing.
-osmesa:
-	@if ! ldconfig -p | grep -q libOSMesa.so; then \
-	  echo "installing libosmesa6 (apt)"; \
-	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 libosmesa6-dev >/dev/null; \
-	fi
+osmesa:  # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing
+	@ldconfig -p | grep -q libOSMesa.so || { echo "installing libosmesa6 (apt)"; apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 libosmesa6-dev >/dev/null; }
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/pip install -q -e ".[dev,models,viz,ray]"
 	touch $(STAMP)
@@ -46,21 +43,18 @@ results-oracle: setup
 	$(RUN) --task pointnav --split val --agent oracle $(LIMIT_ARG)
 	$(NB) table $(RUNS)/objectnav/*/oracle > results/oracle_objectnav.md
 	$(NB) table --long $(RUNS)/pointnav/val/oracle > results/oracle_pointnav.md
-
 results-localize: setup
 	for n in none default heavy; do \
 	  $(NB) localize --split goat_val --noise $$n --out results/localize/oracle_$${n}_fusion || exit 1; \
 	  $(NB) localize --split goat_val --noise $$n --no-fusion --out results/localize/oracle_$${n}_single || exit 1; \
 	done
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
-
 results-pointnav: setup
 	$(RUN) --task pointnav --split val --agent optimistic $(LIMIT_ARG)
 	for s in val select; do $(RUN) --task pointnav --split $$s $(LIMIT_ARG) || exit 1; done
 	$(RUN) --task pointnav --split val --decoding argmax $(LIMIT_ARG)
 	$(NB) table --long $(addprefix $(RUNS)/pointnav/val/,oracle optimistic pointnav pointnav-argmax) \
 	  $(RUNS)/pointnav/select/pointnav > results/pointnav.md
-
 results-pointnav-2h: setup
 	$(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --decoding argmax $(LIMIT_ARG)
 	for s in 0 1 2 3 4; do $(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --seed $$s $(LIMIT_ARG) || exit 1; done
@@ -91,6 +85,12 @@ results-memory: setup
 	  $(RUN) --split val_unseen --agent memory $$v --limit 20 || exit 1; done
 	$(BIN)/python -m navbench.eval.memory_table --first 20 $(foreach v,memory memory-allframes memory-640x480 \
 	  memory-160x120,$(RUNS)/objectnav/val_unseen/$(v)) > results/memory_efficiency.md
+results-benchmark: setup  # the generated 36-house benchmark's val_unseen (docs/comparing.md); BENCH holds its files
+	test -f $(BENCH)/SHA256SUMS || $(NB) generate benchmark --houses 36 --episodes-per-split 3000 --out $(BENCH)
+	for a in memory frontier; do $(RUN) --agent $$a --episodes $(BENCH)/objectnav/val_unseen_h36.json.gz \
+	  --scene-dir $(BENCH)/scenes $(LIMIT_ARG) || exit 1; done
+	h=$(RUNS)/objectnav/val_unseen_h36; { echo '# Generated benchmark (36 houses), val_unseen: `make results-benchmark`'; \
+	  echo; $(NB) table $$h/*; echo; echo '```'; $(NB) compare $$h/frontier $$h/memory; echo '```'; } > results/benchmark_h36.md
 figures: setup  # docs/img/topdown.png and docs/img/report.png, the README's pictures
 	NB=$(NB) bash docs/figures.sh
 # The shipped PointNav checkpoints' recipes (policies/MODEL_CARD.md); outputs under runs/pointnav/.

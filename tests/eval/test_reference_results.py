@@ -1,14 +1,21 @@
 """The committed reference runs: named and recorded as `navbench run` would today, and (slow, `make
 test-slow`) reproduced to the last digit by their own config.json."""
 
+import hashlib
 import json
 from pathlib import Path
 
 import pytest
 
 from navbench.agents.registry import AGENTS, agent_options, run_label
+from navbench.episodes.benchmark import HOUSE_SEED_BASE, per_scene_counts, split_rng
+from navbench.episodes.generate import SceneGoals, objectnav_split
+from navbench.episodes.io import file_split, save_dataset
+from navbench.episodes.split_vocabulary import UNSEEN_CATEGORIES
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import RESULTS_DIR, SCENES_DIR, split_file
+from navbench.scene.procedural import generate_house
+from navbench.scene.procedural.dataset import write_house
 
 RUNS = RESULTS_DIR / "runs"
 CHOICES = ("perception", "noise", "fusion", "rerank", "keyframe_res", "all_frames", "goal_tracking", "visibility_stop")
@@ -28,8 +35,27 @@ def test_every_reference_run_is_named_and_recorded_as_the_cli_would():
                                  temperature=o.get("temperature"), models=o.get("models"),
                                  **{k: o[k] for k in CHOICES if k in o})
         assert o == expected, d
-        assert d.relative_to(RUNS).parts == (cfg["task"], cfg["split"], run_label(cfg["agent"], o, cfg["seed"])), d
+        split = cfg["split"] or file_split(cfg["episodes"])  # a bundled split, or the generated benchmark's file
+        assert d.relative_to(RUNS).parts == (cfg["task"], split, run_label(cfg["agent"], o, cfg["seed"])), d
         assert cfg["label"] == d.name and json.loads((d / "summary.json").read_text())["agent"] == d.name, d
+
+
+def ref_config(ref_dir: Path) -> RunConfig:
+    cfg = json.loads((ref_dir / "config.json").read_text())
+    return RunConfig(**{k: v for k, v in cfg.items() if k in RunConfig.__dataclass_fields__})
+
+
+def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> None:
+    """Run the first ``n`` episodes of ``cfg`` in this process (the default execution: one worker) and
+    compare every metric with the committed records."""
+    cfg.limit = n
+    run(cfg, AGENTS[cfg.agent], out)
+    ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
+    got = read_records(out / "episodes.jsonl")
+    assert len(got) == n
+    for r in got:
+        for k in ("success", "spl", "soft_spl", "distance_to_goal", "num_steps", "path_length"):
+            assert r[k] == ref[r["episode_id"]][k], (r["episode_id"], k)
 
 
 @pytest.mark.slow
@@ -39,16 +65,26 @@ def test_every_reference_run_is_named_and_recorded_as_the_cli_would():
                                   "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier"])
 def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     monkeypatch.chdir(RESULTS_DIR.parent)  # a --checkpoint in a run's config is relative to the project root
-    ref_dir = RUNS / name
-    cfg = RunConfig(**{k: v for k, v in json.loads((ref_dir / "config.json").read_text()).items()
-                       if k in RunConfig.__dataclass_fields__})
-    cfg.limit = 8  # run in this process (the default execution: one worker)
+    cfg = ref_config(RUNS / name)
     # bundled data is read from this checkout (config.json holds the writer's absolute paths)
     cfg.episodes, cfg.scene_dir = str(split_file(cfg.task, cfg.split)), str(SCENES_DIR)
-    run(cfg, AGENTS[cfg.agent], tmp_path / "run")
-    ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
-    got = read_records(tmp_path / "run" / "episodes.jsonl")
-    assert len(got) == 8
-    for r in got:
-        for k in ("success", "spl", "soft_spl", "distance_to_goal", "num_steps", "path_length"):
-            assert r[k] == ref[r["episode_id"]][k], (r["episode_id"], k)
+    assert_reproduces(cfg, RUNS / name, tmp_path / "run")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("agent", ["memory", "frontier"])
+def test_benchmark_reference_run_reproduces_its_first_house(agent, tmp_path):
+    """The generated benchmark (`navbench generate benchmark --houses 36 --episodes-per-split 3000`) is not
+    bundled: its first house and that house's val_unseen episodes are redrawn alone (the split draws house
+    after house), the house checked byte for byte against the run's provenance, and 8 episodes rerun."""
+    ref_dir = RUNS / "objectnav" / "val_unseen_h36" / agent
+    scenes = tmp_path / "scenes"
+    glb = write_house(*generate_house(HOUSE_SEED_BASE * 1000), scenes / "val", "house_000")
+    recorded = json.loads((ref_dir / "provenance.json").read_text())["files"]["scenes"]["val/house_000.glb"]
+    assert hashlib.sha256(glb.read_bytes()).hexdigest() == recorded["sha256"]
+    ds = objectnav_split([(SceneGoals(glb, scenes), per_scene_counts(3000, 36)[0])], UNSEEN_CATEGORIES, False,
+                         split_rng(0, "val_unseen"), "val_unseen", "house_000")
+    save_dataset(ds, tmp_path / "val_unseen_h36.json.gz")
+    cfg = ref_config(ref_dir)
+    cfg.episodes, cfg.scene_dir = str(tmp_path / "val_unseen_h36.json.gz"), str(scenes)
+    assert_reproduces(cfg, ref_dir, tmp_path / "run")
