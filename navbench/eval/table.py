@@ -247,12 +247,13 @@ def group_frame(run_dirs: list[str | Path], by: str, first: int | None = None,
         groups: dict[str, list[dict[str, Any]]] = {}
         for r in recs:
             groups.setdefault(str(r.get(key)), []).append(r)
+        ident = {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})}
+        split = run_split(d, s)
         for g, rs in sorted(groups.items()):
             agg = aggregate(rs)
             if not agg["num_episodes"]:
                 continue
-            ident = {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})}
-            row = summary_row({**s, **agg, "split": run_split(d, s)}, ident, intervals(rs))
+            row = summary_row({**s, **agg, "split": split}, ident, intervals(rs))
             rows.append({**{k: v for k, v in row.items() if k != "task"}, by: g})
     df = pd.DataFrame(rows)
     cols = [c for c in df.columns if c not in (by, "episodes") and c not in COLUMNS and not c.endswith((" lo", " hi"))]
