@@ -386,7 +386,6 @@ class OccupancyMap:
         out.sort(key=lambda f: f.distance)
         return out
 
-
     def _split(self, cells: np.ndarray, k: int) -> np.ndarray:
         """:func:`_split_cluster`, remembered for the last ``_KMEANS_CACHE_SIZE`` distinct clusters."""
         key = (cells.tobytes(), cells.shape, cells.dtype.str, k)

@@ -141,8 +141,6 @@ def make_frontier(cfg):
                                                       FrontierAgentConfig(), env_cfg, seed=cfg.seed))
 
 
-
-
 def prebuild_memories(cfg, episodes: Iterable[Episode]) -> None:
     """Build the memory agent's memories of the scenes of ``episodes`` once, in this process, before
     workers start: two workers must never build the same cache directory at the same time."""
