@@ -132,27 +132,30 @@ class NavEnv(gym.Env):
         start = np.asarray(episode.start_position, np.float64)
         if not np.isfinite(start).all() or not np.isfinite(episode.start_rotation).all():
             raise EpisodeError(f"episode {episode.episode_id}: non-finite start pose {episode.start_position}")
-        if not self.navgrid.is_navigable(start):
+        on_grid = self.navgrid.is_navigable(start)
+        if not on_grid:
             snapped = self.navgrid.snap_point(start)
-            if not np.isfinite(snapped).all() or \
-                    np.linalg.norm((snapped - start)[[0, 2]]) > self.config.start_snap_tolerance:
-                raise EpisodeError(f"episode {episode.episode_id} ({episode.scene_id}): start position "
-                                   f"{[round(v, 3) for v in start]} is not navigable")
-            start = snapped
+            on_grid = np.isfinite(snapped).all() and \
+                np.linalg.norm((snapped - start)[[0, 2]]) <= self.config.start_snap_tolerance
+            start = snapped if on_grid else start
         self.episode = episode
         self._goals = self._goal_points(episode)
         self._motion = self.navgrid
         self._position = np.array([start[0], self.navgrid.floor_height, start[2]])
         off = ~self.navgrid.on_storey(self._goals)
-        if off.any():
-            # A goal on another storey that stairs or a ramp join to the start's: the episode runs on the
-            # joined surfaces instead (goals on storeys nothing joins never count, on either engine).
+        if off.any() or not on_grid:
+            # A start off the grid's storey (on a flight or a ramp), or a goal on another storey that stairs or a
+            # ramp join to the start's: the episode runs on the joined surfaces instead (goals on storeys
+            # nothing joins never count, on either engine).
             if self.layered is None:
                 assert self.asset is not None  # loaded with the episode's scene
                 self.layered = layers_for(self.asset, self.nav_config)
             declared = np.asarray(episode.start_position, np.float64)
             on = self.layered.snap_point(declared, self.config.start_snap_tolerance)
-            if np.isfinite(on).all() and self.layered.reaches_any(on, self._goals[off]):
+            if not on_grid and not np.isfinite(on).all():
+                raise EpisodeError(f"episode {episode.episode_id} ({episode.scene_id}): start position "
+                                   f"{[round(v, 3) for v in declared]} is not navigable")
+            if not on_grid or self.layered.reaches_any(on, self._goals[off]):
                 self._motion, self._position = self.layered, on
         self._yaw = yaw_from_quat(np.asarray(episode.start_rotation, np.float64))
         # GPS is measured from the episode's declared start (not the snapped one), so agents that add

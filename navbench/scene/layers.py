@@ -36,7 +36,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from navbench.scene.asset import SceneError
-from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points, grid_cells
+from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points, grid_cells, storey_levels
 
 # Unit lattice steps (row, col): the four orthogonal ones first, then the diagonals.
 _UNIT = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)]
@@ -74,9 +74,11 @@ def _csr(dst: np.ndarray, wt: np.ndarray, n: int) -> sparse.csr_matrix:
     return sparse.csr_matrix((np.asarray(wt)[mask], dst[mask], indptr), shape=(n, n))
 
 
-def _joins(cell: np.ndarray, height: np.ndarray, h: int, w: int, max_climb: float) -> np.ndarray:
+def _joins(cell: np.ndarray, height: np.ndarray, h: int, w: int, max_climb: float,
+           ceiling: np.ndarray | None = None, agent_height: float = 0.0) -> np.ndarray:
     """(N, 8) joined neighbour of each span in the directions of ``_UNIT`` (-1: none), spans sorted by cell.
-    Orthogonal: the neighbouring cell's span nearest in height, if within ``max_climb``; diagonal: both
+    Orthogonal: the neighbouring cell's span nearest in height, if within ``max_climb`` and (given each span's
+    ``ceiling``) the room over both is at least ``agent_height``, as Recast connects spans; diagonal: both
     orthogonal routes round the corner reach the same span."""
     n = len(cell)
     start = np.full(h * w, 0, np.int64)
@@ -92,7 +94,11 @@ def _joins(cell: np.ndarray, height: np.ndarray, h: int, w: int, max_climb: floa
         for k in range(int(count.max())):
             t = start[nc] + k
             has = inside & (count[nc] > k)
-            dh = np.abs(height[np.where(has, t, 0)] - height)
+            other = np.where(has, t, 0)
+            dh = np.abs(height[other] - height)
+            if ceiling is not None:
+                room = np.minimum(ceiling[other], ceiling) - np.maximum(height[other], height)
+                has = has & (room >= agent_height - 1e-9)
             better = has & (dh <= max_climb + 1e-9) & (dh < best)
             nbr[better, d] = t[better]
             best[better] = dh[better]
@@ -153,6 +159,119 @@ def _step_lengths(cell: np.ndarray, smooth: np.ndarray, w: int, cs: float, src: 
     return out
 
 
+def _clip_extent(tri: np.ndarray, xa: np.ndarray, xb: np.ndarray, za: np.ndarray, zb: np.ndarray,
+                 eps: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """(min y, max y) of each triangle ``tri`` ((M, 3, 3)) clipped to the vertical prism over its cell's square
+    [xa, xb] x [za, zb] (Recast's ``rasterizeTri`` divides the polygon cell by cell for the same extent);
+    (inf, -inf) where the triangle misses the square. y is linear on the triangle, so its extremes lie on the
+    clipped polygon's vertices: the triangle's own corners inside the square, its edges' crossings of the
+    square's sides, and the square's corners inside the triangle (seen from above)."""
+    x, y, z = tri[:, :, 0], tri[:, :, 1], tri[:, :, 2]
+    lo = np.full(len(tri), np.inf)
+    hi = np.full(len(tri), -np.inf)
+
+    def take(mask, val):
+        nonlocal lo, hi
+        lo = np.where(mask, np.minimum(lo, val), lo)
+        hi = np.where(mask, np.maximum(hi, val), hi)
+
+    xa_, xb_, za_, zb_ = xa[:, None], xb[:, None], za[:, None], zb[:, None]
+    take_in = (x >= xa_ - eps) & (x <= xb_ + eps) & (z >= za_ - eps) & (z <= zb_ + eps)
+    for k in range(3):
+        take(take_in[:, k], y[:, k])
+    for k in range(3):  # edge k -> k + 1 against the square's four sides
+        p, q = tri[:, k], tri[:, (k + 1) % 3]
+        d = q - p
+        for axis, other, lines, (oa, ob) in ((0, 2, (xa, xb), (za, zb)), (2, 0, (za, zb), (xa, xb))):
+            dx = d[:, axis]
+            ok_dir = np.abs(dx) > 1e-12
+            safe = np.where(ok_dir, dx, 1.0)
+            for line in lines:
+                t = (line - p[:, axis]) / safe
+                o = p[:, other] + t * d[:, other]
+                take(ok_dir & (t >= -eps) & (t <= 1 + eps) & (o >= oa - eps) & (o <= ob + eps), p[:, 1] + t * d[:, 1])
+    # the square's corners inside the triangle's footprint (a vertical triangle has none: its footprint is a line)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    det = e1[:, 0] * e2[:, 2] - e1[:, 2] * e2[:, 0]
+    flat = np.abs(det) > 1e-12
+    sdet = np.where(flat, det, 1.0)
+    for cx, cz in ((xa, za), (xa, zb), (xb, za), (xb, zb)):
+        rx, rz = cx - tri[:, 0, 0], cz - tri[:, 0, 2]
+        u = (rx * e2[:, 2] - rz * e2[:, 0]) / sdet
+        v = (e1[:, 0] * rz - e1[:, 2] * rx) / sdet
+        take(flat & (u >= -eps) & (v >= -eps) & (u + v <= 1 + eps), tri[:, 0, 1] + u * e1[:, 1] + v * e2[:, 1])
+    return lo, hi
+
+
+def _rasterise(mesh: trimesh.Trimesh, origin: np.ndarray, cs: float, h: int, w: int, walkable_ny: float,
+               chunk: int = 1 << 18) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Recast's heightfield (``rcRasterizeTriangles``): every triangle's vertical extent in every cell its
+    footprint touches, as (cell, bottom, top, walkable) per triangle and cell. A triangle is walkable if it
+    faces up within the slope limit (``normal.y >= walkable_ny``, signed: a slab's underside is not a floor)."""
+    tris = np.asarray(mesh.vertices, np.float64)[np.asarray(mesh.faces)]
+    walk = np.asarray(mesh.face_normals)[:, 1] >= walkable_ny
+    fx, fz = tris[:, :, 0], tris[:, :, 2]
+    # cell j spans x in [origin + (j - 1/2) cs, origin + (j + 1/2) cs]
+    j0 = np.clip(np.floor((fx.min(axis=1) - origin[0]) / cs + 0.5 - 1e-9), 0, w - 1).astype(np.int64)
+    j1 = np.clip(np.floor((fx.max(axis=1) - origin[0]) / cs + 0.5 + 1e-9), 0, w - 1).astype(np.int64)
+    i0 = np.clip(np.floor((fz.min(axis=1) - origin[1]) / cs + 0.5 - 1e-9), 0, h - 1).astype(np.int64)
+    i1 = np.clip(np.floor((fz.max(axis=1) - origin[1]) / cs + 0.5 + 1e-9), 0, h - 1).astype(np.int64)
+    nj, ni = j1 - j0 + 1, i1 - i0 + 1
+    count = nj * ni
+    cells, bots, tops, walks = [], [], [], []
+    cum = np.cumsum(count)
+    start = 0
+    while start < len(tris):  # triangles in groups of about ``chunk`` (triangle, cell) pairs
+        end = max(int(np.searchsorted(cum, cum[start] - count[start] + chunk, side="right")), start + 1)
+        sl = slice(start, end)
+        start = end
+        c = count[sl]
+        t = np.repeat(np.arange(sl.start, sl.stop), c)
+        k = np.arange(len(t)) - np.repeat(np.cumsum(c) - c, c)
+        j = j0[t] + k % nj[t]
+        i = i0[t] + k // nj[t]
+        cx, cz = origin[0] + j * cs, origin[1] + i * cs
+        # A walkable triangle counts in a cell it overlaps with some area (Recast drops a clipped polygon of
+        # under three vertices), so a tread ending on a cell's edge does not raise the cell beside it; any
+        # other triangle counts in every cell it touches, so a wall on a cell edge blocks both sides.
+        e = np.where(walk[t], 1e-7, 0.0)
+        lo, hi = _clip_extent(tris[t], cx - cs / 2 + e, cx + cs / 2 - e, cz - cs / 2 + e, cz + cs / 2 - e)
+        hit = lo <= hi
+        cells.append(i[hit] * w + j[hit])
+        bots.append(lo[hit])
+        tops.append(hi[hit])
+        walks.append(walk[t[hit]])
+    return (np.concatenate(cells), np.concatenate(bots), np.concatenate(tops), np.concatenate(walks))
+
+
+def _solids(cell: np.ndarray, bot: np.ndarray, top: np.ndarray, walk: np.ndarray,
+            merge_walkable: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The column of each cell as merged solid intervals, bottom-up (Recast's ``rcAddSpan``): extents that
+    overlap or touch merge, so coincident and stacked faces make one solid whichever of them a query sees.
+    A merged interval's top is walkable if a walkable triangle reaches within ``merge_walkable`` of it (Recast's
+    flag-merge threshold, its walkable climb). Returns (cell, bottom, top, walkable) per merged interval."""
+    order = np.lexsort((bot, cell))
+    cell, bot, top, walk = cell[order], bot[order], top[order], walk[order]
+    # integer micrometres: the running maximum of tops within a cell is exact with the cell index as an offset
+    q = 1e6
+    ti = np.round(top * q).astype(np.int64)
+    bi = np.round(bot * q).astype(np.int64)
+    span = int(max(ti.max(), bi.max()) - min(ti.min(), bi.min())) + 2
+    base = min(ti.min(), bi.min())
+    key = cell.astype(np.int64) * span
+    run = np.maximum.accumulate(key + (ti - base))
+    new = np.ones(len(cell), bool)
+    new[1:] = (cell[1:] != cell[:-1]) | (key[1:] + (bi[1:] - base) > run[:-1])
+    grp = np.cumsum(new) - 1
+    starts = np.flatnonzero(new)
+    m_cell = cell[starts]
+    m_bot = bot[starts]
+    m_top = np.maximum.reduceat(top, starts)
+    near = walk & (top >= m_top[grp] - merge_walkable - 1e-9)
+    m_walk = np.logical_or.reduceat(near, starts)
+    return m_cell, m_bot, m_top, m_walk
+
+
 class LayeredNav:
     """Walkable spans of every level of a mesh and the surface joining them (see :meth:`from_mesh`)."""
 
@@ -187,33 +306,26 @@ class LayeredNav:
         lo, hi = mesh.bounds
         w, h, origin, xs, zs = grid_cells(lo, hi, cs)
 
-        # 1. spans: floor-like hits with headroom, not inside a solid (the hit above is not an upward face)
-        rays = np.column_stack([xs, np.full(xs.shape, hi[1] + 1.0), zs])
-        locs, ray_idx, tri_idx = mesh.ray.intersects_location(
-            rays, np.tile([0.0, -1.0, 0.0], (len(rays), 1)), multiple_hits=True)
-        order = np.lexsort((-locs[:, 1], ray_idx))
-        ys, rid, tri = locs[order, 1], ray_idx[order], tri_idx[order]
-        ny = np.asarray(mesh.face_normals)[:, 1]
-        above = np.full(len(ys), np.inf)
-        above_ny = np.zeros(len(ys))
-        same = rid[1:] == rid[:-1]
-        above[1:][same] = ys[:-1][same]
-        above_ny[1:][same] = ny[tri[:-1]][same]
-        ok = (np.abs(ny[tri]) >= _HORIZONTAL_NY) & (above - ys >= config.agent_height) & (above_ny <= 0.1)
-        cell, height = rid[ok].astype(np.int64), ys[ok]
-        del rays, locs, ray_idx, tri_idx, order, ys, rid, tri, ny, above, above_ny, same, ok
-        order = np.lexsort((height, cell))
-        cell, height = cell[order], height[order]
-        dup = np.zeros(len(cell), bool)
-        dup[1:] = (cell[1:] == cell[:-1]) & (height[1:] - height[:-1] < 0.01)  # coincident faces
-        cell, height = cell[~dup], height[~dup]
+        # 1. spans, as Recast's heightfield: every triangle rasterised into the columns it touches, the
+        # columns merged into solid intervals; a walkable top with agent_height of room to the next solid above
+        # is a span (rcRasterizeTriangles, rcFilterWalkableLowHeightSpans)
+        m_cell, m_bot, m_top, m_walk = _solids(*_rasterise(mesh, origin, cs, h, w, _HORIZONTAL_NY), config.max_climb)
+        same = m_cell[1:] == m_cell[:-1]
+        # a solid whose top is within max_climb over a walkable one right below it is walkable too (a slab's edge
+        # over a flight's last tread, a kerb: rcFilterLowHangingWalkableObstacles)
+        m_walk[1:] |= same & m_walk[:-1] & (m_top[1:] - m_top[:-1] <= config.max_climb + 1e-9)
+        ceiling = np.full(len(m_cell), np.inf)
+        ceiling[:-1][same] = m_bot[1:][same]
+        ok = m_walk & (ceiling - m_top >= config.agent_height)
+        cell, height, ceiling = m_cell[ok], m_top[ok], ceiling[ok]
+        del m_cell, m_bot, m_top, m_walk, same, ok
         n = len(cell)
         if n == 0:
             raise SceneError(f"mesh has no walkable surface with {config.agent_height} m headroom")
 
         # 2. joins between spans of neighbouring cells (orthogonal: |dh| <= max_climb; diagonal: both
         # orthogonal routes round the corner reach the same span)
-        nbr = _joins(cell, height, h, w, config.max_climb)
+        nbr = _joins(cell, height, h, w, config.max_climb, ceiling, config.agent_height)
 
         # 3. clearance along the surface from the spans missing an orthogonal neighbour
         unit_w = np.array([cs * math.hypot(di, dj) for di, dj in _UNIT])
@@ -290,6 +402,13 @@ class LayeredNav:
         return np.stack([self.origin[0] + (cells % w) * self.cell_size,
                          self.origin[1] + (cells // w) * self.cell_size], axis=-1)
 
+    def _cell_ij(self, x: float, z: float) -> tuple[int, int]:
+        """(row, column) of the cell holding (x, z). Coordinates are rounded to a millionth of a cell first: 0.25 m
+        steps and 30 deg turns land exactly on cell edges, and a point the env and an agent compute with
+        different rounding must fall in one cell for both."""
+        return (int(math.floor(round((z - self.origin[1]) / self.cell_size, 6) + 0.5)),
+                int(math.floor(round((x - self.origin[0]) / self.cell_size, 6) + 0.5)))
+
     def span_of(self, p, max_dist: float | None = None) -> int:
         """The navigable span under ``p`` (xyz), or the nearest one within ``max_dist`` metres in xz (default
         ``config.max_goal_snap``) whose height is within half the agent's height of ``p``'s; -1 if none."""
@@ -297,8 +416,7 @@ class LayeredNav:
         if self._tree is None:
             return -1
         limit = self.config.max_goal_snap if max_dist is None else float(max_dist)
-        i = int(math.floor((p[2] - self.origin[1]) / self.cell_size + 0.5))
-        j = int(math.floor((p[0] - self.origin[0]) / self.cell_size + 0.5))
+        i, j = self._cell_ij(float(p[0]), float(p[2]))
         if 0 <= i < self.shape[0] and 0 <= j < self.shape[1]:
             c = i * self.shape[1] + j
             own = np.arange(self._start[c], self._start[c] + self._count[c])
@@ -374,18 +492,15 @@ class LayeredNav:
         return np.unique(np.round(self.height[self.navigable] / 0.05) * 0.05)
 
     def storeys(self) -> np.ndarray:
-        """Floor heights of the storeys, bottom-up: the navigable spans binned by height in bins of half
-        ``max_climb``, runs of bins each holding at least 5% of the fullest bin's spans, each run's median.
-        Treads, landings, a ramp's slope and furniture tops hold too few spans to be a storey."""
-        h = self.height[self.navigable]
-        if len(h) == 0:
+        """Floor heights of the storeys, bottom-up: the navigable spans' heights grouped into levels by the
+        grid's rule (:func:`~navbench.scene.navigability.storey_levels`), the levels holding at least 5% of the
+        largest one's spans, each level's median. Treads, landings, a ramp's slope and furniture tops hold too
+        few spans to be a storey."""
+        levels = storey_levels(self.height[self.navigable], self.config)
+        if not levels:
             return np.zeros(0)
-        step = self.config.max_climb / 2 if self.config.max_climb > 0 else self.cell_size
-        b = np.floor((h - h.min()) / step).astype(np.int64)
-        counts = np.bincount(b)
-        kept = counts >= 0.05 * counts.max()
-        runs = np.split(np.flatnonzero(kept), np.flatnonzero(np.diff(np.flatnonzero(kept)) > 1) + 1)
-        return np.array([float(np.median(h[np.isin(b, r)])) for r in runs])
+        counts = np.array([len(lv) for lv in levels])
+        return np.array([float(np.median(lv)) for lv, c in zip(levels, counts) if c >= 0.05 * counts.max()])
 
     def storey_spans(self) -> np.ndarray:
         """Navigable spans standing on a storey's floor (within half ``max_climb`` of one of :meth:`storeys`)."""
@@ -439,8 +554,7 @@ class LayeredNav:
 
     def _step_span(self, span: int, x: float, z: float) -> int:
         """The navigable span of the cell at (x, z) the agent on ``span`` can step onto (-1: none)."""
-        i = int(math.floor((z - self.origin[1]) / self.cell_size + 0.5))
-        j = int(math.floor((x - self.origin[0]) / self.cell_size + 0.5))
+        i, j = self._cell_ij(x, z)
         if not (0 <= i < self.shape[0] and 0 <= j < self.shape[1]):
             return -1
         c = i * self.shape[1] + j

@@ -71,6 +71,27 @@ class NavGridConfig:
             raise ValueError(f"NavGridConfig.floor_height must be finite or None, got {self.floor_height}")
 
 
+def storey_levels(heights: np.ndarray, config: NavGridConfig) -> list[np.ndarray]:
+    """Heights of walkable surface samples grouped into levels, bottom-up: sorted heights split where two
+    consecutive ones are more than half ``max_climb`` apart. A level that still spans more than the agent's
+    height is a continuous slope (a ramp, a flight of steps) chaining the floors it joins: it is split again
+    where a bin of half ``max_climb`` holds under 5% of its fullest bin's samples (the slope's), and those
+    samples dropped. The grid and the layered surfaces find storeys by this one rule."""
+    h = np.sort(np.asarray(heights, np.float64).ravel())
+    step = config.max_climb / 2 if config.max_climb > 0 else config.cell_size
+    out = []
+    for level in np.split(h, np.flatnonzero(np.diff(h) > step) + 1):
+        if len(level) == 0 or level[-1] - level[0] <= config.agent_height:
+            out.append(level)
+            continue
+        b = np.floor((level - level[0]) / step).astype(np.int64)
+        counts = np.bincount(b)
+        dense = counts[b] >= 0.05 * counts.max()
+        lv, lb = level[dense], b[dense]
+        out += np.split(lv, np.flatnonzero(np.diff(lb) > 1) + 1)
+    return [lv for lv in out if len(lv)]
+
+
 def _points(p, name: str) -> np.ndarray:
     """Float (3,) or (N, 3) array of finite xyz coordinates, or ValueError naming the value."""
     a = np.asarray(p, dtype=float)
@@ -294,8 +315,7 @@ class NavGrid:
         heights = np.sort(ys[walkable])
         if len(heights) == 0:
             raise SceneError(f"mesh has no walkable floor: no horizontal surface with {config.agent_height} m headroom")
-        splits = np.flatnonzero(np.diff(heights) > config.max_climb / 2) + 1
-        levels = np.split(heights, splits)
+        levels = storey_levels(heights, config)
         counts = np.array([len(lv) for lv in levels])
         first = int(np.flatnonzero(counts >= 0.5 * counts.max())[0])  # levels are sorted bottom-up
         return float(np.median(levels[first]))
@@ -344,7 +364,7 @@ class NavGrid:
         heights = np.sort(ys[(np.abs(normals_y[tris]) >= _HORIZONTAL_NY) & (above - ys >= config.agent_height)])
         if len(heights) == 0:
             raise SceneError(f"mesh has no walkable floor: no horizontal surface with {config.agent_height} m headroom")
-        levels = np.split(heights, np.flatnonzero(np.diff(heights) > config.max_climb / 2) + 1)
+        levels = storey_levels(heights, config)
         counts = np.array([len(lv) for lv in levels])
         return np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
 

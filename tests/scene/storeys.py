@@ -4,6 +4,7 @@ joined by a flight of stairs (0.175 m risers), a ramp, or nothing."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -108,3 +109,60 @@ def drive(env, agent, obs) -> dict:
         obs, _, term, trunc, info = env.step(agent.act(obs))
         done = term or trunc
     return info
+
+
+# Buildings composed of touching boxes, as composed scenes and many exported meshes are built: walls stand on
+# the slabs, steps on the floor, and nothing is welded, so faces coincide wherever two parts meet.
+WALL = 0.1  # wall and railing thickness
+BZ0, BZ1 = 1.0, 2.2  # the flight's (or ramp's) width along z; the building is 8 m deep
+DEPTH = 8.0
+
+
+def flight_end(join: str | None, angle_deg: float = 20.0) -> float:
+    """x where the flight (or the ramp) of :func:`building` reaches the upper floor."""
+    return X0 + (TREAD * STEPS if join != "ramp" else UPPER / math.tan(math.radians(angle_deg)))
+
+
+def building_length(join: str | None, angle_deg: float = 20.0) -> float:
+    return max(12.0, flight_end(join, angle_deg) + 4.0)
+
+
+def building(join: str | None, angle_deg: float = 20.0, walled: bool = True) -> trimesh.Trimesh:
+    """A two-storey building of touching boxes, ``building_length`` x 8 m: exterior walls on both slabs, a
+    walled (or, with ``walled=False``, open) flight of ``STEPS`` steps or a ``angle_deg`` ramp along +x over
+    z in [1.0, 2.2] from x = 3 up to the upper floor (``join`` "stairs", "ramp" or None: no join, a stairwell
+    only), a ground-floor partition with a 1 m door at x = 1.5 m past the flight, and a 1 m railing round the
+    stairwell upstairs (open at the flight's top)."""
+    length, x1 = building_length(join, angle_deg), flight_end(join, angle_deg)
+    top = UPPER - 0.1  # walls of the ground floor end under the upper slab
+    parts = [box((0, -0.1, 0), (length, 0, DEPTH)),  # ground slab
+             # the upper slab round the stairwell x in [X0, x1], z in [BZ0, BZ1]
+             box((0, top, 0), (length, UPPER, BZ0)), box((0, top, BZ1), (length, UPPER, DEPTH)),
+             box((0, top, BZ0), (X0, UPPER, BZ1)), box((x1, top, BZ0), (length, UPPER, BZ1))]
+    for y0, y1 in ((0.0, top), (UPPER, UPPER + 2.6)):  # exterior walls of each storey, standing on its slab
+        parts += [box((0, y0, 0), (WALL, y1, DEPTH)), box((length - WALL, y0, 0), (length, y1, DEPTH)),
+                  box((WALL, y0, 0), (length - WALL, y1, WALL)), box((WALL, y0, DEPTH - WALL), (length - WALL, y1, DEPTH))]
+    xp = x1 + 1.5  # the partition, with a door at z in [5.5, 6.5]
+    parts += [box((xp, 0, WALL), (xp + WALL, top, 5.5)), box((xp, 0, 6.5), (xp + WALL, top, DEPTH - WALL))]
+    if walled:  # the flight's side walls from floor to slab
+        parts += [box((X0, 0, BZ0 - WALL), (x1, top, BZ0)), box((X0, 0, BZ1), (x1, top, BZ1 + WALL))]
+    # the railing upstairs on the stairwell's sides and its low end
+    parts += [box((X0 - WALL, UPPER, BZ0 - WALL), (x1, UPPER + 1.0, BZ0)),
+              box((X0 - WALL, UPPER, BZ1), (x1, UPPER + 1.0, BZ1 + WALL)),
+              box((X0 - WALL, UPPER, BZ0), (X0, UPPER + 1.0, BZ1))]
+    if join == "stairs":
+        parts += [box((X0 + TREAD * k, 0, BZ0), (X0 + TREAD * (k + 1), RISE * (k + 1), BZ1)) for k in range(STEPS)]
+    elif join == "ramp":
+        pts = [(x, y, z) for z in (BZ0, BZ1) for x, y in ((X0, 0.0), (x1, 0.0), (x1, UPPER))]
+        parts.append(trimesh.convex.convex_hull(np.array(pts)))
+    return trimesh.util.concatenate(parts)
+
+
+# Cross-storey (start, goal) pairs in :func:`building`: from each ground-floor room (before and past the partition,
+# the corridor beside the flight) to the upper floor, and down again.
+def building_pairs(join: str | None, angle_deg: float = 20.0) -> list[tuple[list[float], list[float]]]:
+    length, x1 = building_length(join, angle_deg), flight_end(join, angle_deg)
+    far = length - 1.0
+    return [([1.0, 0.0, 4.0], [far, UPPER, 4.5]), ([1.0, 0.0, 6.5], [far, UPPER, 6.5]),
+            ([far, 0.0, 4.0], [1.0, UPPER, 6.5]), ([(X0 + x1) / 2, 0.0, 0.5], [(X0 + x1) / 2, UPPER, 4.0]),
+            ([far, UPPER, 0.6], [1.0, 0.0, 4.0]), ([1.0, UPPER, 0.6], [far, 0.0, 6.0])]
