@@ -201,6 +201,13 @@ class MemoryAgent(ObjectNavAgentBase):
                                                         self.env_config.turn_angle_deg)
         self.climbing = False
         self.floor = float(start[1]) if self.storeys is None else self.storeys.height
+        unjoined = 0
+        if self.storeys is not None and cands:
+            # Over the joined surfaces a route length is exact: a candidate they do not reach stands on a storey
+            # nothing joins to the start's, and is no goal of this episode.
+            reach = np.isfinite(self.storeys.lengths(start, cands))
+            unjoined = int((~reach).sum())
+            cands = [c for c, r in zip(cands, reach) if r]
         order, route = nearest_first(cands, start, self._route())
         self.candidates = [cands[j] for j in order]
         rng = np.random.default_rng(0)  # deterministic subsample of each cloud
@@ -217,6 +224,10 @@ class MemoryAgent(ObjectNavAgentBase):
         self.recovery = Recovery()
         self._new_target()
         self.goal = self._initial_goal(start) if self.candidates else None
+        # no candidate on the agent's surface while the memory holds some elsewhere: look round this storey
+        self.tour = self.storeys.tour(start) if self.storeys is not None and unjoined and not self.candidates else []
+        if unjoined:
+            self._event("unjoined_candidates", count=unjoined, explore=len(self.tour))
         if self.verify is not None:
             self.verify.reset(episode)
 
@@ -274,6 +285,8 @@ class MemoryAgent(ObjectNavAgentBase):
         if self.watch.positions and xz_dist(position, self.watch.positions[-1]) > 0.05:
             self.move_yaw = yaw_towards(self.watch.positions[-1], position)
         self.watch.add(position)
+        if self.goal is None and self.tour:
+            return self._explore(observations, position, yaw)
         if self.goal is None:
             self._event("no_candidates")
             return STOP
@@ -283,6 +296,20 @@ class MemoryAgent(ObjectNavAgentBase):
             if action is not None:
                 return action
         return self._navigate(frame)
+
+    def _explore(self, observations: dict[str, np.ndarray], position: np.ndarray, yaw: float) -> int:
+        """Drive the policy round the points of ``tour`` (passing those within ``detour_reached``, or where
+        stuck), round again at its end, never STOPping: the episode ends at the step limit."""
+        if xz_dist(position, self.tour[0]) < self.config.detour_reached or self.watch.stuck() is not None:
+            self.tour.append(self.tour.pop(0))
+            self.watch.restart()
+            self.policy.reset_hidden()
+            self._event("explore", goal=self.tour[0])
+        goal = pointgoal_polar(self.tour[0], position, yaw)
+        action = int(self.policy.act(observations["depth"][None], goal[None])[0])
+        action = TURN_LEFT if action == STOP else action
+        self.watch.taken(action)
+        return action
 
     # ------------------------------------------------------------------------------------- look
     def _look(self, observations: dict[str, np.ndarray], position: np.ndarray, yaw: float) -> Frame:

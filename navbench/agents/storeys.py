@@ -154,3 +154,23 @@ class Storeys:
         along = np.concatenate([[0.0], np.cumsum(step)])
         keep = np.unique(np.searchsorted(along, np.arange(spacing, along[-1], spacing)))
         return np.vstack([pts[keep], pts[-1:]]) if len(pts) > 1 else np.zeros((0, 3))
+
+    def tour(self, position: np.ndarray, spacing: float = 2.0) -> list[np.ndarray]:
+        """Points spread over the surface the agent stands on (one navigable span per ``spacing`` metre square
+        of its joined component, on its storey), nearest first in a greedy tour from ``position``: where to
+        look when no candidate stands on a surface joined to the agent's."""
+        nav = self.nav
+        span = self.view.locate(float(position[0]), float(position[2]))
+        if span < 0:
+            return []
+        idx = np.flatnonzero((nav.component == nav.component[span])
+                             & (np.abs(nav.height - nav.height[span]) <= nav.config.max_climb))
+        xz = nav.xz(nav.cell[idx])
+        _, first = np.unique(np.floor(xz / spacing).astype(np.int64), axis=0, return_index=True)
+        pts = [nav.position(int(s)) for s in idx[np.sort(first)]]
+        out, here = [], np.asarray(position, np.float64)
+        while pts:
+            k = int(np.argmin([np.hypot(p[0] - here[0], p[2] - here[2]) for p in pts]))
+            here = pts.pop(k)
+            out.append(here)
+        return out

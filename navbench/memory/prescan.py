@@ -5,10 +5,10 @@ nearest the room's centre (inside the room, on the main navigable island) is a *
 viewpoints are ordered by a greedy nearest-neighbour tour over geodesic distances, the camera is
 driven between them with :class:`~navbench.scene.follower.GreedyFollower` and
 :meth:`NavGrid.try_step` (the agent's own discrete motion model, no sliding) and looks around with
-``look_around_turns`` turns at each. Rooms on other storeys are visited when stairs or a ramp join
-them to the first viewpoint's (:class:`~navbench.scene.layers.LayeredNav`): each storey's rooms in a
-tour of their own, the walk between storeys driven over the joined surfaces, the camera always
-``camera_height`` above the surface under it. Like a hand-held video, every action is recorded as
+``look_around_turns`` turns at each. Rooms on every storey are visited (:class:`~navbench.scene.layers.
+LayeredNav`): each storey's rooms in a tour of their own, the walk between storeys driven over the joined
+surfaces where stairs or a ramp join them, a cut to the storey (as a video cuts between takes) where
+nothing does, the camera always ``camera_height`` above the surface under it. Like a hand-held video, every action is recorded as
 ``frames_per_action`` frames (the motion interpolated), which is what keyframe selection thins.
 
 Keyframes depend on the poses alone, so the whole trajectory is planned first, keyframes are selected,
@@ -220,16 +220,16 @@ def tour_order(grid: NavGrid, points: Sequence[np.ndarray], start: int = 0) -> l
 
 
 def _other_storeys(asset: SceneAsset, grid: NavGrid, config: PrescanConfig, first: np.ndarray,
-                   ) -> tuple[LayeredNav, list[tuple[NavGrid, list[tuple[str, np.ndarray]]]]] | None:
-    """The viewpoints of the rooms on other storeys than ``grid``'s that the joined walkable surfaces (stairs,
-    ramps) connect to ``first``, grouped by storey with each storey's grid; None when no room lies on
-    another storey (the surfaces are not built then)."""
+                   ) -> tuple[LayeredNav, list[tuple[NavGrid, list[tuple[str, np.ndarray]], bool]]] | None:
+    """The viewpoints of the rooms on other storeys than ``grid``'s, grouped by storey with each storey's grid
+    and whether the joined walkable surfaces (stairs, ramps) connect it to ``first``; None when no room lies
+    on another storey (the surfaces are not built then)."""
     others = [r for r in asset.rooms if not r.aabb_min[1] - 0.5 <= grid.floor_height <= r.aabb_max[1]]
     if not others:
         return None
     nav = layers_for(asset, grid.config)
     s = nav.span_of(first)
-    groups: dict[float, tuple[NavGrid, list[tuple[str, np.ndarray]]]] = {}
+    groups: dict[float, tuple[NavGrid, list[tuple[str, np.ndarray]], bool]] = {}
     for room in others:
         try:
             g = navgrid_for(asset, grid.config, floor_hint=float(room.aabb_min[1]))
@@ -238,36 +238,43 @@ def _other_storeys(asset: SceneAsset, grid: NavGrid, config: PrescanConfig, firs
         if abs(g.floor_height - grid.floor_height) <= grid.config.max_climb or g.floor_height in groups:
             continue
         found, _ = room_viewpoints(asset, g, config.room_margin, config.viewpoint_spacing)
-        found = [(r, p) for r, p in found if s >= 0 and nav.span_of(p) >= 0
-                 and nav.component[nav.span_of(p)] == nav.component[s]]
+        found = [(r, p) for r, p in found if nav.span_of(p) >= 0]
+        joined = [(r, p) for r, p in found if s >= 0 and nav.component[nav.span_of(p)] == nav.component[s]]
         if found:
-            groups[g.floor_height] = (g, found)
+            groups[g.floor_height] = (g, joined or found, bool(joined))
     return nav, list(groups.values())
 
 
 def _scan_plan(asset: SceneAsset, grid: NavGrid, config: PrescanConfig
-               ) -> tuple[list[tuple[str, np.ndarray]], list[NavGrid | LayerView]]:
+               ) -> tuple[list[tuple[str, np.ndarray]], list[NavGrid | LayerView | None]]:
     """The viewpoints in tour order and what each leg to one is driven on: its storey's grid, or, for the
-    first viewpoint of another storey, the joined surfaces over the stairs or ramp between them. The
-    start storey's rooms come first; the other storeys follow, nearest (along the surfaces) first."""
+    first viewpoint of another storey, the joined surfaces over the stairs or ramp between them, or None
+    where nothing joins that storey to the walk so far (the scan cuts to it, as a video cuts between takes).
+    The start storey's rooms come first; the joined storeys follow, nearest (along the surfaces) first, then
+    the storeys nothing joins, bottom-up."""
     viewpoints, missed = room_viewpoints(asset, grid, config.room_margin, config.viewpoint_spacing)
     if not viewpoints:
         raise PrescanError(f"{asset.path}: no room has a navigable viewpoint")
     order = tour_order(grid, [p for _, p in viewpoints])
     viewpoints = [viewpoints[i] for i in order]
-    legs: list[NavGrid | LayerView] = [grid] * len(viewpoints)
+    legs: list[NavGrid | LayerView | None] = [grid] * len(viewpoints)
     found = _other_storeys(asset, grid, config, viewpoints[0][1]) if missed else None
     if found is None:
         return viewpoints, legs
     nav, groups = found
-    while groups:
+    joined = [(g, pts) for g, pts, j in groups if j]
+    while joined:
         field = nav.distance_field(viewpoints[-1][1])
-        near = [min(range(len(pts)), key=lambda j: (field.distance(pts[j][1]), j)) for _, pts in groups]
-        k = min(range(len(groups)), key=lambda i: (field.distance(groups[i][1][near[i]][1]), i))
-        g, pts = groups.pop(k)
+        near = [min(range(len(pts)), key=lambda j: (field.distance(pts[j][1]), j)) for _, pts in joined]
+        k = min(range(len(joined)), key=lambda i: (field.distance(joined[i][1][near[i]][1]), i))
+        g, pts = joined.pop(k)
         order = tour_order(g, [p for _, p in pts], start=near[k])
         viewpoints += [pts[i] for i in order]
         legs += [LayerView(nav, viewpoints[-len(order) - 1][1])] + [g] * (len(order) - 1)
+    for g, pts, _ in sorted((x for x in groups if not x[2]), key=lambda x: x[0].floor_height):
+        order = tour_order(g, [p for _, p in pts])
+        viewpoints += [pts[i] for i in order]
+        legs += [None] + [g] * (len(order) - 1)
     return viewpoints, legs
 
 
@@ -293,7 +300,11 @@ def plan_trajectory(asset: SceneAsset, grid: NavGrid, config: PrescanConfig = Pr
 
     visited = []
     for vi, (room, goal) in enumerate(viewpoints):
-        if vi > 0:
+        if vi > 0 and legs[vi] is None:  # a storey nothing joins: the scan cuts to its first viewpoint
+            pos = goal.copy()
+            positions.append(pos.copy())
+            yaws.append(yaw)
+        elif vi > 0:
             motion = legs[vi]
             follower = GreedyFollower(motion, goal, config.success_distance, config.forward_step, config.turn_deg)
             for _ in range(config.max_leg_actions):

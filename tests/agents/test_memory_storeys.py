@@ -1,5 +1,6 @@
 """The memory agent in a two-storey house: the pre-scan covers both storeys, and the agent finds goals upstairs
-and downstairs from either storey, over the stairs or the ramp (oracle perception, the shipped policy).
+and downstairs from either storey, over the stairs or the ramp, and on each storey of a house nothing joins
+(oracle perception, the shipped policy).
 Slow (several minutes on 2 cores: two pre-scans and ten episodes per house): ``pytest -m slow``."""
 
 import json
@@ -29,12 +30,12 @@ STARTS = {"ground": [1.0, 0.0, 1.0], "upper": [2.0, UPPER, 0.8]}
 EPISODES = [("bed", "ground"), ("sofa", "upper"), ("chair", "ground"), ("chair", "upper"), ("plant", "upper")]
 
 
-def _episodes(root: Path, join: str) -> Path:
+def _episodes(root: Path, join: str | None, episodes=EPISODES) -> Path:
     path = furnished(join, root)
     asset = load_scene(path)
     finders = [ViewPointFinder(asset, navgrid_for(asset, floor_hint=y)) for y in (0.0, UPPER)]
     eps = []
-    for cat, start in EPISODES:
+    for cat, start in episodes:
         goals = []
         for o in sorted(asset.objects_of(cat), key=lambda o: o.id):
             pos, rot, frac = finders[int(o.aabb_min[1] > UPPER / 2)].find(o)
@@ -43,7 +44,7 @@ def _episodes(root: Path, join: str) -> Path:
                                            "iou": float(f)} for p, q, f in zip(pos, rot, frac)]})
         eps.append({"episode_id": f"{cat}-{start}", "scene_id": path.name, "start_position": STARTS[start],
                     "start_rotation": [0.0, 0.0, 0.0, 1.0], "object_category": cat, "goals": goals, "info": {}})
-    out = root / f"{join}.json"
+    out = root / f"{join or 'none'}.json"
     out.write_text(json.dumps({"episodes": eps}))
     return out
 
@@ -105,3 +106,45 @@ def test_a_category_on_both_storeys_is_sought_on_the_start_storey_first(house_ru
     storey_y = STARTS[start][1]
     assert len(r["log"]["candidates"]) == 2 and storey_y <= first[1] < storey_y + 1.0
     assert r["success"] == 1.0 and r["y"] == pytest.approx(storey_y)
+
+
+# A house nothing joins: every category from a start on the storey it stands on, and a bed (upstairs only)
+# from the ground floor, which no walk reaches.
+UNJOINED = [("chair", "ground"), ("sofa", "ground"), ("table", "ground"), ("chair", "upper"), ("bed", "upper"),
+            ("plant", "upper"), ("bed", "ground")]
+
+
+@pytest.fixture(scope="module")
+def unjoined_run(tmp_path_factory):
+    if not CHECKPOINT.is_file():
+        pytest.skip("no shipped PointNav checkpoint")
+    root = tmp_path_factory.mktemp("none")
+    return root, _run(root, _episodes(root, None, UNJOINED))
+
+
+def test_prescan_covers_a_storey_nothing_joins(unjoined_run):
+    root, _ = unjoined_run
+    (directory,) = (root / "memory").iterdir()
+    memory = Memory.open(directory)
+    floors = memory.store.positions()[:, 1] - memory.config.camera_height
+    assert set(memory.stats.rooms_visited) == {"ground", "upper"}
+    assert (np.abs(floors) < 0.01).sum() > 50 and (np.abs(floors - UPPER) < 0.01).sum() > 50
+
+
+def test_memory_agent_finds_goals_on_each_storey_nothing_joins(unjoined_run):
+    _, results = unjoined_run
+    for storey in ("ground", "upper"):
+        found = [r["success"] == 1.0 for k, r in results.items() if k.endswith(storey) and k != "bed-ground"]
+        assert sum(found) >= len(found) / 2, (storey, results)
+    # only candidates on the start's own storey are driven to: never the point under (or over) another's
+    for k, r in results.items():
+        if k != "bed-ground":
+            assert r["y"] == pytest.approx(STARTS[k.split("-")[1]][1]), k
+
+
+def test_no_candidate_on_the_start_storey_explores_it_instead_of_stopping(unjoined_run):
+    _, results = unjoined_run
+    r = results["bed-ground"]
+    events = [e["event"] for e in r["log"]["events"]]
+    assert r["success"] == 0.0 and r["log"]["candidates"] == [] and "unjoined_candidates" in events
+    assert "explore" in events and r["num_steps"] == 500 and r["y"] == pytest.approx(0.0)

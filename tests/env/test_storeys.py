@@ -15,7 +15,7 @@ from navbench.env.config import MOVE_FORWARD, STOP, EnvConfig
 from navbench.env.pointnav import PointNavEnv
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
-from storeys import RISE, UPPER, X0, X1, drive, house
+from storeys import RISE, UPPER, X0, X1, building, building_pairs, drive, house
 
 START, GOAL = [1.0, 0.0, 2.6], [9.0, UPPER, 2.6]
 FACING_PLUS_X = [0.0, -math.sqrt(0.5), 0.0, math.sqrt(0.5)]  # yaw -90 deg: the agent faces +x
@@ -134,3 +134,56 @@ def test_optimistic_agent_plans_over_the_join_to_a_goal_on_another_storey(tmp_pa
     info = drive(env, agent, obs)
     assert info["success"] == 1.0 and info["spl"] > 0.9, info
     assert env.agent_position[1] == pytest.approx(goal[1], abs=1e-6)
+
+
+def _inside_a_solid(mesh, p) -> bool:
+    """Whether ``p`` (0.3 m above it) is inside a closed solid: the first face hit looking along +-x and +-z is a
+    back face in at least three of the four directions."""
+    origin = np.array([p[0], p[1] + 0.3, p[2]])
+    dirs = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 0, 1.0], [0, 0, -1.0]])
+    _, ray, tri = mesh.ray.intersects_location(np.tile(origin, (4, 1)), dirs, multiple_hits=False)
+    return int((np.einsum("ij,ij->i", mesh.face_normals[tri], dirs[ray]) > 0).sum()) >= 3
+
+
+BUILDINGS = [("stairs", 20.0, True), ("stairs", 20.0, False), ("ramp", 10.0, True), ("ramp", 20.0, True),
+             ("ramp", 30.0, True)]
+
+
+def _building_env(tmp_path: Path, join: str, angle: float, walled: bool):
+    mesh = building(join, angle, walled)
+    mesh.export(tmp_path / "b.glb")
+    pairs = building_pairs(join, angle)
+    eps = [{"episode_id": str(k), "scene_id": "b.glb", "start_position": a, "start_rotation": [0.0, 0.0, 0.0, 1.0],
+            "goals": [{"position": b, "radius": None}], "info": {}} for k, (a, b) in enumerate(pairs)]
+    (tmp_path / "eps.json").write_text(json.dumps({"episodes": eps}))
+    config = EnvConfig(rgb=False, depth=False)
+    return mesh, PointNavEnv(tmp_path / "eps.json", scene_dir=tmp_path, config=config), config
+
+
+@pytest.mark.parametrize(("join", "angle", "walled"), BUILDINGS)
+def test_composed_buildings_accept_every_start_on_either_storey(tmp_path, join, angle, walled):
+    """Buildings of touching boxes (walls on slabs, a walled or open flight, ramps of 10-30 deg): every start on
+    either storey is accepted and its goal on the other storey has a finite d0."""
+    _, env, _ = _building_env(tmp_path, join, angle, walled)
+    for k in range(len(env.dataset.episodes)):
+        _, info = env.reset(options={"episode": k})
+        assert math.isfinite(info["distance_to_goal"]) and info["distance_to_goal"] > 8.0, k
+
+
+@pytest.mark.parametrize(("join", "angle", "walled"),
+                         [BUILDINGS[0], *(pytest.param(*b, marks=pytest.mark.slow) for b in BUILDINGS[1:])])
+def test_the_oracle_climbs_composed_buildings_and_never_stands_in_a_wall(tmp_path, join, angle, walled):
+    """The oracle reaches the goal on the other storey, up and down, without a recorded pose inside a solid."""
+    from navbench.agents.oracle import OracleAgent
+
+    mesh, env, config = _building_env(tmp_path, join, angle, walled)
+    for k in (0, 4):  # up from the ground floor's far room, down from upstairs
+        obs, info = env.reset(options={"episode": k})
+        agent = OracleAgent(tmp_path, env.success_distance, config)
+        agent.reset(env.episode)
+        done, inside = False, 0
+        while not done:
+            obs, _, term, trunc, info = env.step(agent.act(obs))
+            done = term or trunc
+            inside += _inside_a_solid(mesh, env.agent_position)
+        assert info["success"] == 1.0 and inside == 0, (k, info, inside)
