@@ -5,11 +5,12 @@ nearest the room's centre (inside the room, on the main navigable island) is a *
 viewpoints are ordered by a greedy nearest-neighbour tour over geodesic distances, the camera is
 driven between them with :class:`~navbench.scene.follower.GreedyFollower` and
 :meth:`NavGrid.try_step` (the agent's own discrete motion model, no sliding) and looks around with
-``look_around_turns`` turns at each. Rooms on every storey are visited (:class:`~navbench.scene.layers.
-LayeredNav`): each storey's rooms in a tour of their own, the walk between storeys driven over the joined
-surfaces where stairs or a ramp join them, a cut to the storey (as a video cuts between takes) where
-nothing does, the camera always ``camera_height`` above the surface under it. Like a hand-held video, every action is recorded as
-``frames_per_action`` frames (the motion interpolated), which is what keyframe selection thins.
+``look_around_turns`` turns at each. Rooms on every storey are visited
+(:class:`~navbench.scene.layers.LayeredNav`): each storey's rooms in a tour of their own, the walk between
+storeys driven over the joined surfaces where stairs or a ramp join them, a cut to the storey (as a video
+cuts between takes) where nothing does, the camera always ``camera_height`` above the surface under it.
+Like a hand-held video, every action is recorded as ``frames_per_action`` frames (the motion
+interpolated), which is what keyframe selection thins.
 
 Keyframes depend on the poses alone, so the whole trajectory is planned first, keyframes are selected,
 and only keyframes are rendered. The memory directory holds the :class:`KeyframeStore`, the

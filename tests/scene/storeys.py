@@ -141,7 +141,8 @@ def building(join: str | None, angle_deg: float = 20.0, walled: bool = True) -> 
              box((0, top, BZ0), (X0, UPPER, BZ1)), box((x1, top, BZ0), (length, UPPER, BZ1))]
     for y0, y1 in ((0.0, top), (UPPER, UPPER + 2.6)):  # exterior walls of each storey, standing on its slab
         parts += [box((0, y0, 0), (WALL, y1, DEPTH)), box((length - WALL, y0, 0), (length, y1, DEPTH)),
-                  box((WALL, y0, 0), (length - WALL, y1, WALL)), box((WALL, y0, DEPTH - WALL), (length - WALL, y1, DEPTH))]
+                  box((WALL, y0, 0), (length - WALL, y1, WALL)),
+                  box((WALL, y0, DEPTH - WALL), (length - WALL, y1, DEPTH))]
     xp = x1 + 1.5  # the partition, with a door at z in [5.5, 6.5]
     parts += [box((xp, 0, WALL), (xp + WALL, top, 5.5)), box((xp, 0, 6.5), (xp + WALL, top, DEPTH - WALL))]
     if walled:  # the flight's side walls from floor to slab
