@@ -9,7 +9,8 @@ a goal is on another one), so the script measures what the checkout builds, not 
 episode file; ``--changed`` also lists the episodes whose live d0 differs from the file's
 ``info.geodesic_distance``, and an episode the env refuses (a start off the navigable area) is listed.
 ``--storeys DIR`` writes the two-storey houses of the tests (joined by stairs, by a ramp, and by nothing)
-with cross-storey PointNav and ObjectNav episodes into DIR and measures those too. ``--gaps`` holds the
+with cross-storey PointNav and ObjectNav episodes, and the buildings of touching boxes (walls on slabs,
+walled and open stairs, ramps of 10-30 deg) with theirs, into DIR and measures those too. ``--gaps`` holds the
 reachability verdict through one gap in a wall (0.38-0.60 m wide, at four sub-cell alignments) against
 Detour's: the narrowest passage each admits.
 
@@ -164,10 +165,27 @@ def write_storeys(out: Path) -> list[Path]:
             objects.append({"episode_id": f"{join}-{k}", "scene_id": f"{join}.glb", "start_position": a,
                             "start_rotation": [0.0, 0.0, 0.0, 1.0], "object_category": "chair", "goals": goals,
                             "info": {}})
-    files = [out / "pointnav.json", out / "objectnav.json"]
+    files = [out / "pointnav.json", out / "objectnav.json", out / "buildings.json"]
     files[0].write_text(json.dumps({"episodes": point}))
     files[1].write_text(json.dumps({"episodes": objects}))
+    files[2].write_text(json.dumps({"episodes": building_episodes(out)}))
     return files
+
+
+def building_episodes(out: Path) -> list[dict]:
+    """The touching-box buildings of the tests (``tests/scene/storeys.py``: walled and open stairs, ramps of
+    10, 20 and 30 deg) as GLBs in ``out``, with their cross-storey PointNav episodes."""
+    sys.path.insert(0, str(REPO / "tests" / "scene"))
+    from storeys import BUILDINGS, building, building_name, building_pairs
+
+    eps = []
+    for join, angle, walled in BUILDINGS:
+        name = building_name(join, angle, walled)
+        building(join, angle, walled).export(out / f"{name}.glb")
+        eps += [{"episode_id": f"{name}-{k}", "scene_id": f"{name}.glb", "start_position": a,
+                 "start_rotation": [0.0, 0.0, 0.0, 1.0], "goals": [{"position": b, "radius": None}], "info": {}}
+                for k, (a, b) in enumerate(building_pairs(join, angle))]
+    return eps
 
 
 def gaps(anchor: Path, recast: Path) -> None:

@@ -469,10 +469,15 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
     return stats
 
 
+# Which storeys the scan covers and how it reaches them; a change that moves any scan pose bumps it.
+# 2: every storey with rooms, the ones nothing joins by a cut.
+SCAN_VERSION = 2
+
+
 def memory_key(digest: str, config: PrescanConfig, encoder_name_: str | None) -> str:
-    # the navigability rules place the scan poses, so a memory built under other rules is not reused
+    # the navigability rules and the scan's plan place the scan poses, so a memory built under others is not reused
     blob = json.dumps({"digest": digest, "config": config.to_json(), "encoder": encoder_name_,
-                       "navigability": NAVIGABILITY_VERSION}, sort_keys=True)
+                       "navigability": NAVIGABILITY_VERSION, "scan": SCAN_VERSION}, sort_keys=True)
     return hashlib.sha1(blob.encode()).hexdigest()[:12]
 
 

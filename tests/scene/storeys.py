@@ -167,3 +167,13 @@ def building_pairs(join: str | None, angle_deg: float = 20.0) -> list[tuple[list
     return [([1.0, 0.0, 4.0], [far, UPPER, 4.5]), ([1.0, 0.0, 6.5], [far, UPPER, 6.5]),
             ([far, 0.0, 4.0], [1.0, UPPER, 6.5]), ([(X0 + x1) / 2, 0.0, 0.5], [(X0 + x1) / 2, UPPER, 4.0]),
             ([far, UPPER, 0.6], [1.0, 0.0, 4.0]), ([1.0, UPPER, 0.6], [far, 0.0, 6.0])]
+
+
+# The composed buildings measured against Detour (benchmarks/detour_agreement.py --storeys): (join, ramp angle, walled).
+BUILDINGS = [("stairs", 20.0, True), ("stairs", 20.0, False), ("ramp", 10.0, True), ("ramp", 20.0, True),
+             ("ramp", 30.0, True)]
+
+
+def building_name(join: str | None, angle_deg: float, walled: bool) -> str:
+    kind = f"ramp{angle_deg:g}" if join == "ramp" else (join or "none")
+    return f"building-{kind}-{'walled' if walled else 'open'}"
