@@ -2,11 +2,17 @@
 
 A :class:`LayeredNav` models what Habitat's Recast navmesh models and a single-floor
 :class:`~navbench.scene.navigability.NavGrid` cannot: storeys, landings, stairs and ramps as one walkable
-surface. It is built from *spans*, as Recast builds its heightfield: on the NavGrid's xz cell lattice, every
-floor-like hit of a vertical ray through a cell centre (normal within 45 deg of vertical) with
-``agent_height`` of headroom and not inside a solid is a span. Two spans of neighbouring cells are joined if
-their heights differ by at most ``max_climb`` (a stair's 0.17 m riser is, a 0.3 m ledge is not), so a
-flight of steps joins the storeys it runs between, and two storeys without one stay apart.
+surface. It is built as Recast builds its heightfield (``rcRasterizeTriangles`` and the filters after it):
+every triangle is rasterised into the columns of the NavGrid's xz cell lattice it touches, with its vertical
+extent in each cell; the extents of a column merge into solids wherever they overlap or touch, so walls,
+slabs and steps composed of touching parts (coincident faces) make one solid, and a wall thinner than a cell
+still fills the cells it crosses. A solid's top is walkable if an upward-facing triangle within 45 deg of
+vertical reaches within ``max_climb`` of it (or the solid right under it is walkable and within
+``max_climb``: a slab's edge over a flight's last tread); with ``agent_height`` of room to the next solid
+above it is a *span*. Two spans of neighbouring cells are joined if their heights differ by at most
+``max_climb`` (a stair's 0.17 m riser is, a 0.3 m ledge is not) and the room over both overlaps by the
+agent's height, so a flight of steps joins the storeys it runs between, and two storeys without one stay
+apart.
 
 - Clearance: a span is navigable if its distance along the joined surface to the nearest span missing one
   of its four neighbours (a wall, a ledge, the stairwell's edge) is at least ``agent_radius`` (the same
@@ -17,8 +23,7 @@ flight of steps joins the storeys it runs between, and two storeys without one s
   navmesh path over it does). The direction set keeps lattice paths within 1.3% of straight lines.
   A point not connected to the start is unreachable (``inf``).
 
-Thin geometry that misses every cell centre (a wall thinner than a cell) is not seen, unlike the NavGrid,
-whose head-band rasterisation catches it; the single-storey NavGrid stays the engine for one floor.
+The single-storey NavGrid stays the engine for one floor; these surfaces serve episodes across storeys.
 """
 
 from __future__ import annotations
