@@ -301,15 +301,16 @@ def test_renderers_closed_in_turn_free_their_context_and_leave_later_ones_exact(
         np.testing.assert_array_equal(out.ids, front.ids)
 
 
-def test_import_sets_osmesa_and_creates_no_context():
+def test_import_picks_egl_on_a_gpu_else_osmesa_and_creates_no_context():
     code = textwrap.dedent(
         """
         import os
         import navbench.render  # first: it must pick the platform before OpenGL is imported
         import OpenGL.platform
-        assert os.environ["PYOPENGL_PLATFORM"] == "osmesa", os.environ["PYOPENGL_PLATFORM"]
+        want = "egl" if navbench.render.gl_platform.egl_device_present() else "osmesa"
+        assert os.environ["PYOPENGL_PLATFORM"] == want, os.environ["PYOPENGL_PLATFORM"]
         assert not OpenGL.platform.PLATFORM.GetCurrentContext()
-        assert navbench.render.gl_platform.bound_platform() == "osmesa"
+        assert navbench.render.gl_platform.bound_platform() == want
         print("ok")
         """
     )
