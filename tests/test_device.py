@@ -151,3 +151,35 @@ def test_policy_on_cuda_acts_as_on_the_cpu():
         got[device] = [policy.act(depth, goal) for _ in range(3)]
     agree = np.mean([np.mean(a == b) for a, b in zip(got["cpu"], got["cuda"])])
     assert agree >= 0.9, agree  # argmax flips only where two logits lie within float rounding
+
+
+# ------------------------------------------------------------------------------------- gpu_check.py
+GPU_CHECK = RESULTS_DIR.parent / "benchmarks" / "gpu_check.py"
+
+
+def _gpu_check(*args, timeout=600):
+    import os
+    import subprocess
+    import sys
+    env = {**os.environ, "PYTHONPATH": str(RESULTS_DIR.parent)}
+    return subprocess.run([sys.executable, str(GPU_CHECK), *args], capture_output=True, text=True, env=env,
+                          timeout=timeout)
+
+
+@no_cuda
+def test_gpu_check_without_cuda_is_one_line_and_exit_0():
+    res = _gpu_check()
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.splitlines() == [f"gpu_check: skipped, torch {torch.__version__} sees no CUDA device"]
+
+
+@pytest.mark.slow
+def test_gpu_check_runs_every_check_with_the_cpu_on_both_sides():
+    # every code path of the script, on the CPU: each comparison must then be exact
+    res = _gpu_check("--device", "cpu", "--episodes", "2", "--seconds", "0.2")
+    assert res.returncode == 0, res.stdout + res.stderr
+    table = [line for line in res.stdout.splitlines() if line.startswith("| ")]
+    assert "| policy logits, max abs diff vs CPU | 0.00e+00 |" in res.stdout and "FAIL" not in res.stdout
+    assert any("PointNav val, 2 episodes" in line and "2 of 2" in line for line in table)
+    assert any(line.startswith("| policy frames/s on cpu, batch 64 |") for line in table)
+    assert res.stdout.rstrip().endswith("0 check(s) failed")
