@@ -306,19 +306,10 @@ def _positive(text: str) -> float:
     return x
 
 
-def _device(text: str) -> str:
-    """``--device``: auto, cpu, cuda or cuda:N (whether it is there is checked when the command runs)."""
-    from navbench.device import DeviceError, parse_device
-    try:
-        return parse_device(text)
-    except DeviceError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
 def add_device_flags(p: argparse.ArgumentParser, precision: bool = False) -> None:
     """``--device`` (and ``--precision``, for commands that load the real perception models)."""
-    from navbench.device import DEVICES, PRECISIONS
-    p.add_argument("--device", type=_device, default="cpu", metavar="DEVICE",
+    from navbench.device import DEVICES, PRECISIONS, device_arg
+    p.add_argument("--device", type=device_arg, default="cpu", metavar="DEVICE",
                    help=f"where torch work runs: {DEVICES} (default cpu; auto: CUDA when torch sees a GPU)")
     if precision:
         p.add_argument("--precision", default="fp32", choices=PRECISIONS,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["DEVICES", "PRECISIONS", "DeviceError", "check_precision", "device_name", "parse_device",
+__all__ = ["DEVICES", "PRECISIONS", "DeviceError", "check_precision", "device_arg", "device_name", "parse_device",
            "resolve_device", "torch_dtype"]
 
 DEVICES = "auto, cpu, cuda, cuda:N"
@@ -30,6 +30,16 @@ def parse_device(text: str) -> str:
     if not _DEVICE.match(norm):
         raise DeviceError(f"device {text!r}: choose from {DEVICES}")
     return norm
+
+
+def device_arg(text: str) -> str:
+    """An argparse ``type`` for ``--device``: :func:`parse_device`, its error as argparse's (usage, exit 2);
+    whether the device is there is checked when the command runs (:func:`resolve_device`)."""
+    import argparse
+    try:
+        return parse_device(text)
+    except DeviceError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def resolve_device(text: str = "cpu") -> str:

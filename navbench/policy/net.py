@@ -348,12 +348,13 @@ class PointNavAgentPolicy:
 
     def __init__(
         self, policy: PointNavResNetPolicy, num_envs: int = 1, config: InferenceConfig = InferenceConfig(),
-        device: torch.device | str = "cpu",
+        device: torch.device | str | None = None,
     ) -> None:
         self.config = config
         self.num_envs = num_envs
-        # the network and its recurrent state live on `device`; decoding and its draws stay on the CPU
-        self.device = torch.device(device)
+        # the network and its recurrent state live on `device` (None: where the policy's weights are, as a
+        # trainer's shared learner); decoding and its draws stay on the CPU
+        self.device = torch.device(device) if device is not None else next(policy.parameters()).device
         self.policy = policy.eval().to(self.device)
         if config.channels_last:
             self.policy = self.policy.to(memory_format=torch.channels_last)
