@@ -375,3 +375,22 @@ def test_egl_matches_osmesa_without_msaa_blending(room, front):
     np.testing.assert_array_equal(egl["ids"], front.ids)
     np.testing.assert_array_equal(egl["rgb"], front.rgb)
     np.testing.assert_allclose(egl["depth"], front.depth, atol=1e-3)
+
+
+def test_auto_platform_is_egl_only_where_a_gpu_and_libegl_are(monkeypatch, room):
+    from navbench.env.config import EnvConfig
+
+    nodes = {"/dev/nvidia[0-9]*": [], "/dev/dri/renderD*": []}
+    monkeypatch.setattr(gl_platform.glob, "glob", lambda pattern: nodes[pattern])
+    monkeypatch.setattr(gl_platform.ctypes.util, "find_library", lambda name: "libEGL.so.1")
+    assert gl_platform.auto_platform() == "osmesa"  # a CPU-only machine: Mesa's EGL would run on llvmpipe
+    nodes["/dev/dri/renderD*"] = ["/dev/dri/renderD128"]
+    assert gl_platform.auto_platform() == "egl"
+    nodes["/dev/dri/renderD*"], nodes["/dev/nvidia[0-9]*"] = [], ["/dev/nvidia0"]
+    assert gl_platform.auto_platform() == "egl"
+    monkeypatch.setattr(gl_platform.ctypes.util, "find_library", lambda name: None)
+    assert gl_platform.auto_platform() == "osmesa"
+    monkeypatch.undo()
+    r = Renderer(room, platform="auto")
+    assert r.platform == gl_platform.bound_platform() and EnvConfig().gl_platform == "auto"
+    r.close()
