@@ -15,10 +15,14 @@ import os
 
 
 def egl_device_present() -> bool:
-    """Whether EGL has a GPU to render on: an NVIDIA device node or a DRM render node, and libEGL. Mesa's
-    EGL also runs on llvmpipe without one, but there OSMesa's direct draw path is the faster one."""
-    gpu = glob.glob("/dev/nvidia[0-9]*") or glob.glob("/dev/dri/renderD*")
-    return bool(gpu) and ctypes.util.find_library("EGL") is not None
+    """Whether EGL has a GPU to render on: an NVIDIA device node with NVIDIA's EGL library (a container
+    started without the graphics capability has the node but not the library), or a DRM render node with
+    Mesa's. Mesa's EGL also runs on llvmpipe without a GPU, but there OSMesa's direct draw path is faster."""
+    if ctypes.util.find_library("EGL") is None:
+        return False
+    if glob.glob("/dev/nvidia[0-9]*") and ctypes.util.find_library("EGL_nvidia") is not None:
+        return True
+    return bool(glob.glob("/dev/dri/renderD*")) and ctypes.util.find_library("EGL_mesa") is not None
 
 
 def auto_platform() -> str:

@@ -381,14 +381,19 @@ def test_auto_platform_is_egl_only_where_a_gpu_and_libegl_are(monkeypatch, room)
     from navbench.env.config import EnvConfig
 
     nodes = {"/dev/nvidia[0-9]*": [], "/dev/dri/renderD*": []}
+    libs = {"EGL", "EGL_mesa", "EGL_nvidia"}
     monkeypatch.setattr(gl_platform.glob, "glob", lambda pattern: nodes[pattern])
-    monkeypatch.setattr(gl_platform.ctypes.util, "find_library", lambda name: "libEGL.so.1")
+    monkeypatch.setattr(gl_platform.ctypes.util, "find_library",
+                        lambda name: f"lib{name}.so.0" if name in libs else None)
     assert gl_platform.auto_platform() == "osmesa"  # a CPU-only machine: Mesa's EGL would run on llvmpipe
     nodes["/dev/dri/renderD*"] = ["/dev/dri/renderD128"]
     assert gl_platform.auto_platform() == "egl"
     nodes["/dev/dri/renderD*"], nodes["/dev/nvidia[0-9]*"] = [], ["/dev/nvidia0"]
     assert gl_platform.auto_platform() == "egl"
-    monkeypatch.setattr(gl_platform.ctypes.util, "find_library", lambda name: None)
+    libs.discard("EGL_nvidia")  # a GPU container without the graphics capability
+    assert gl_platform.auto_platform() == "osmesa"
+    libs.clear()
+    nodes["/dev/dri/renderD*"] = ["/dev/dri/renderD128"]
     assert gl_platform.auto_platform() == "osmesa"
     monkeypatch.undo()
     r = Renderer(room, platform="auto")
