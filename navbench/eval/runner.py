@@ -50,9 +50,10 @@ from navbench.safeio import read_input
 __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "read_records", "run", "run_dataset",
            "select_episodes", "shard_of", "summarize"]
 
-# Keys that may differ between a run and its resumption without changing any episode's result.
+# Keys that may differ between a run and its resumption without changing any episode's result (the device:
+# beyond float rounding, docs/comparing.md).
 _RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device")
-# RunConfig fields config.json leaves out at these values (runs recorded before the fields existed read the same).
+# RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
 _DEFAULT_OMITTED = {"shard": None, "device": "cpu", "precision": "fp32"}
 
 
