@@ -265,5 +265,6 @@ def test_train_device_reaches_every_stage_and_a_missing_one_is_one_line(monkeypa
     assert calls[-1]["device"] == ("cuda:0" if torch.cuda.is_available() else "cpu")
     if not torch.cuda.is_available():
         n = len(calls)
+        capsys.readouterr()
         assert main(["train", "--device", "cuda", "dagger", "--out", "d.pth"]) == 2
         assert len(calls) == n and capsys.readouterr().err.startswith("navbench: error: device 'cuda' is not")
