@@ -18,8 +18,8 @@ $(BIN)/python:
 osmesa:  # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing
 	@ldconfig -p | grep -q libOSMesa.so || { echo "installing libosmesa6 (apt)"; apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 libosmesa6-dev >/dev/null; }
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/pip install -q -e ".[dev,models,viz,ray]"
+$(STAMP): pyproject.toml constraints/ci.txt | $(BIN)/python  # ci.txt: the torch build tested (pyproject: the range)
+	$(BIN)/pip install -q -c constraints/ci.txt -e ".[dev,models,viz,ray]"
 	touch $(STAMP)
 setup: osmesa $(STAMP)
 run: setup  # the memory agent on ObjectNav val_unseen: the README's headline ObjectNav figures

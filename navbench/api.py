@@ -9,7 +9,6 @@ and returns the summary. See examples/evaluate_agent.py.
 
 from __future__ import annotations
 
-import inspect
 import itertools
 import warnings
 from collections.abc import Callable
@@ -78,27 +77,6 @@ def run_dir(task: str, split: str, label: str, root: str | Path = "runs") -> Pat
     return Path(root) / task / split / label
 
 
-class _Instance:
-    """A factory that hands out one already-built agent (pickled into each worker when workers > 1)."""
-
-    def __init__(self, agent: Any):
-        self.agent = agent
-
-    def __call__(self, cfg: Any) -> Any:
-        from navbench.agents.habitat_compat import adapt
-        return adapt(self.agent)
-
-
-def _spec_of(obj: Any) -> str:
-    """``module:QualName``; a script run with ``python -m pkg.mod`` is named by ``pkg.mod``, not ``__main__``."""
-    module = obj.__module__
-    if module == "__main__":
-        import sys
-        spec = getattr(sys.modules["__main__"], "__spec__", None)
-        module = spec.name if spec is not None and spec.name != "__main__" else module
-    return f"{module}:{obj.__qualname__}"
-
-
 def evaluate(agent: Any = None, task: str | None = None, split: str | None = None,
              episodes: str | Path | None = None, *, options: dict[str, Any] | None = None,
              limit: int | None = None, per_scene: int | None = None, shard: str | None = None, seed: int = 0,
@@ -108,7 +86,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
              backend: str = "local", address: str | None = None, retries: int = 2,
              step_timeout: float | None = None, fail_fast: bool = False,
              progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
-             on_run_dir: Callable[[Path], None] | None = None,
+             on_run_dir: Callable[[Path], None] | None = None, device: str = "cpu", precision: str = "fp32",
              _episodes: tuple[str, str | None, Path, float] | None = None) -> RunSummary:
     """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary; what
     ``navbench run`` does, flag for flag.
@@ -152,13 +130,17 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         progress: called as ``progress(record, done, total)`` after each episode.
         video: ``"failures"`` or ``"all"``: also write ``out/videos/EPISODE.mp4`` for those episodes.
         on_run_dir: called with the run directory once it is known, before any episode runs.
+        device: where the agent's torch work runs: ``"cpu"`` (default), ``"cuda"``, ``"cuda:N"`` or
+            ``"auto"`` (CUDA when torch sees a GPU); a device that is not there is a one-line ValueError.
+            Records on CUDA agree with the CPU's up to the last bits (docs/gpu.md).
+        precision: ``"fp32"`` (default), ``"bf16"`` or ``"fp16"``: the real perception models' weights.
 
     Returns:
         The summary, as ``summary.json`` holds it.
     """
-    from navbench.agents.habitat_compat import check_agent
-    from navbench.agents.plugins import ResolvedAgent, can_batch, check_options, plugin_label, resolve_agent
+    from navbench.agents.plugins import resolve_agent
     from navbench.agents.registry import default_agent
+    from navbench.device import check_precision
     from navbench.episodes.io import file_split
     from navbench.eval.config import Execution, RunConfig, parse_shard
     from navbench.eval.runner import run, run_dataset
@@ -171,43 +153,17 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                           step_timeout=step_timeout, fail_fast=fail_fast)
     if video not in VIDEOS:
         raise ValueError(f"--video {video!r}: choose from {', '.join(VIDEOS)}")
+    check_precision(precision)
     # `navbench run` resolved the episodes already (for the task's default agent): a user's file is read once
     task, split, episodes_path, default_sd = _episodes or resolve_episodes(task, split, episodes)
-    agent = default_agent(task) if agent is None else agent
-    options = dict(options or {})
-    if isinstance(agent, str):
-        resolved = resolve_agent(agent, options, seed)
-    elif inspect.isclass(agent) or inspect.isfunction(agent):
-        spec = _spec_of(agent)
-        check_options(spec, agent, options)
-        if not spec.startswith("__main__:") and "<locals>" not in agent.__qualname__:
-            from navbench.agents.plugins import PluginFactory
-            factory: Any = PluginFactory(spec, options)  # workers re-import it by name
-        else:
-            factory = _Bound(agent, options)
-        resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), batches=can_batch(agent))
-    elif callable(getattr(agent, "act", None)) or callable(getattr(agent, "act_batch", None)):
-        if options:
-            raise ValueError("options apply to an agent class or factory, not to an agent instance")
-        spec = _spec_of(type(agent))
-        check_agent(spec, agent)
-        resolved = ResolvedAgent(spec, _Instance(agent), {}, plugin_label(spec, {}, seed),
-                                 batches=callable(getattr(agent, "act_batch", None)))
-    else:
-        raise ValueError(f"agent {agent!r}: expected an agent spec string, class, factory or instance "
-                         f"(with act or act_batch)")
-    if envs_per_worker is not None and envs_per_worker > 1 and resolved.batches is False:
-        raise ValueError(f"--envs-per-worker applies to agents that step episodes in batches (act_batch), "
-                         f"not {resolved.spec!r}, which steps one at a time")
-    if envs_per_worker is None:
-        n = getattr(agent, "num_envs", 1)
-        envs_per_worker = resolved.envs_per_worker if resolved.builtin else (n if isinstance(n, int) and n > 0 else 1)
+    resolved = resolve_agent(default_agent(task) if agent is None else agent, options, seed,
+                             envs_per_worker=envs_per_worker, device=device)
 
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
                     scene_dir=str(scene_dir or SCENES_DIR),
                     success_distance=success_distance if success_distance is not None else default_sd,
-                    seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=envs_per_worker,
-                    agent_options=resolved.options, shard=shard)
+                    seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=resolved.envs_per_worker,
+                    agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision)
     cfg.label = label or resolved.label
     parsed_shard = parse_shard(shard)
     if out is None:
@@ -240,14 +196,3 @@ def warn_failed(summary: RunSummary, out: Path) -> None:
         warnings.warn(f"{summary.get('num_failed')} of {summary.get('num_episodes')} episode(s) failed (listed in "
                       f"{out}/summary.json); first, episode {first['episode_id']}: {first['failure_reason']}",
                       RuntimeWarning, stacklevel=3)  # the caller of navbench.evaluate
-
-
-class _Bound:
-    """A class or factory with its options, for one defined where workers cannot import it by name."""
-
-    def __init__(self, target: Any, options: dict[str, Any]):
-        self.target, self.options = target, options
-
-    def __call__(self, cfg: Any) -> Any:
-        from navbench.agents.plugins import build
-        return build(self.target, cfg, self.options)

@@ -36,7 +36,7 @@ from typing import Any
 
 from navbench.agents.options import add_flags, flag_of, given_flags
 from navbench.agents.plugins import parse_options, resolve_agent
-from navbench.agents.registry import AGENTS, agent_options, default_agent, scan_config
+from navbench.agents.registry import AGENTS, agent_options, default_agent, loads_models, scan_config
 from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
 from navbench.episodes.io import file_split
 from navbench.loop_progress import silenced
@@ -56,7 +56,9 @@ def cmd_run(args) -> int:
     task, split = episodes[:2]
     args.agent = args.agent or default_agent(task)
     options = _agent_request(args)
-    workers = args.workers if args.workers is not None or args.address is not None else 2
+    # real perception models load once per machine: one worker (its envs batched) unless told otherwise
+    default_workers = 1 if loads_models(args.agent, options) else 2
+    workers = args.workers if args.workers is not None or args.address is not None else default_workers
     where: list[Path] = []
     # -q: no run progress, and no loop progress either (memory pre-scans, workers)
     with warnings.catch_warnings(), silenced() if args.quiet else nullcontext():
@@ -68,7 +70,8 @@ def cmd_run(args) -> int:
             out=args.out, runs_dir=args.runs_dir, resume=args.resume, overwrite=args.overwrite, workers=workers,
             envs_per_worker=args.envs_per_worker, backend=args.backend, address=args.address, retries=args.retries,
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, progress=None if args.quiet else Progress(),
-            video=args.video, on_run_dir=where.append, _episodes=episodes)
+            video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
+            _episodes=episodes)
     out = where[0]
     print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
@@ -219,7 +222,7 @@ def cmd_memory(args) -> int:
         scene = SCENES_DIR / args.scene
     scan = scan_config(args.keyframe_res, args.all_frames)
     encoder = PERCEPTION[args.perception](load_scene(scene), NoiseProfile(), ModelDirs(
-        siglip2=Path(args.siglip2) if args.siglip2 else None)).encoder
+        siglip2=Path(args.siglip2) if args.siglip2 else None, **_run_on(args))).encoder
     out = Path(args.out or Path("runs") / "memory" / scene.name.split(".")[0])
     st = build_memory(scene, out, scan, encoder)
     print(f"{scene}: {st.frames} frames, {st.keyframes} keyframes, {st.bytes / 1e6:.2f} MB on disk, "
@@ -227,10 +230,16 @@ def cmd_memory(args) -> int:
     return 0
 
 
+def _run_on(args) -> dict[str, str]:
+    """``--device`` (resolved: a device that is not there is one line) and ``--precision`` of the real models."""
+    from navbench.device import resolve_device
+    return {"device": resolve_device(args.device), "precision": args.precision}
+
+
 def cmd_localize(args) -> int:
     from navbench.localize.benchmark import ModelDirs, run_localize
     models = ModelDirs(**{k: Path(v) for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
-                                                  ("sam3", args.sam3)) if v})
+                                                  ("sam3", args.sam3)) if v}, **_run_on(args))
     on_query = None
     if args.viz:  # pictures per query, under OUT/viz
         from navbench.viz.localize import QueryViews
@@ -255,7 +264,9 @@ def cmd_bench(args) -> int:
         result = run_scan_bench(args.scan, seconds=args.seconds)
         print(json.dumps(result) if args.json else format_scan_report(result))
         return 0
-    result = run_bench(BenchConfig(scene=args.scene, seconds=args.seconds, policy=not args.no_policy))
+    from navbench.device import resolve_device
+    result = run_bench(BenchConfig(scene=args.scene, seconds=args.seconds, policy=not args.no_policy,
+                                   device=resolve_device(args.device)))
     print(json.dumps(result) if args.json else format_report(result))
     return 0
 
@@ -293,6 +304,16 @@ def _positive(text: str) -> float:
     if not math.isfinite(x) or x <= 0:
         raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
     return x
+
+
+def add_device_flags(p: argparse.ArgumentParser, precision: bool = False) -> None:
+    """``--device`` (and ``--precision``, for commands that load the real perception models)."""
+    from navbench.device import DEVICES, PRECISIONS, device_arg
+    p.add_argument("--device", type=device_arg, default="cpu", metavar="DEVICE",
+                   help=f"where torch work runs: {DEVICES} (default cpu; auto: CUDA when torch sees a GPU)")
+    if precision:
+        p.add_argument("--precision", default="fp32", choices=PRECISIONS,
+                       help="weights of the real perception models (default fp32)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -352,6 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                                "start a local Ray instance)")
     r.add_argument("--video", default="none", choices=("none", "failures", "all"),
                    help="write OUT/videos/EPISODE.mp4 (RGB | depth | map, 10 fps) for failed or all episodes")
+    add_device_flags(r, precision=True)
     r.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     r.set_defaults(func=cmd_run)
 
@@ -417,6 +439,7 @@ def build_parser() -> argparse.ArgumentParser:
     mem.add_argument("--keyframe-res", default="full", choices=("full", "640x480", "160x120"))
     mem.add_argument("--all-frames", action="store_true")
     mem.add_argument("--siglip2", help="local SigLIP2 model directory")
+    add_device_flags(mem, precision=True)
     mem.set_defaults(func=cmd_memory)
 
     lo = sub.add_parser("localize", help="GOAT-style localisation benchmark (SR@K)")
@@ -435,6 +458,7 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("--siglip2")
     lo.add_argument("--qwen-vl")
     lo.add_argument("--sam3")
+    add_device_flags(lo, precision=True)
     lo.set_defaults(func=cmd_localize)
 
     a = sub.add_parser("agents", help="list the agents --agent takes by name and where each comes from")
@@ -466,6 +490,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scene", help="scene file (default: first bundled val scene)")
     b.add_argument("--seconds", type=_positive, default=3.0, help="time per measurement")
     b.add_argument("--no-policy", action="store_true", help="skip the policy inference figures")
+    add_device_flags(b)
     b.add_argument("--scan", metavar="DIR", help="scan-scale figures on the HM3D-layout scan fixture in DIR "
                                                 "(made there first if missing; benchmarks/scan_fixture.py)")
     b.set_defaults(func=cmd_bench)

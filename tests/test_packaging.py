@@ -82,3 +82,21 @@ def test_bundled_checkpoint_paths_resolve_from_any_directory(tmp_path, monkeypat
     assert checkpoint_path("policies/pointnav_2h.pth") == Path("policies/pointnav_2h.pth")  # a local file first
     with pytest.raises(CheckpointError, match="^nosuch.pth: no such checkpoint file"):
         read_checkpoint("nosuch.pth")
+
+
+def test_torch_is_a_range_and_ci_installs_the_tested_build_inside_it():
+    from packaging.requirements import Requirement
+    from packaging.version import Version
+
+    deps = [Requirement(d) for d in tomllib.loads((PROJECT / "pyproject.toml").read_text())["project"]["dependencies"]]
+    torch = next(r for r in deps if r.name == "torch")
+    assert not any(s.operator in ("==", "===") for s in torch.specifier), torch
+    pins = [Requirement(line) for line in (PROJECT / "constraints" / "ci.txt").read_text().splitlines()
+            if line.strip() and not line.startswith("#")]
+    tested = next(r for r in pins if r.name == "torch")
+    (pin,) = tested.specifier
+    assert pin.operator == "==" and Version(pin.version) in torch.specifier
+    # the oldest release claimed has the checkpoint loading API navbench.policy.checkpoint uses (torch 2.5)
+    assert Version("2.4.1") not in torch.specifier and Version("2.5.0") in torch.specifier
+    makefile, wheel_check = (PROJECT / "Makefile").read_text(), (PROJECT / "tests" / "wheel_check.sh").read_text()
+    assert "-c constraints/ci.txt" in makefile and "constraints/ci.txt" in wheel_check

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # make wheel-check: build the sdist and the wheel (dist/), install the wheel into a fresh venv (torch as the
-# Makefile installs it: pip's configured index), then from an empty directory outside the checkout run both
+# Makefile installs it: the tested build pinned by constraints/ci.txt), then from an empty directory outside the checkout run both
 # tasks on 2 episodes, compare their records with the committed reference runs, and load the bundled recipes.
 #     tests/wheel_check.sh PYTHON_WITH_BUILD [BASE_PYTHON]
 set -euo pipefail
@@ -14,7 +14,7 @@ ls -l dist
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$base_py" -m venv "$work/venv"
-"$work/venv/bin/pip" install -q dist/navbench-*.whl
+"$work/venv/bin/pip" install -q -c "$checkout/constraints/ci.txt" dist/navbench-*.whl
 mkdir "$work/empty"
 cd "$work/empty"
 export NAVBENCH_CACHE="$work/cache"

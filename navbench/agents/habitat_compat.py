@@ -19,6 +19,9 @@ from typing import Any
 ACTIONS = ("stop", "move_forward", "turn_left", "turn_right")  # by id; names are matched case-insensitively
 GOAL_SENSOR = {"pointnav": "pointgoal_with_gps_compass", "objectnav": "objectgoal"}
 RUN_ARGUMENTS = ("success_distance", "goal_sensor_uuid")  # what habitat-baselines passes its agents
+# A plug-in whose constructor (or factory) names this parameter gets the run's device ("cpu", "cuda:N")
+# unless its options give one.
+DEVICE_ARGUMENT = "device"
 
 
 def allowed() -> str:
@@ -101,10 +104,13 @@ def check_agent(spec: str, target: Any) -> None:
 
 def run_arguments(target: Any, cfg: Any, options: dict[str, Any]) -> dict[str, Any]:
     """habitat-baselines' constructor arguments ``target`` requires and ``options`` lacks, from the run
-    config: ``success_distance`` (the run's) and ``goal_sensor_uuid`` (the task's goal observation)."""
+    config: ``success_distance`` (the run's) and ``goal_sensor_uuid`` (the task's goal observation); and
+    ``device`` (the run's) when ``target`` takes one."""
     shape = _parameters(target)
     wanted = [n for n in RUN_ARGUMENTS if shape.get(n, False) and n not in options]
     out: dict[str, Any] = {}
+    if DEVICE_ARGUMENT in shape and DEVICE_ARGUMENT not in options:  # the run's --device, required or not
+        out[DEVICE_ARGUMENT] = str(getattr(cfg, "device", "cpu"))
     for name in wanted:
         if name == "success_distance" and getattr(cfg, "success_distance", None) is not None:
             out[name] = float(cfg.success_distance)

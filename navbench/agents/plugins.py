@@ -1,4 +1,6 @@
-"""Agents from outside the package: an import path, an installed entry point, or a remote server.
+"""Agents from outside the package (an import path, an installed entry point, a remote server), and the
+one place any agent is resolved: :func:`resolve_agent` turns a spec, class, factory or instance into the
+:class:`ResolvedAgent` a run builds, with the device it runs on.
 
 An agent spec is one of
 - a built-in name (``oracle``, ``pointnav``, ...: :data:`navbench.agents.registry.AGENTS`);
@@ -102,8 +104,9 @@ def check_options(spec: str, target: Any, options: dict[str, Any]) -> None:
     if unknown:
         raise ValueError(f"agent {spec!r} takes no option {', '.join(map(repr, unknown))} "
                          f"(it takes: {', '.join(takes) or 'none'})")
+    from_run = (*habitat_compat.RUN_ARGUMENTS, habitat_compat.DEVICE_ARGUMENT)  # filled in from the run config
     missing = [p.name for p in params if p.default is p.empty and p.kind is not p.VAR_POSITIONAL
-               and p.name not in options and p.name not in habitat_compat.RUN_ARGUMENTS]
+               and p.name not in options and p.name not in from_run]
     if missing:
         raise ValueError(f"agent {spec!r} needs option(s) {', '.join(missing)} (--agent-opt NAME=VALUE)")
 
@@ -187,12 +190,14 @@ def can_batch(target: Any) -> bool | None:
 
 @dataclass
 class ResolvedAgent:
-    """What a run needs of an agent spec: a picklable factory, the options config.json records (a
-    built-in's with its defaults filled in), the run's label, and what the harness knows of it up front.
+    """What a run needs of an agent, however it was given: a picklable factory, the options config.json
+    records (a built-in's with its defaults filled in), the run's label, the device it runs on, and what
+    the harness knows of it up front.
 
-    ``envs_per_worker`` is the episodes a worker steps at once when not told; ``batches`` whether the
-    agent can step several (None: unknown until it is built); ``prepare(cfg, episodes)`` runs in the
-    driver before the workers start."""
+    ``envs_per_worker`` is the episodes a worker steps at once; ``batches`` whether the agent can step
+    several (None: unknown until it is built); ``prepare(cfg, episodes)`` runs in the driver before the
+    workers start; ``device`` is the resolved ``--device`` (``"cpu"`` or ``"cuda:N"``), which the run's
+    config hands to the built-in factories and to a plug-in that takes a ``device`` argument."""
     spec: str
     factory: Any
     options: dict[str, Any]
@@ -201,21 +206,96 @@ class ResolvedAgent:
     envs_per_worker: int = 1
     batches: bool | None = None
     prepare: Callable[[Any, list[Any]], None] | None = None
+    device: str = "cpu"
 
 
-def resolve_agent(spec: str, options: dict[str, Any] | None = None, seed: int = 0) -> ResolvedAgent:
-    """Any agent spec with its options, checked up front (one-line ValueError naming the agent).
+def spec_of(obj: Any) -> str:
+    """``module:QualName``; a script run with ``python -m pkg.mod`` is named by ``pkg.mod``, not ``__main__``."""
+    module = obj.__module__
+    if module == "__main__":
+        spec = getattr(sys.modules["__main__"], "__spec__", None)
+        module = spec.name if spec is not None and spec.name != "__main__" else module
+    return f"{module}:{obj.__qualname__}"
+
+
+class Instance:
+    """A factory that hands out one already-built agent (pickled into each worker when workers > 1)."""
+
+    def __init__(self, agent: Any):
+        self.agent = agent
+
+    def __call__(self, cfg: Any) -> Any:
+        return habitat_compat.adapt(self.agent)
+
+
+class Bound:
+    """A class or factory with its options, for one defined where workers cannot import it by name."""
+
+    def __init__(self, target: Any, options: dict[str, Any]):
+        self.target, self.options = target, options
+
+    def __call__(self, cfg: Any) -> Any:
+        return build(self.target, cfg, self.options)
+
+
+def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int = 0, *,
+                  envs_per_worker: int | None = None, device: str = "cpu") -> ResolvedAgent:
+    """Whatever names an agent, with its options, checked up front (one-line ValueError naming the agent).
 
     Args:
-        spec: a built-in or entry-point name, ``package.module:Name`` or ``http://HOST:PORT``.
+        agent: a spec string (a built-in or entry-point name, ``package.module:Name``,
+            ``http://HOST:PORT``), a class (built as ``Class(**options)``), a factory function
+            (``f(run_config, **options)``) or an agent instance with ``act`` or ``act_batch`` (navbench's
+            protocol or Habitat's; used as is).
         options: the agent's options (a built-in's by field name; a plug-in's as its keywords).
         seed: the run's seed (it names the run when the agent's actions depend on it).
+        envs_per_worker: episodes a worker steps at once (None: the built-in's default, else the
+            class's or instance's ``num_envs``, else 1); more than 1 for an agent that cannot batch is refused.
+        device: ``auto``, ``cpu``, ``cuda`` or ``cuda:N`` (:func:`navbench.device.resolve_device`).
 
     Returns:
         The resolved agent.
     """
-    from navbench.agents import registry
+    from navbench.device import resolve_device
+
     options = dict(options or {})
+    if isinstance(agent, str):
+        resolved = _resolve_spec(agent, options, seed)
+    elif inspect.isclass(agent) or inspect.isfunction(agent):
+        spec = spec_of(agent)
+        check_options(spec, agent, options)
+        importable = not spec.startswith("__main__:") and "<locals>" not in agent.__qualname__
+        factory: Any = PluginFactory(spec, options) if importable else Bound(agent, options)  # workers import it
+        resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), batches=can_batch(agent),
+                                 envs_per_worker=_num_envs(agent))
+    elif callable(getattr(agent, "act", None)) or callable(getattr(agent, "act_batch", None)):
+        if options:
+            raise ValueError("options apply to an agent class or factory, not to an agent instance")
+        spec = spec_of(type(agent))
+        habitat_compat.check_agent(spec, agent)
+        resolved = ResolvedAgent(spec, Instance(agent), {}, plugin_label(spec, {}, seed),
+                                 envs_per_worker=_num_envs(agent),
+                                 batches=callable(getattr(agent, "act_batch", None)))
+    else:
+        raise ValueError(f"agent {agent!r}: expected an agent spec string, class, factory or instance "
+                         f"(with act or act_batch)")
+    if envs_per_worker is not None:
+        if envs_per_worker > 1 and resolved.batches is False:
+            raise ValueError(f"--envs-per-worker applies to agents that step episodes in batches (act_batch), "
+                             f"not {resolved.spec!r}, which steps one at a time")
+        resolved.envs_per_worker = envs_per_worker
+    resolved.device = resolve_device(device)
+    return resolved
+
+
+def _num_envs(agent: Any) -> int:
+    """The episodes an agent class or instance says it steps at once (``num_envs``), else 1."""
+    n = getattr(agent, "num_envs", 1)
+    return n if isinstance(n, int) and not isinstance(n, bool) and n > 0 else 1
+
+
+def _resolve_spec(spec: str, options: dict[str, Any], seed: int) -> ResolvedAgent:
+    from navbench.agents import registry
     if spec in registry.AGENTS:
         s = registry.AGENTS[spec]
         opts = registry.agent_options(spec, **options)

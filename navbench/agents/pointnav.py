@@ -27,10 +27,11 @@ class PointNavAgent:
     sensors: tuple[str, ...] = ("depth",)
 
     def __init__(self, checkpoint: str | Path | None = None, config: InferenceConfig = InferenceConfig(),
-                 num_envs: int = 1, seed: int = 0):
+                 num_envs: int = 1, seed: int = 0, device: str = "cpu"):
         self.checkpoint = Path(checkpoint) if checkpoint else DEFAULT_CHECKPOINT
         self.num_envs, self.seed = num_envs, seed  # any draws: each episode's from (seed, episode)
-        self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=num_envs, config=config)
+        self.policy = PointNavAgentPolicy(load_checkpoint(self.checkpoint), num_envs=num_envs, config=config,
+                                          device=device)
 
     def reset(self, episode: Episode) -> None:
         self.reset_env(0, episode)

@@ -62,6 +62,11 @@ def _options(cfg, cls: type[AgentOptions]) -> Any:
     return cls.from_record(cfg.agent_options)
 
 
+def _device(cfg) -> str:
+    """The run's resolved device (``"cpu"``, ``"cuda:N"``): where the policy and the real models run."""
+    return getattr(cfg, "device", "cpu")
+
+
 def _inference_config(cfg):
     """How the PointNav policy picks actions, for every agent that drives with it."""
     from navbench.policy.net import InferenceConfig
@@ -72,7 +77,7 @@ def _inference_config(cfg):
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
     return PointNavAgent(_options(cfg, PolicyOptions).checkpoint, _inference_config(cfg),
-                         num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed)
+                         num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed, device=_device(cfg))
 
 
 def scan_config(keyframe_res: str, all_frames: bool):
@@ -91,7 +96,8 @@ def _perception_config(cfg):
     from navbench.localize.benchmark import ModelDirs
 
     o = _options(cfg, MemoryOptions)
-    models = ModelDirs(**{k: Path(v) for k, v in o.models().items()})
+    models = ModelDirs(**{k: Path(v) for k, v in o.models().items()}, device=_device(cfg),
+                       precision=getattr(cfg, "precision", "fp32"))
     return PerceptionConfig(perception=o.perception, noise=o.noise, fusion=o.fusion, rerank=o.rerank,
                             prescan=scan_config(o.keyframe_res, o.all_frames), memory_root=o.memory_root,
                             models=models)
@@ -101,7 +107,7 @@ def _step_policy(cfg, num_envs: int = 1):
     from navbench.policy.checkpoint import load_checkpoint
     from navbench.policy.net import PointNavAgentPolicy
     return PointNavAgentPolicy(load_checkpoint(_options(cfg, PolicyOptions).checkpoint or DEFAULT_CHECKPOINT),
-                               num_envs=num_envs, config=_inference_config(cfg))
+                               num_envs=num_envs, config=_inference_config(cfg), device=_device(cfg))
 
 
 def _driving(cfg, build: Callable[[Any], Any]):
@@ -236,6 +242,14 @@ agent_factory = agent_spec  # a spec is its agent's factory
 def default_agent(task: str) -> str:
     """The benchmark's own method for ``task``: the memory agent for ObjectNav, the policy for PointNav."""
     return DEFAULT_TASK_AGENT[task]
+
+
+def loads_models(agent: str, options: dict[str, Any]) -> bool:
+    """Whether ``agent`` with these options loads the real perception models (not the oracle): a run then
+    keeps to one worker per machine by default, so each model is loaded once."""
+    spec = AGENTS.get(agent)
+    return spec is not None and issubclass(spec.options, PerceptionOptions) \
+        and options.get("perception") not in (None, "oracle")
 
 
 def agent_options(agent: str, **options: Any) -> dict[str, Any]:

@@ -62,6 +62,7 @@ class BenchConfig:
     scene: str | None = None  # default: the first bundled val scene
     seconds: float = 3.0
     policy: bool = True
+    device: str = "cpu"  # where the policy figures are measured (resolved: "cpu" or "cuda:N")
 
 
 def default_scene() -> Path:
@@ -186,14 +187,17 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str | bool]
     if cfg.policy:
         from navbench.policy.precision import native_bf16
         from navbench.policy.speed import measure_policy_speed
-        result.update(measure_policy_speed(seconds=cfg.seconds))
+        result.update(measure_policy_speed(seconds=cfg.seconds, device=cfg.device))
         result["native_bf16"] = native_bf16()
+        result["policy_device"] = cfg.device
     result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
 
 
 def format_report(r: dict) -> str:
     lines = [f"scene: {r['scene']} ({r['scene_triangles']} triangles, grid {r['grid_shape']})", f"cpu: {r['cpu']}"]
+    if r.get("policy_device", "cpu") != "cpu":
+        lines.append(f"policy on: {r['policy_device']}")
     labels = {
         "rgbd_steps_per_s": "env steps/s, RGB-D 224x224",
         "depth_steps_per_s": "env steps/s, depth only",

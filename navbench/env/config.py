@@ -58,7 +58,8 @@ class EnvConfig:
     start_snap_tolerance: float = 0.25
     # infrastructure
     cell_size: float = 0.05
-    gl_platform: str = "osmesa"  # or "egl"
+    # "auto": EGL when a GPU is present, else OSMesa (navbench.render.gl_platform); or "osmesa", "egl"
+    gl_platform: str = "auto"
 
     def nav_grid_config(self) -> NavGridConfig:
         """The navigability grid this body moves on: its height, radius and climb, at ``cell_size``."""

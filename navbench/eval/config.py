@@ -48,6 +48,11 @@ class RunConfig:
     # "I/N": this run is shard I (1-based) of N, the I-th of N contiguous blocks of the selected episodes
     # in file order (see select_episodes); None: all of them.
     shard: str | None = None
+    # Where the agent's torch work runs (resolved: "cpu" or "cuda:N"; records agree with the CPU's up to
+    # the last bits of float arithmetic) and the precision of real perception models ("fp32", "bf16",
+    # "fp16"). config.json records each only when it is not the default (cpu, fp32).
+    device: str = "cpu"
+    precision: str = "fp32"
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)

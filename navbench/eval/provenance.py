@@ -10,7 +10,9 @@
   protocol's: it is recorded in config.json's ``agent_options`` and shown by ``navbench table``.
 - ``navbench``: version, and the git commit with a dirty flag when run from a checkout;
   ``versions`` of Python, torch, numpy, gymnasium, pyrender and trimesh; ``opengl_renderer``; ``cpu``
-  (model and flags); it is rewritten when a run is resumed (the records may then come from two machines);
+  (model and flags); ``run_on``: the torch device, the real models' precision and the GL platform (none of
+  them part of the protocol: docs/comparing.md); it is rewritten when a run is resumed (the records may then
+  come from two machines);
 - ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
   beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to
   navbench's data root when it lies under it (``"root": "navbench"``), else as given; the episode file's
@@ -262,7 +264,32 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
     if ckpt is not None and Path(ckpt).is_file():
         files["checkpoint"] = file_entry(ckpt)
     return {"protocol": proto, "protocol_id": protocol_id(proto), "navbench": navbench_origin(),
-            "versions": versions(), "opengl_renderer": opengl_renderer(), "cpu": cpu(), "files": files}
+            "versions": versions(), "opengl_renderer": opengl_renderer(), "cpu": cpu(), "run_on": run_on(cfg),
+            "files": files}
+
+
+def run_on(cfg: Any) -> dict[str, Any]:
+    """Where a run's work ran, which is not part of its protocol: the torch device (and its name), the real
+    perception models' precision, and the GL platform the renderer is bound to (``gl_platform="auto"``:
+    EGL on a GPU, else OSMesa)."""
+    from navbench.device import device_name
+    from navbench.render.gl_platform import bound_platform
+
+    device = getattr(cfg, "device", "cpu")
+    return {"device": device, "device_name": device_name(device), "precision": getattr(cfg, "precision", "fp32"),
+            "gl_platform": bound_platform()}
+
+
+def recorded_run_on(run_dir: str | Path) -> dict[str, str]:
+    """A run directory's ``device`` and ``precision`` as its provenance.json records them; a run recorded
+    without them ran on the CPU in fp32 (there was no other choice)."""
+    try:
+        doc = json.loads((Path(run_dir) / PROVENANCE).read_bytes())
+        got = doc.get("run_on") if isinstance(doc, dict) else None
+    except (OSError, ValueError, RecursionError):
+        got = None
+    got = got if isinstance(got, dict) else {}
+    return {"device": str(got.get("device", "cpu")), "precision": str(got.get("precision", "fp32"))}
 
 
 def write_provenance(out: Path, cfg: Any, episodes: list | None = None, resume: bool = False) -> dict[str, Any]:
@@ -297,6 +324,6 @@ def merge_provenance(run_dirs: list[Path], out: Path) -> None:
     if docs[0] is None or not isinstance(docs[0], dict):
         return
     merged = dict(docs[0])
-    merged["shards"] = [{k: doc.get(k) for k in ("navbench", "versions", "opengl_renderer")} | {
+    merged["shards"] = [{k: doc.get(k) for k in ("navbench", "versions", "opengl_renderer", "run_on")} | {
         "cpu_model": (doc.get("cpu") or {}).get("model")} if isinstance(doc, dict) else None for doc in docs]
     write_atomic(Path(out) / PROVENANCE, json.dumps(merged, indent=1) + "\n")

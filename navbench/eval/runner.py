@@ -50,8 +50,11 @@ from navbench.safeio import read_input
 __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "read_records", "run", "run_dataset",
            "select_episodes", "shard_of", "summarize"]
 
-# Keys that may differ between a run and its resumption without changing any episode's result.
-_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version")
+# Keys that may differ between a run and its resumption without changing any episode's result (the device:
+# beyond float rounding, docs/comparing.md).
+_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device")
+# RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
+_DEFAULT_OMITTED = {"shard": None, "device": "cpu", "precision": "fp32"}
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -88,10 +91,12 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
 
 
 def config_json(cfg: RunConfig) -> dict[str, Any]:
-    """What config.json records: the RunConfig (its shard only when set) and navbench's version."""
+    """What config.json records: the RunConfig (its shard, device and precision only when not the default)
+    and navbench's version."""
     out = dict(dataclasses.asdict(cfg), navbench_version=__version__)
-    if out.get("shard") is None:
-        out.pop("shard", None)
+    for key, default in _DEFAULT_OMITTED.items():
+        if out.get(key) == default:
+            out.pop(key, None)
     return out
 
 

@@ -202,8 +202,9 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
                  mix_protocols: bool = False, per_scene: int | None = None) -> list[dict[str, Any]]:
     """:func:`compare_records` of ``base`` with each of ``others`` (run directories), refusing runs under
     another protocol (unless ``mix_protocols``) or on another episode file; with ``per_scene``, on the
-    first ``per_scene`` episodes of each scene only."""
-    from navbench.eval.provenance import check_same_protocol
+    first ``per_scene`` episodes of each scene only. The device and precision each run used are not part
+    of the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports both."""
+    from navbench.eval.provenance import check_same_protocol, recorded_run_on
     from navbench.eval.rundir import read_records
 
     base, others = Path(base), [Path(o) for o in others]
@@ -230,7 +231,8 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
         except StatsError as exc:
             raise StatsError(f"{d} vs {base}: {exc}") from None
         out.append({"base_run": str(base), "other_run": str(d), "protocol_id": ids[0],
-                    **({"other_protocol_id": pid} if pid != ids[0] else {}), **res})
+                    **({"other_protocol_id": pid} if pid != ids[0] else {}),
+                    "run_on": {"base": recorded_run_on(base), "other": recorded_run_on(d)}, **res})
     return out
 
 
@@ -243,6 +245,11 @@ def format_comparison(res: dict[str, Any]) -> str:
     lines = [f"BASE  {res['base_run']}", f"OTHER {res['other_run']}"]
     if "other_protocol_id" in res:
         lines.append(f"MIXED PROTOCOLS: {res['protocol_id']} vs {res['other_protocol_id']} (not comparable)")
+    on = res.get("run_on") or {}
+    if on and on["base"] != on["other"]:  # not the protocol: compared, and said
+        b, o = on["base"], on["other"]
+        lines.append(f"run on {b['device']} {b['precision']} vs {o['device']} {o['precision']}: the same protocol; "
+                     f"records differ in float rounding, so a difference includes that noise (docs/comparing.md)")
     dropped = res["dropped"]
     what = "" if not dropped else ": " + ", ".join(
         f"{n} {why}" for why, n in sorted({d["reason"]: sum(x["reason"] == d["reason"] for x in dropped)

@@ -20,11 +20,13 @@ vocabulary.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -58,11 +60,14 @@ BENCHMARK_PRESCAN = PrescanConfig(store_resolution=(160, 120))
 
 @dataclass(frozen=True)
 class ModelDirs:
-    """Local checkpoint directories for the real perception stack."""
+    """The real perception stack: its local checkpoint directories, the device the models run on
+    (resolved: ``"cpu"`` or ``"cuda:N"``) and their precision (``fp32``, ``bf16``, ``fp16``)."""
 
     siglip2: Path | None = None
     qwen_vl: Path | None = None
     sam3: Path | None = None
+    device: str = "cpu"
+    precision: str = "fp32"
 
 
 def oracle_perception(asset: SceneAsset, noise: NoiseProfile, models: ModelDirs) -> Perception:
@@ -73,15 +78,24 @@ def oracle_perception(asset: SceneAsset, noise: NoiseProfile, models: ModelDirs)
 
 def model_perception(asset: SceneAsset, noise: NoiseProfile, models: ModelDirs) -> Perception:
     """SigLIP2 retrieval, Qwen2.5-VL re-ranking and captioning, SAM 3 masks, all from local directories."""
-    from navbench.localize.backends import QwenVLReranker, Sam3Segmenter, Siglip2Encoder
-
     if not noise.is_noiseless:
         raise ValueError("noise profiles simulate perception errors for the oracle only; use noise='none'")
     missing = [k for k in ("siglip2", "qwen_vl", "sam3") if getattr(models, k) is None]
     if missing:
         raise ValueError(f"perception 'siglip2+qwen2.5-vl+sam3' needs model directories for: {', '.join(missing)}")
-    vlm = QwenVLReranker(models.qwen_vl)
-    return Perception(Siglip2Encoder(models.siglip2), vlm, Sam3Segmenter(models.sam3), captioner=vlm)
+    encoder, vlm, segmenter = _load_models(models)
+    return Perception(encoder, vlm, segmenter, captioner=vlm)
+
+
+@functools.lru_cache(maxsize=1)
+def _load_models(models: ModelDirs) -> tuple[Any, Any, Any]:
+    """The three models, loaded once per process and device: every scene's stack, and every env slot of a
+    worker (its envs batched), shares them, so one worker holds one copy of each on its GPU."""
+    from navbench.localize.backends import QwenVLReranker, Sam3Segmenter, Siglip2Encoder
+
+    run_on = dict(device=models.device, precision=models.precision)
+    return (Siglip2Encoder(models.siglip2, **run_on), QwenVLReranker(models.qwen_vl, **run_on),
+            Sam3Segmenter(models.sam3, **run_on))
 
 
 PERCEPTION: dict[str, Callable[[SceneAsset, NoiseProfile, ModelDirs], Perception]] = {

@@ -347,16 +347,20 @@ class PointNavAgentPolicy:
     """
 
     def __init__(
-        self, policy: PointNavResNetPolicy, num_envs: int = 1, config: InferenceConfig = InferenceConfig()
+        self, policy: PointNavResNetPolicy, num_envs: int = 1, config: InferenceConfig = InferenceConfig(),
+        device: torch.device | str | None = None,
     ) -> None:
         self.config = config
         self.num_envs = num_envs
-        self.policy = policy.eval()
+        # the network and its recurrent state live on `device` (None: where the policy's weights are, as a
+        # trainer's shared learner); decoding and its draws stay on the CPU
+        self.device = torch.device(device) if device is not None else next(policy.parameters()).device
+        self.policy = policy.eval().to(self.device)
         if config.channels_last:
             self.policy = self.policy.to(memory_format=torch.channels_last)
-        self.hidden = policy.initial_hidden(num_envs)
-        self.prev_actions = torch.zeros(num_envs, dtype=torch.long)
-        self.masks = torch.zeros(num_envs, dtype=torch.bool)
+        self.hidden = self.policy.initial_hidden(num_envs, self.device)
+        self.prev_actions = torch.zeros(num_envs, dtype=torch.long, device=self.device)
+        self.masks = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         self.goal_world = np.full((num_envs, 3), np.nan)
         # until reset(i, seed=) each env draws from its own stream, so no two envs repeat each other's draws
         self.rngs = [np.random.default_rng([0, k]) for k in range(num_envs)]
@@ -441,13 +445,18 @@ class PointNavAgentPolicy:
             raise ValueError(
                 f"expected a batch of {len(envs)}, got depth {tuple(x.shape)} and pointgoal {tuple(goal.shape)}"
             )
-        with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=self.config.bf16):
+        dev = self.device
+        with torch.inference_mode(), torch.autocast(dev.type, dtype=torch.bfloat16, enabled=self.config.bf16):
             # The two halves of PointNavResNetPolicy.forward, so the encoder output can be handed out.
-            visual = self.policy.net.encode_depth(x)
-            logits, _, hidden = self.policy.forward_features(visual[None], goal[None], self.prev_actions[idx][None],
-                                                             self.masks[idx][None], self.hidden[idx])
+            visual = self.policy.net.encode_depth(x.to(dev))
+            logits, _, hidden = self.policy.forward_features(visual[None], goal.to(dev)[None],
+                                                             self.prev_actions[idx][None], self.masks[idx][None],
+                                                             self.hidden[idx])
         # Outside inference_mode these ops give normal tensors, which reset_hidden may edit in place.
-        actions = self._decode(logits[0], goal, envs)
+        actions = self._decode(logits[0].cpu(), goal, envs)
+        visual = visual.cpu()
+        if dev.type != "cpu":
+            actions = actions.to(dev)
         if rows is None:
             self.hidden = hidden.float().clone()
             self.prev_actions = actions.clone()
@@ -455,7 +464,7 @@ class PointNavAgentPolicy:
             self.hidden[idx] = hidden.float()
             self.prev_actions[idx] = actions
         self.masks[idx] = True
-        return actions.numpy().astype(np.int64), visual.float()  # an inference tensor: read it, or copy it
+        return actions.cpu().numpy().astype(np.int64), visual.float()  # an inference tensor: read it, or copy it
 
     def _decode(self, logits: torch.Tensor, goal: torch.Tensor, envs: list[int]) -> torch.Tensor:
         """Actions (len(envs),) from the logits (len(envs), A) of ``envs`` as ``config.decoding`` says."""

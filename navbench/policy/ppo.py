@@ -104,12 +104,13 @@ class Rollout:
         obs = self.slots.obs
         depth = prepare_depth(np.stack([o["depth"] for o in obs]), self.policy.cfg.input_size)
         goal = torch.as_tensor(np.stack([o["pointgoal_with_gps_compass"] for o in obs]), dtype=torch.float32)
+        dev = next(self.policy.parameters()).device  # the rollout's own state stays on the CPU
         with torch.inference_mode():
-            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=self.cfg.act_bf16):
-                feat = self.policy.net.encode_depth(depth).float()
-            logits, value, hidden = self.policy.forward_features(feat[None], goal[None], self.prev[None],
-                                                                 self.mask[None], self.hidden)
-        return feat.clone(), goal, logits[0].clone(), value[0].clone(), hidden.clone()
+            with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=self.cfg.act_bf16):
+                feat = self.policy.net.encode_depth(depth.to(dev)).float()
+            logits, value, hidden = self.policy.forward_features(
+                feat[None], goal.to(dev)[None], self.prev.to(dev)[None], self.mask.to(dev)[None], self.hidden.to(dev))
+        return feat.cpu().clone(), goal, logits[0].cpu().clone(), value[0].cpu().clone(), hidden.cpu().clone()
 
     def collect(self) -> tuple[dict[str, torch.Tensor], list[dict]]:
         """``rollout_steps`` steps of every env: (the update's tensors, success and SPL of the episodes that
@@ -164,9 +165,12 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     if cfg.bc_weight > 0:
         stats["bc_loss"] = []
     params = [p for p in policy.parameters() if p.requires_grad]
+    dev = next(policy.parameters()).device  # the rollout's tensors are on the CPU; each minibatch goes there
+    data = {**{k: v.to(dev) for k, v in data.items()}, "adv": adv.to(dev)}
+    adv = data["adv"]
     for _ in range(cfg.ppo_epochs):
         for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
-            idx = torch.as_tensor(idx)
+            idx = torch.as_tensor(idx, device=dev)
             logits, value, _ = policy.forward_features(data["feat"][:, idx], data["goal"][:, idx],
                                                        data["prev"][:, idx], data["mask"][:, idx], data["hidden0"][idx])
             logp_all = F.log_softmax(logits, -1)
@@ -204,9 +208,11 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
 
 
 def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False,
-              state_dir: Path = Path("runs/pointnav/ppo_state"), log_every=print) -> dict[str, float]:
+              state_dir: Path = Path("runs/pointnav/ppo_state"), log_every=print, device: str = "cpu"
+              ) -> dict[str, float]:
     """Fine-tune ``init``'s weights under ``cfg`` (or resume from ``state_dir``); writes ``out`` and its
-    ``.log.csv``."""
+    ``.log.csv``. The updates (and, with one worker, the rollouts' forward passes) run on ``device``
+    (resolved); rollout workers act on the CPU."""
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     out, state_dir = Path(out), Path(state_dir)
@@ -215,7 +221,7 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
     state_path = state_dir / "ppo_state.pt"
     log_path = out.with_suffix(".log.csv")
 
-    policy = PointNavResNetPolicy(PolicyNetConfig())
+    policy = PointNavResNetPolicy(PolicyNetConfig()).to(device)
     policy.net.visual_encoder.requires_grad_(False)
     # Adam's state must not accumulate on a frozen actor during the warm-up: Adam moves a parameter
     # whose gradient is zero by its momentum, so the actor's gradients are set to None instead.
@@ -278,8 +284,9 @@ def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frame
     return last
 
 
-def main(cfg: PPOConfig, out: Path, state_dir: Path, init: Path | None, resume: bool) -> dict[str, float]:
+def main(cfg: PPOConfig, out: Path, state_dir: Path, init: Path | None, resume: bool,
+         device: str = "cpu") -> dict[str, float]:
     """``navbench train ppo``: fine-tune, print the last log row as JSON."""
-    result = train_ppo(cfg, out, init, resume=resume, state_dir=state_dir)
+    result = train_ppo(cfg, out, init, resume=resume, state_dir=state_dir, device=device)
     print(json.dumps(result))
     return result

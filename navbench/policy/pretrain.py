@@ -169,7 +169,10 @@ def losses(policy, head, batch, mask: torch.Tensor, cfg: PretrainConfig) -> dict
     return out
 
 
-def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = False, log=print) -> dict[str, float]:
+def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = False, log=print,
+             device: str = "cpu") -> dict[str, float]:
+    """Pre-train the visual encoder under ``cfg`` (or resume from ``state_dir``); the updates run on ``device``
+    (resolved), the frames are rendered on the CPU."""
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     out, state_dir = Path(out), Path(state_dir)
@@ -182,10 +185,10 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
     log(f"{n} frames ready in {time.time() - t0:.0f} s")
     train_n = n - cfg.heldout_frames
     fwd, right = patch_offsets(cfg.patch_cells, cfg.patch_cell_size)
-    mask = torch.from_numpy(fov_mask(fwd, right, EnvConfig.hfov_deg).astype(np.float32))
+    mask = torch.from_numpy(fov_mask(fwd, right, EnvConfig.hfov_deg).astype(np.float32)).to(device)
 
-    policy = PointNavResNetPolicy(PolicyNetConfig()).to(memory_format=torch.channels_last)
-    head = GeometryHead(policy.net.visual_fc[1].out_features, len(cfg.ray_headings_deg), cfg.patch_cells)
+    policy = PointNavResNetPolicy(PolicyNetConfig()).to(device, memory_format=torch.channels_last)
+    head = GeometryHead(policy.net.visual_fc[1].out_features, len(cfg.ray_headings_deg), cfg.patch_cells).to(device)
     params = list(policy.net.visual_encoder.parameters()) + list(policy.net.visual_fc.parameters()) + \
         list(head.parameters())
     opt = torch.optim.AdamW(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
@@ -212,8 +215,8 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
     policy.train()
     for u in progress(range(start, cfg.updates), desc="encoder updates"):
         idx = rng.integers(train_n, size=cfg.batch_size)
-        batch = batch_tensors(data, idx, flip=rng.random(cfg.batch_size) < 0.5)
-        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg.bf16):
+        batch = tuple(t.to(device) for t in batch_tensors(data, idx, flip=rng.random(cfg.batch_size) < 0.5))
+        with torch.autocast(torch.device(device).type, dtype=torch.bfloat16, enabled=cfg.bf16):
             res = losses(policy, head, batch, mask, cfg)
         opt.zero_grad(set_to_none=True)
         res["loss"].backward()
@@ -226,7 +229,8 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
         if done % cfg.log_every == 0 or done == cfg.updates:
             policy.eval()
             with torch.inference_mode():
-                val = [losses(policy, head, batch_tensors(data, heldout[i:i + 256]), mask, cfg)
+                val = [losses(policy, head, tuple(t.to(device) for t in batch_tensors(data, heldout[i:i + 256])),
+                              mask, cfg)
                        for i in range(0, len(heldout), 256)]
             policy.train()
             last = {"update": done, "samples": done * cfg.batch_size, "lr": sched.get_last_lr()[0],
@@ -245,8 +249,8 @@ def pretrain(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool = Fal
     return last
 
 
-def main(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool) -> dict[str, float]:
+def main(cfg: PretrainConfig, out: Path, state_dir: Path, resume: bool, device: str = "cpu") -> dict[str, float]:
     """``navbench train encoder``: pre-train, print the last log row as JSON."""
-    result = pretrain(cfg, out, state_dir, resume=resume)
+    result = pretrain(cfg, out, state_dir, resume=resume, device=device)
     print(json.dumps(result))
     return result

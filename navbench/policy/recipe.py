@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import shutil
 import sys
 import tomllib
@@ -34,6 +35,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
+from navbench.device import DEVICES, device_arg, resolve_device
 from navbench.paths import CONFIGS_DIR, ROOT
 from navbench.policy.config import CONFIGS
 
@@ -151,18 +153,19 @@ def bf16_warning(trainer: str, cfg: Any) -> None:
         print(warning, file=sys.stderr)
 
 
-def run_trainer(trainer: str, cfg: Any, out: Path, state_dir: Path, init: Path | None, resume: bool) -> Any:
-    """Run one trainer (imported here: the CLI stays light until it trains)."""
+def run_trainer(trainer: str, cfg: Any, out: Path, state_dir: Path, init: Path | None, resume: bool,
+                device: str = "cpu") -> Any:
+    """Run one trainer (imported here: the CLI stays light until it trains) with its updates on ``device``."""
     bf16_warning(trainer, cfg)
     if trainer == "encoder":
         from navbench.policy.pretrain import main
 
-        return main(cfg, out, state_dir, resume)
+        return main(cfg, out, state_dir, resume, device=device)
     if trainer == "dagger":
         from navbench.policy.train import main
     else:
         from navbench.policy.ppo import main
-    return main(cfg, out, state_dir, init, resume)
+    return main(cfg, out, state_dir, init, resume, device=device)
 
 
 def run_recipe(recipe: Recipe, out_dir: Path, resume: bool = False, only: str | None = None,
@@ -227,6 +230,8 @@ def add_train_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
     tr.add_argument("--out", help="also copy the recipe's final checkpoint to this path")
     tr.add_argument("--init", help="the first stage's starting checkpoint, when the recipe's first stage is not "
                                    "the encoder")
+    tr.add_argument("--device", type=device_arg, default="cpu",
+                    help=f"where the updates run: {DEVICES} (default cpu; rollout workers act on the CPU)")
     trainers = tr.add_subparsers(dest="trainer", metavar="{encoder,dagger,ppo}")
     for name, cls in CONFIGS.items():
         p = trainers.add_parser(name, help=TRAINER_HELP[name], description=TRAINER_HELP[name])
@@ -245,13 +250,15 @@ def add_train_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
 
 def main(args: argparse.Namespace) -> int:
     """``navbench train``'s entry: a recipe with ``--config``, else the trainer subcommand."""
+    device = resolve_device(args.device)
     if args.config is not None:
         if args.trainer is not None:
             raise ValueError("give either --config FILE or a trainer (encoder, dagger, ppo), not both")
         recipe = load_recipe(args.config)
         out_dir = Path(args.out_dir) if args.out_dir else RUNS_DIR / recipe.name
         run_recipe(recipe, out_dir, resume=args.resume, only=args.only,
-                   out=Path(args.out) if args.out else None, init=Path(args.init) if args.init else None)
+                   out=Path(args.out) if args.out else None, init=Path(args.init) if args.init else None,
+                   run=functools.partial(run_trainer, device=device))
         return 0
     if args.trainer is None:
         raise ValueError("give --config FILE (e.g. configs/pointnav/2h.toml) or a trainer: encoder, dagger, ppo")
@@ -267,5 +274,5 @@ def main(args: argparse.Namespace) -> int:
     out = Path(args.stage_out)
     state_dir = Path(args.state_dir) if args.state_dir else out.with_name(out.stem + "_state")
     init = getattr(args, "stage_init", None)
-    run_trainer(args.trainer, cfg, out, state_dir, Path(init) if init else None, args.stage_resume)
+    run_trainer(args.trainer, cfg, out, state_dir, Path(init) if init else None, args.stage_resume, device=device)
     return 0

@@ -181,7 +181,7 @@ class Collection:
     def collect(self, policy: torch.nn.Module, *args: Any) -> Any:
         if self.local is not None:
             return self.local.collect(*args)
-        weights = {k: v for k, v in policy.state_dict().items()
+        weights = {k: v.cpu() for k, v in policy.state_dict().items()  # the workers' policies are on the CPU
                    if not self._encoder_sent or not k.startswith("net.visual_encoder.")}
         self._encoder_sent = True
         share = self.cls.worker_args(args, len(self.pool))

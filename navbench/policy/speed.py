@@ -32,9 +32,12 @@ def _rate(step, items_per_call: int, seconds: float, warmup: int = 3) -> float:
             return calls * items_per_call / elapsed
 
 
-def _inference_rate(policy: PointNavResNetPolicy, n: int, config: InferenceConfig, seconds: float) -> float:
+def inference_rate(policy: PointNavResNetPolicy, n: int, config: InferenceConfig, seconds: float,
+                   device: str = "cpu") -> float:
+    """Frames/s of :class:`PointNavAgentPolicy` stepping ``n`` envs at once on ``device`` (actions come back
+    to the CPU each step, which also waits for the GPU)."""
     rng = np.random.default_rng(0)
-    agent = PointNavAgentPolicy(policy, n, config)
+    agent = PointNavAgentPolicy(policy, n, config, device=device)
     size = policy.cfg.input_size
     depth = rng.random((n, *size, 1), dtype=np.float32)
     goal = np.stack([rng.uniform(0.5, 5.0, n), rng.uniform(-np.pi, np.pi, n)], axis=1).astype(np.float32)
@@ -66,19 +69,20 @@ def _training_rate(policy: PointNavResNetPolicy, steps: int, envs: int, seconds:
 
 
 def measure_policy_speed(
-    seconds: float = 3.0, config: InferenceConfig = InferenceConfig(), training: bool = False
+    seconds: float = 3.0, config: InferenceConfig = InferenceConfig(), training: bool = False, device: str = "cpu"
 ) -> dict[str, float]:
     """Inference steps/s at batch 1 and frames/s at batch 8 (each timed for ``seconds``).
 
     Keys ``policy_steps_per_s_b1``, ``policy_frames_per_s_b8``; with ``training``, also
     ``policy_train_samples_per_s_b32`` (4-step x 8-env sequences). Runs on torch's current thread
-    count; set ``torch.set_num_threads`` before calling to pin it.
+    count; set ``torch.set_num_threads`` before calling to pin it. ``device``: where inference runs (the
+    training figure is the CPU's).
     """
     torch.manual_seed(0)
     policy = PointNavResNetPolicy(PolicyNetConfig())
     result = {
-        "policy_steps_per_s_b1": _inference_rate(policy, 1, config, seconds),
-        "policy_frames_per_s_b8": _inference_rate(policy, 8, config, seconds),
+        "policy_steps_per_s_b1": inference_rate(policy, 1, config, seconds, device),
+        "policy_frames_per_s_b8": inference_rate(policy, 8, config, seconds, device),
     }
     if training:
         result["policy_train_samples_per_s_b32"] = _training_rate(PointNavResNetPolicy(), 4, 8, seconds)

@@ -266,8 +266,10 @@ def train_step(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, batch: 
                cfg: TrainConfig) -> tuple[float, float]:
     """One update on a batch of stored episodes: weighted cross-entropy to the expert's labels. (loss, accuracy)"""
     T, n = batch["label"].shape
-    hidden = policy.initial_hidden(n)
-    with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg.bf16):
+    dev = next(policy.parameters()).device
+    batch = {k: v.to(dev) for k, v in batch.items()}
+    hidden = policy.initial_hidden(n, dev)
+    with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=cfg.bf16):
         logits, _, _ = policy.forward_features(batch["feat"].float(), batch["goal"], batch["prev"], batch["mask"],
                                                hidden)
     logits = logits.float()
@@ -284,8 +286,10 @@ def train_step(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, batch: 
 
 
 def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = Path("runs/pointnav/dagger_state"),
-          init: Path | None = None, log_every=print) -> dict[str, float]:
-    """Run ``cfg`` from ``init``'s weights (or resume from ``state_dir``); writes ``out`` and its ``.log.csv``."""
+          init: Path | None = None, log_every=print, device: str = "cpu") -> dict[str, float]:
+    """Run ``cfg`` from ``init``'s weights (or resume from ``state_dir``); writes ``out`` and its ``.log.csv``.
+    The learner's updates (and, with one worker, its rollouts) run on ``device`` (resolved); rollout workers
+    act on the CPU."""
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
@@ -296,7 +300,7 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     state_path = state_dir / "train_state.pt"  # weights + optimizer: resumable, not shipped
     log_path = out.with_suffix(".log.csv")
 
-    policy = build_learner(cfg)
+    policy = build_learner(cfg).to(device)
     opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr,
                            weight_decay=cfg.weight_decay)
     start_it, frames_total, wall0 = 0, 0, 0.0
@@ -373,8 +377,9 @@ def _train_loop(cfg, policy, opt, rng, source: Collection, start_it, frames_tota
     return last
 
 
-def main(cfg: TrainConfig, out: Path, state_dir: Path, init: Path | None, resume: bool) -> dict[str, float]:
+def main(cfg: TrainConfig, out: Path, state_dir: Path, init: Path | None, resume: bool,
+         device: str = "cpu") -> dict[str, float]:
     """``navbench train dagger``: train, print the last log row as JSON."""
-    result = train(cfg, out, resume=resume, state_dir=state_dir, init=init)
+    result = train(cfg, out, resume=resume, state_dir=state_dir, init=init, device=device)
     print(json.dumps(result))
     return result

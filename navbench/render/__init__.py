@@ -1,7 +1,7 @@
 """Headless rendering: RGB, linear depth and instance ids of a scene from a camera pose.
 
-Importing this package sets ``PYOPENGL_PLATFORM=osmesa`` unless already set and patches pyrender's
-shader cache; it creates no GL context (a :class:`Renderer` does).
+Importing this package sets ``PYOPENGL_PLATFORM`` unless already set (EGL on a GPU, else OSMesa) and
+patches pyrender's shader cache; it creates no GL context (a :class:`Renderer` does).
 
 Modules: :mod:`.camera` (camera model, poses, backprojection; plain numpy), :mod:`.renderer` (the
 :class:`Renderer`), :mod:`.chunk_meshes` (the scene as chunked pyrender meshes), :mod:`.culling`

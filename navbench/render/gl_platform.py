@@ -1,16 +1,38 @@
 """The OpenGL platform navbench renders on, chosen before anything imports PyOpenGL.
 
-Importing this module sets ``PYOPENGL_PLATFORM`` to ``osmesa`` unless it is already set (set it to
-``egl`` before the first import to use EGL) and ``LP_NUM_THREADS`` to 0 unless set (fork safety,
-below). Every module of :mod:`navbench.render` that imports PyOpenGL or pyrender imports this one first.
+Importing this module sets ``PYOPENGL_PLATFORM`` unless it is already set: ``egl`` when a GPU EGL can
+render on is present (:func:`egl_device_present`), else ``osmesa`` (a CPU-only machine renders on
+OSMesa, as the reference records were). Set it before the first import to choose. It also sets
+``LP_NUM_THREADS`` to 0 unless set (fork safety, below). Every module of :mod:`navbench.render` that
+imports PyOpenGL or pyrender imports this one first; ``gl_platform="auto"`` means the bound platform.
 """
 
 from __future__ import annotations
 
+import ctypes.util
+import glob
 import os
 
+
+def egl_device_present() -> bool:
+    """Whether EGL has a GPU to render on: an NVIDIA device node with NVIDIA's EGL library (a container
+    started without the graphics capability has the node but not the library), or a DRM render node with
+    Mesa's. Mesa's EGL also runs on llvmpipe without a GPU, but there OSMesa's direct draw path is faster."""
+    if ctypes.util.find_library("EGL") is None:
+        return False
+    if glob.glob("/dev/nvidia[0-9]*") and ctypes.util.find_library("EGL_nvidia") is not None:
+        return True
+    return bool(glob.glob("/dev/dri/renderD*")) and ctypes.util.find_library("EGL_mesa") is not None
+
+
+def auto_platform() -> str:
+    """What ``gl_platform="auto"`` binds when ``PYOPENGL_PLATFORM`` is not set: EGL on a GPU, else OSMesa."""
+    return "egl" if egl_device_present() else "osmesa"
+
+
 # PyOpenGL binds its platform on first import, so this must run before pyrender is imported.
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+if not os.environ.get("PYOPENGL_PLATFORM"):
+    os.environ["PYOPENGL_PLATFORM"] = auto_platform()
 # llvmpipe (OSMesa) starts its rasterizer threads with the first GL context and keeps them for the
 # life of the process; a process forked after that (multiprocessing's default on Linux, e.g.
 # Gymnasium's AsyncVectorEnv) inherits the thread pool without its threads and hangs on its first
@@ -24,6 +46,7 @@ os.environ.setdefault("LP_NUM_THREADS", "0")
 import OpenGL.platform  # noqa: E402
 
 PLATFORMS = ("osmesa", "egl")
+AUTO = "auto"  # the platform PyOpenGL is bound to (EnvConfig.gl_platform's default)
 
 
 def bound_platform() -> str:

@@ -60,7 +60,7 @@ from navbench.render.culling import (
 )
 from navbench.render.frame import MAX_INSTANCE_ID, RenderOutput, decode_ids
 from navbench.render.gl_direct import DirectDraw
-from navbench.render.gl_platform import PLATFORMS, bound_platform
+from navbench.render.gl_platform import AUTO, PLATFORMS, bound_platform
 from navbench.render.pyrender_fixes import multisample_disabled
 from navbench.scene.annotations import STRUCTURE_ID
 from navbench.scene.asset import SceneAsset
@@ -87,7 +87,7 @@ class Renderer:
     """Renders one scene from arbitrary camera poses. Reuse it: construction uploads the scene.
 
     ``platform`` must be the one PyOpenGL is bound to (:func:`bound_platform`, fixed by
-    ``PYOPENGL_PLATFORM`` when OpenGL is first imported).
+    ``PYOPENGL_PLATFORM`` when OpenGL is first imported); ``"auto"`` (default) is that one.
     ``max_chunk_faces`` bounds the triangles merged into one node (see the module docstring);
     ``frustum_culling=False`` draws every chunk (for checking the culling); ``occlusion_culling``
     (default: on for scenes of :data:`OCCLUSION_MIN_FACES` triangles or more) skips chunks hidden
@@ -102,14 +102,15 @@ class Renderer:
         self,
         asset: SceneAsset,
         camera: CameraConfig = CameraConfig(),
-        platform: str = "osmesa",
+        platform: str = AUTO,
         max_chunk_faces: int = 60_000,
         frustum_culling: bool = True,
         occlusion_culling: bool | None = None,
     ) -> None:
-        if platform not in PLATFORMS:
-            raise RenderError(f"platform must be one of {PLATFORMS}, got {platform!r}")
         bound = bound_platform()
+        platform = bound if platform == AUTO else platform
+        if platform not in PLATFORMS:
+            raise RenderError(f"platform must be one of {(AUTO, *PLATFORMS)}, got {platform!r}")
         if platform != bound:
             raise RenderError(
                 f"platform {platform!r} requested but PyOpenGL is bound to {bound!r}; set "

@@ -204,3 +204,68 @@ def test_pip_installed_plugin_runs_by_name(tmp_path, pointnav_file, agent_module
                     "--limit", "2", "--workers", "1", "-q", "--out", str(tmp_path / "run")], check=True, timeout=300,
                    cwd=tmp_path)
     assert len(read_records(tmp_path / "run" / "episodes.jsonl")) == 2
+
+
+class _Walker:
+    """Defined at module level, so workers can import it by name."""
+    num_envs = 3
+
+    def __init__(self, stop_after: int = 4, device: str = "cpu"):
+        self.stop_after, self.device = stop_after, device
+
+    def reset(self, episode=None):
+        pass
+
+    def act(self, observations):
+        return 1
+
+    def act_batch(self, observations):
+        return [1] * len(observations)
+
+
+def test_one_function_resolves_every_form_an_agent_takes():
+    from navbench.agents.plugins import Bound, Instance, PluginFactory, ResolvedAgent
+
+    spec = f"{_Walker.__module__}:_Walker"
+    by_class = resolve_agent(_Walker, {"stop_after": 2}, device="cpu")
+    assert isinstance(by_class, ResolvedAgent) and by_class.spec == spec and by_class.device == "cpu"
+    assert isinstance(by_class.factory, PluginFactory) and by_class.batches and by_class.envs_per_worker == 3
+    built = by_class.factory(type("Cfg", (), {"device": "cpu", "task": "pointnav"})())
+    assert built.stop_after == 2 and built.device == "cpu"  # the run's device reaches a plug-in that takes one
+
+    def make(cfg, stop_after=1):
+        return _Walker(stop_after)
+    local = resolve_agent(make, {}, seed=3, envs_per_worker=2)
+    assert isinstance(local.factory, Bound) and local.batches is None and local.envs_per_worker == 2
+    assert local.label.endswith("seed3")
+
+    instance = resolve_agent(_Walker(), device="auto")
+    assert isinstance(instance.factory, Instance) and instance.device in ("cpu", "cuda:0")
+    with pytest.raises(ValueError, match="options apply to an agent class or factory"):
+        resolve_agent(_Walker(), {"stop_after": 1})
+
+    class Single:
+        def reset(self):
+            pass
+
+        def act(self, observations):
+            return 0
+    with pytest.raises(ValueError, match="--envs-per-worker applies to agents that step episodes in batches"):
+        resolve_agent(Single, {}, envs_per_worker=2)
+    with pytest.raises(ValueError, match="expected an agent spec string, class, factory or instance"):
+        resolve_agent(42)
+    with pytest.raises(ValueError, match="device 'gpu'"):
+        resolve_agent("oracle", device="gpu")
+    builtin = resolve_agent("pointnav", {"decoding": "argmax"})
+    assert builtin.builtin and builtin.envs_per_worker == 8 and builtin.label == "pointnav-argmax"
+
+
+def test_the_api_holds_no_agent_resolution():
+    import ast
+
+    import navbench.api
+    tree = ast.parse(Path(navbench.api.__file__).read_text())
+    from_agents = {(n.module, a.name) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+                   and (n.module or "").startswith("navbench.agents") for a in n.names}
+    assert from_agents == {("navbench.agents.plugins", "resolve_agent"), ("navbench.agents.registry", "default_agent")}
+    assert not [n.name for n in ast.walk(tree) if isinstance(n, ast.ClassDef)]

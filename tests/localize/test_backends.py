@@ -226,3 +226,29 @@ def test_sam3_postprocessing_picks_best_query_and_upsamples(sam3_dir):
     assert abs(cols.min() - 60) <= 1 and abs(cols.max() - 89) <= 1
     seg.score_threshold = 0.9  # best score 0.84 < 0.9: nothing found
     assert seg.segment(np.zeros((80, 120, 3), np.uint8), "red chair")[0] is None
+
+
+# ------------------------------------------------------------------ device, precision, loaded once
+def test_real_models_load_once_per_process_at_the_precision_asked(siglip_dir, qwen_dir, sam3_dir):
+    from navbench.agents.registry import loads_models
+    from navbench.localize.backends.oracle import NoiseProfile
+    from navbench.localize.benchmark import ModelDirs, _load_models, model_perception
+
+    models = ModelDirs(siglip2=siglip_dir, qwen_vl=qwen_dir, sam3=sam3_dir, device="cpu", precision="bf16")
+    first = model_perception(None, NoiseProfile(), models)
+    again = model_perception(None, NoiseProfile(), models)  # another scene's stack: the same models
+    assert first.encoder is again.encoder and first.reranker is again.reranker is again.captioner
+    assert first.segmenter is again.segmenter
+    for backend in (first.encoder, first.reranker, first.segmenter):
+        assert next(backend.model.parameters()).dtype == torch.bfloat16 and backend.device.type == "cpu"
+    ims = images(np.random.default_rng(3))
+    emb = first.encoder.encode_images(ims)
+    assert emb.dtype == np.float32 and np.allclose(np.linalg.norm(emb, axis=1), 1.0, atol=1e-5)
+    full = Siglip2Encoder(siglip_dir).encode_images(ims)
+    assert np.all(np.sum(emb * full, axis=1) > 0.98)  # bf16 weights: close to fp32, not equal
+    assert isinstance(first.reranker.reply(ims[0], "red chair"), str)
+    mask, score = first.segmenter.segment(ims[0], "red chair")
+    assert 0.0 <= score <= 1.0
+    _load_models.cache_clear()
+    assert loads_models("memory", {"perception": "siglip2+qwen2.5-vl+sam3"})
+    assert not loads_models("memory", {}) and not loads_models("pointnav", {"perception": "x"})

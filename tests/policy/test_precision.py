@@ -43,7 +43,7 @@ def test_the_warning_names_the_flags_only_on_an_emulating_cpu(monkeypatch):
 def _fake_trainers(monkeypatch) -> list:
     started = []
     for name, module in TRAINERS.items():
-        monkeypatch.setattr(module, "main", lambda cfg, *args, name=name: started.append((name, cfg)))
+        monkeypatch.setattr(module, "main", lambda cfg, *args, name=name, **kw: started.append((name, cfg)))
     return started
 
 

@@ -177,10 +177,10 @@ def _fake_trainers(monkeypatch) -> list:
     calls = []
 
     def fake(name):
-        def run(cfg, out, state_dir, *rest):
+        def run(cfg, out, state_dir, *rest, device="cpu"):
             init = rest[0] if len(rest) == 2 else None
             calls.append({"trainer": name, "cfg": cfg, "out": Path(out), "state_dir": Path(state_dir), "init": init,
-                          "resume": rest[-1]})
+                          "resume": rest[-1], "device": device})
             Path(out).parent.mkdir(parents=True, exist_ok=True)
             Path(out).write_text(name)
         return run
@@ -254,3 +254,17 @@ def test_options_reach_the_config_and_foreign_options_are_argparse_errors(monkey
     assert main(["train"]) == 2  # neither a recipe nor a trainer
     assert main(["train", "--config", str(CONFIG_DIR / "2h.toml"), "ppo"]) == 2  # both
     assert len(calls) == 1
+
+
+def test_train_device_reaches_every_stage_and_a_missing_one_is_one_line(monkeypatch, tmp_path, capsys):
+    monkeypatch.chdir(tmp_path)
+    calls = _fake_trainers(monkeypatch)
+    assert main(["train", "--device", "cpu", "--config", "configs/pointnav/2h.toml", "--out-dir", "r"]) == 0
+    assert calls and all(c["device"] == "cpu" for c in calls)
+    assert main(["train", "--device", "auto", "dagger", "--out", "d.pth", "--init", "r/dagger.pth"]) == 0
+    assert calls[-1]["device"] == ("cuda:0" if torch.cuda.is_available() else "cpu")
+    if not torch.cuda.is_available():
+        n = len(calls)
+        capsys.readouterr()
+        assert main(["train", "--device", "cuda", "dagger", "--out", "d.pth"]) == 2
+        assert len(calls) == n and capsys.readouterr().err.startswith("navbench: error: device 'cuda' is not")

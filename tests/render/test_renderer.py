@@ -301,15 +301,16 @@ def test_renderers_closed_in_turn_free_their_context_and_leave_later_ones_exact(
         np.testing.assert_array_equal(out.ids, front.ids)
 
 
-def test_import_sets_osmesa_and_creates_no_context():
+def test_import_picks_egl_on_a_gpu_else_osmesa_and_creates_no_context():
     code = textwrap.dedent(
         """
         import os
         import navbench.render  # first: it must pick the platform before OpenGL is imported
         import OpenGL.platform
-        assert os.environ["PYOPENGL_PLATFORM"] == "osmesa", os.environ["PYOPENGL_PLATFORM"]
+        want = "egl" if navbench.render.gl_platform.egl_device_present() else "osmesa"
+        assert os.environ["PYOPENGL_PLATFORM"] == want, os.environ["PYOPENGL_PLATFORM"]
         assert not OpenGL.platform.PLATFORM.GetCurrentContext()
-        assert navbench.render.gl_platform.bound_platform() == "osmesa"
+        assert navbench.render.gl_platform.bound_platform() == want
         print("ok")
         """
     )
@@ -374,3 +375,27 @@ def test_egl_matches_osmesa_without_msaa_blending(room, front):
     np.testing.assert_array_equal(egl["ids"], front.ids)
     np.testing.assert_array_equal(egl["rgb"], front.rgb)
     np.testing.assert_allclose(egl["depth"], front.depth, atol=1e-3)
+
+
+def test_auto_platform_is_egl_only_where_a_gpu_and_libegl_are(monkeypatch, room):
+    from navbench.env.config import EnvConfig
+
+    nodes = {"/dev/nvidia[0-9]*": [], "/dev/dri/renderD*": []}
+    libs = {"EGL", "EGL_mesa", "EGL_nvidia"}
+    monkeypatch.setattr(gl_platform.glob, "glob", lambda pattern: nodes[pattern])
+    monkeypatch.setattr(gl_platform.ctypes.util, "find_library",
+                        lambda name: f"lib{name}.so.0" if name in libs else None)
+    assert gl_platform.auto_platform() == "osmesa"  # a CPU-only machine: Mesa's EGL would run on llvmpipe
+    nodes["/dev/dri/renderD*"] = ["/dev/dri/renderD128"]
+    assert gl_platform.auto_platform() == "egl"
+    nodes["/dev/dri/renderD*"], nodes["/dev/nvidia[0-9]*"] = [], ["/dev/nvidia0"]
+    assert gl_platform.auto_platform() == "egl"
+    libs.discard("EGL_nvidia")  # a GPU container without the graphics capability
+    assert gl_platform.auto_platform() == "osmesa"
+    libs.clear()
+    nodes["/dev/dri/renderD*"] = ["/dev/dri/renderD128"]
+    assert gl_platform.auto_platform() == "osmesa"
+    monkeypatch.undo()
+    r = Renderer(room, platform="auto")
+    assert r.platform == gl_platform.bound_platform() and EnvConfig().gl_platform == "auto"
+    r.close()

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.device import torch_dtype
 from navbench.localize.backends.base import BackendError, check_image, check_model_dir, import_transformers
 from navbench.localize.vlm import format_prompt, parse_reply
 
@@ -34,16 +35,18 @@ class QwenVLReranker:
     modality = "rgb"
 
     def __init__(self, model_dir: str | Path, device: str = "cpu", max_new_tokens: int = 8,
-                 caption_tokens: int = 12) -> None:
+                 caption_tokens: int = 12, precision: str = "fp32") -> None:
         transformers = import_transformers()
         import torch
 
         path = check_model_dir(model_dir)
         self.model_dir = path
         self.device = torch.device(device)
+        self.dtype = torch_dtype(precision)
         self.max_new_tokens = max_new_tokens
         self.caption_tokens = caption_tokens
-        self.model = transformers.Qwen2_5_VLForConditionalGeneration.from_pretrained(path).to(self.device).eval()
+        model = transformers.Qwen2_5_VLForConditionalGeneration.from_pretrained(path)
+        self.model = model.to(self.device, self.dtype).eval()
         self.tokenizer = transformers.AutoTokenizer.from_pretrained(path)
         self.image_processor = transformers.AutoImageProcessor.from_pretrained(path)
         image_token_id = self.tokenizer.convert_tokens_to_ids(IMAGE_TOKEN)
@@ -71,7 +74,7 @@ class QwenVLReranker:
             out = self.model.generate(
                 input_ids=tokens["input_ids"].to(self.device),
                 attention_mask=tokens["attention_mask"].to(self.device),
-                pixel_values=vision["pixel_values"].to(self.device),
+                pixel_values=vision["pixel_values"].to(self.device, self.dtype),
                 image_grid_thw=grid.to(self.device),
                 max_new_tokens=max_new_tokens,
                 do_sample=False,

@@ -17,6 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from navbench.device import torch_dtype
 from navbench.localize.backends.base import BackendError, check_image, check_model_dir, import_transformers
 
 TEXT_MAX_LENGTH = 32  # what Sam3Processor pads prompts to
@@ -29,17 +30,18 @@ class Sam3Segmenter:
     modality = "rgb"
 
     def __init__(self, model_dir: str | Path, device: str = "cpu", score_threshold: float = 0.3,
-                 mask_threshold: float = 0.5) -> None:
+                 mask_threshold: float = 0.5, precision: str = "fp32") -> None:
         transformers = import_transformers()
         import torch
 
         path = check_model_dir(model_dir)
         self.model_dir = path
         self.device = torch.device(device)
+        self.dtype = torch_dtype(precision)
         # transformers' own post-processing defaults: 0.3 on the instance score, 0.5 on mask probability.
         self.score_threshold = score_threshold
         self.mask_threshold = mask_threshold
-        self.model = transformers.Sam3Model.from_pretrained(path).to(self.device).eval()
+        self.model = transformers.Sam3Model.from_pretrained(path).to(self.device, self.dtype).eval()
         self.tokenizer = transformers.AutoTokenizer.from_pretrained(path)
         self._load_preprocessing(path)
         self._torch = torch
@@ -73,7 +75,7 @@ class Sam3Segmenter:
         text = self.tokenizer([query], padding="max_length", max_length=TEXT_MAX_LENGTH, truncation=True,
                               return_tensors="pt")
         with torch.inference_mode():
-            out = self.model(pixel_values=self.pixel_values(image).to(self.device),
+            out = self.model(pixel_values=self.pixel_values(image).to(self.device, self.dtype),
                              input_ids=text["input_ids"].to(self.device),
                              attention_mask=text["attention_mask"].to(self.device))
             scores = out.pred_logits[0].float().sigmoid()

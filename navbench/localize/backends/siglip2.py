@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.device import torch_dtype
 from navbench.localize.backends.base import BackendError, check_image, check_model_dir, import_transformers
 from navbench.memory.index import l2_normalize
 
@@ -27,16 +28,17 @@ class Siglip2Encoder:
     modality = "rgb"
 
     def __init__(self, model_dir: str | Path, device: str = "cpu", batch_size: int = 16,
-                 text_max_length: int = 64) -> None:
+                 text_max_length: int = 64, precision: str = "fp32") -> None:
         transformers = import_transformers()
         import torch
 
         path = check_model_dir(model_dir)
         self.model_dir = path
         self.device = torch.device(device)
+        self.dtype = torch_dtype(precision)
         self.batch_size = batch_size
         self.text_max_length = text_max_length
-        self.model = transformers.AutoModel.from_pretrained(path).to(self.device).eval()
+        self.model = transformers.AutoModel.from_pretrained(path).to(self.device, self.dtype).eval()
         self.processor = transformers.AutoProcessor.from_pretrained(path)
         self._torch = torch
 
@@ -49,7 +51,8 @@ class Siglip2Encoder:
         out = []
         for start in range(0, len(images), self.batch_size):
             batch = [check_image(im) for im in images[start:start + self.batch_size]]
-            inputs = self.processor(images=batch, return_tensors="pt").to(self.device)
+            # BatchFeature.to casts floating tensors only (the pixels), never token ids
+            inputs = self.processor(images=batch, return_tensors="pt").to(self.device).to(self.dtype)
             with self._torch.inference_mode():
                 out.append(_features(self.model.get_image_features(**inputs)).float().cpu().numpy())
         return self._finish(out)
