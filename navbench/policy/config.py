@@ -80,6 +80,10 @@ class TrainConfig:
     seed: int = option(0, "seed of the rollouts and the updates")
     threads: int = option(2, "torch threads (split between the workers)")
     workers: int = option(1, "rollout processes sharing the envs (results depend on it, not on timing)")
+    preempt_fraction: float = option(0.6, "distributed runs: a rank ends its rollout early once this share of the "
+                                     "ranks finished theirs (1: never)")
+    preempt_min_share: float = option(0.25, "distributed runs: the share of its rollout a rank collects before it "
+                                      "may end early")
     bf16: bool = option(False, "bfloat16 autocast in the updates (faster only where the CPU has AVX512-BF16 or AMX)")
     act_bf16: bool = option(False, "bfloat16 autocast for the acting policy's encoder in rollouts")
 
@@ -114,6 +118,10 @@ class PPOConfig:
     threads: int = option(2, "torch threads (split between the workers)")
     workers: int = option(1, "rollout processes sharing the envs (results depend on it, not on timing)")
     save_every: int = option(5, "updates between checkpoints")
+    preempt_fraction: float = option(0.6, "distributed runs: a rank ends its rollout early once this share of the "
+                                     "ranks finished theirs (1: never)")
+    preempt_min_share: float = option(0.25, "distributed runs: the share of its rollout a rank collects before it "
+                                      "may end early")
 
 
 CONFIGS = {"encoder": PretrainConfig, "dagger": TrainConfig, "ppo": PPOConfig}
