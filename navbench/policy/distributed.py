@@ -173,7 +173,7 @@ def training_forward(policy: torch.nn.Module) -> Any:
         return policy.forward_features
     from torch.nn.parallel import DistributedDataParallel
 
-    return DistributedDataParallel(ForwardFeatures(policy), find_unused_parameters=True, broadcast_buffers=False)
+    return DistributedDataParallel(ForwardFeatures(policy), find_unused_parameters=True)
 
 
 # ------------------------------------------------------------------------------------------ preemption

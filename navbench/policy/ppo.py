@@ -346,5 +346,6 @@ def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frame
 def main(cfg: PPOConfig, out: Path, state_dir: Path, init: Path | None, resume: bool) -> dict[str, float]:
     """``navbench train ppo``: fine-tune, print the last log row as JSON."""
     result = train_ppo(cfg, out, init, resume=resume, state_dir=state_dir)
-    print(json.dumps(result))
+    if ddp.info().is_main:
+        print(json.dumps(result))
     return result

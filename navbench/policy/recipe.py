@@ -245,6 +245,14 @@ def add_train_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
 
 def main(args: argparse.Namespace) -> int:
     """``navbench train``'s entry: a recipe with ``--config``, else the trainer subcommand."""
+    try:
+        return _main(args)
+    finally:
+        if "navbench.policy.distributed" in sys.modules:  # a trainer joined a process group: leave it
+            sys.modules["navbench.policy.distributed"].shutdown()
+
+
+def _main(args: argparse.Namespace) -> int:
     if args.config is not None:
         if args.trainer is not None:
             raise ValueError("give either --config FILE or a trainer (encoder, dagger, ppo), not both")

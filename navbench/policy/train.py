@@ -502,5 +502,6 @@ def _updates(cfg: TrainConfig, buffer: EpisodeBuffer, new_frames: int) -> int:
 def main(cfg: TrainConfig, out: Path, state_dir: Path, init: Path | None, resume: bool) -> dict[str, float]:
     """``navbench train dagger``: train, print the last log row as JSON."""
     result = train(cfg, out, resume=resume, state_dir=state_dir, init=init)
-    print(json.dumps(result))
+    if ddp.info().is_main:
+        print(json.dumps(result))
     return result
