@@ -63,9 +63,9 @@ class TrainConfig:
     batch_episodes: int = option(16, "whole episodes per update")
     epochs_per_iteration: float = option(16.0, "gradient steps = this x new frames / frames per update")
     lr: float = option(5e-4, "learning rate (Adam)")
-    lr_schedule: str = option("constant", "learning rate over the iterations: constant, or cosine from --lr to "
-                              "--lr-min", ("constant", "cosine"))
-    lr_min: float = option(1e-5, "the cosine schedule's last rate")
+    lr_schedule: str = option("constant", "learning rate over the iterations: constant, or cosine or linear from "
+                              "--lr to --lr-min", ("constant", "cosine", "linear"))
+    lr_min: float = option(1e-5, "the cosine or linear schedule's last rate")
     weight_decay: float = option(0.0, "Adam's L2 weight decay")
     inflection_weight: float = option(3.0, "loss weight of steps where the expert changes its action")
     collision_weight: float = option(1.0, "loss weight of steps right after a refused FORWARD")
@@ -98,6 +98,8 @@ class PPOConfig:
     updates: int = option(300, "PPO updates (rollouts)")
     lr: float = option(2.5e-5, "the actor's learning rate (Adam)")
     critic_lr: float = option(1e-3, "the value head's learning rate")
+    lr_schedule: str = option("constant", "both learning rates over the updates: constant, or linear down to 0 at "
+                              "the last update (habitat-baselines' linear decay)", ("constant", "linear"))
     gamma: float = option(0.99, "discount")
     gae_lambda: float = option(0.95, "GAE lambda")
     clip: float = option(0.2, "PPO ratio clip")
@@ -109,6 +111,8 @@ class PPOConfig:
     critic_warmup: int = option(30, "first updates that train only the value head")
     slack_reward: float = option(-0.01, "reward per step")
     success_reward: float = option(2.5, "reward of a successful STOP")
+    terminal_reward: str = option("flat", "the successful STOP's reward: flat --success-reward, or --success-reward "
+                                  "x the episode's SPL (a long path earns less)", ("flat", "spl"))
     bc_weight: float = option(0.0, "weight of a cross-entropy term to the geodesic expert's actions (0: off)")
     tight_starts: float = option(0.0, "probability that a rollout episode starts beside an obstacle")
     act_bf16: bool = option(False, "bfloat16 autocast for the acting policy's encoder in rollouts")

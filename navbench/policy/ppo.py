@@ -43,9 +43,20 @@ from navbench.policy.rollout import Collection, EnvSlots, make_envs
 __all__ = ["PPOConfig", "Rollout", "gae", "ppo_update", "step_reward", "train_ppo"]
 
 
-def step_reward(d_before: float, d_after: float, success: bool, cfg: PPOConfig) -> float:
-    """habitat-lab's PointNav reward for one step: progress in geodesic distance, slack, success bonus."""
-    return d_before - d_after + cfg.slack_reward + (cfg.success_reward if success else 0.0)
+def step_reward(d_before: float, d_after: float, success: bool, cfg: PPOConfig, spl: float = 1.0) -> float:
+    """habitat-lab's PointNav reward for one step: progress in geodesic distance, slack, success bonus (times the
+    episode's ``spl`` with ``terminal_reward = "spl"``)."""
+    bonus = cfg.success_reward * (spl if cfg.terminal_reward == "spl" else 1.0)
+    return d_before - d_after + cfg.slack_reward + (bonus if success else 0.0)
+
+
+def update_lr_factor(cfg: PPOConfig, u: int) -> float:
+    """The share of the configured learning rates that update ``u`` (0-based) uses."""
+    if cfg.lr_schedule == "constant":
+        return 1.0
+    if cfg.lr_schedule == "linear":
+        return 1.0 - u / cfg.updates
+    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or linear")
 
 
 def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: np.ndarray,
@@ -149,7 +160,7 @@ class Rollout:
             for i in range(n):
                 term, trunc, info, _ = slots.step(i, int(action[i]))
                 d = info["distance_to_goal"]
-                rewards[t, i] = step_reward(self.dist[i], d, bool(term and info["success"]), cfg)
+                rewards[t, i] = step_reward(self.dist[i], d, bool(term and info["success"]), cfg, info["spl"])
                 self.dist[i] = d
                 if term or trunc:
                     dones[t, i] = 1.0
@@ -311,6 +322,9 @@ def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frame
     with ddp.StopSignals() as signals:
         for u in (progress(range(start, cfg.updates), desc="ppo updates") if dist.is_main
                   else range(start, cfg.updates)):
+            if cfg.lr_schedule != "constant":
+                factor = update_lr_factor(cfg, u)
+                opt.param_groups[0]["lr"], opt.param_groups[1]["lr"] = cfg.lr * factor, cfg.critic_lr * factor
             t0 = time.time()
             preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, u)
             data, finished = source.collect(policy, *([preempt] if source.local is not None else []))

@@ -113,7 +113,9 @@ def iteration_lr(cfg: TrainConfig, it: int) -> float:
         return cfg.lr
     if cfg.lr_schedule == "cosine":
         return cosine_rate(cfg.lr, cfg.lr_min, it / max(1, cfg.iterations - 1))
-    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
+    if cfg.lr_schedule == "linear":
+        return cfg.lr + (cfg.lr_min - cfg.lr) * min(1.0, it / max(1, cfg.iterations - 1))
+    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant, cosine or linear")
 
 
 def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
