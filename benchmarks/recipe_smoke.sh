@@ -10,12 +10,13 @@ set -euo pipefail
 recipe=$1 stage=$2 init=$3 out=${4:-runs/smoke_${2}}
 rm -rf "$out"
 log="$out/$stage.log.csv"
-run_until_rows() {  # run the stage (extra args: --resume) until its log has $1 data rows, then SIGTERM it
-    local rows=$1; shift
+rows_logged() { if [ -f "$log" ]; then echo $(($(wc -l < "$log") - 1)); else echo 0; fi; }
+run_until_rows() {  # run the stage (extra args: --resume) until its log has $1 more data rows, then SIGTERM it
+    local rows=$(($(rows_logged) + $1)); shift
     navbench_cmd=(python -m navbench train --config "$recipe" --init "$init" --only "$stage" --out-dir "$out" "$@")
     NAVBENCH_PROGRESS=0 "${navbench_cmd[@]}" > "$out.stdout" 2>&1 &
     local pid=$! t0=$SECONDS
-    until [ -f "$log" ] && [ "$(($(wc -l < "$log") - 1))" -ge "$rows" ]; do
+    until [ "$(rows_logged)" -ge "$rows" ]; do
         kill -0 $pid 2>/dev/null || { cat "$out.stdout"; exit 1; }
         sleep 1
     done
@@ -27,5 +28,5 @@ run_until_rows() {  # run the stage (extra args: --resume) until its log has $1 
 mkdir -p "$out"
 if [ -n "${PREV_STAGE:-}" ]; then cp "$init" "$out/$PREV_STAGE.pth"; fi
 run_until_rows 1
-run_until_rows 2 --resume
+run_until_rows 1 --resume
 cut -d, -f1-3 "$log"

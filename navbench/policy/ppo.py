@@ -353,6 +353,7 @@ def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frame
             if stop:
                 log_every(f"stopped by signal {signals.signum or 'on another rank'} after update {u + 1}; "
                           "resume state saved (continue with --resume)")
+                last = {**last, "stopped_by_signal": signals.signum or -1}
                 break
     return last
 

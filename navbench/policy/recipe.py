@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import shutil
 import sys
 import tomllib
@@ -185,11 +186,14 @@ def run_recipe(recipe: Recipe, out_dir: Path, resume: bool = False, only: str | 
                 raise FileNotFoundError(f"{previous}: stage {stage.name!r} starts from it; run the stage "
                                         "before it first")
             print(f"stage {stage.name} ({stage.trainer}) -> {stage_out}", file=sys.stderr)
-            run(stage.trainer, stage.config, stage_out, out_dir / f"{stage.name}_state",
-                previous if stage.trainer != "encoder" else None, resume)
+            done = run(stage.trainer, stage.config, stage_out, out_dir / f"{stage.name}_state",
+                       previous if stage.trainer != "encoder" else None, resume)
             result = stage_out
+            if isinstance(done, dict) and done.get("stopped_by_signal"):
+                print(f"stage {stage.name} stopped by a signal: rerun with --resume to continue", file=sys.stderr)
+                return result
         previous = stage_out
-    if out is not None:
+    if out is not None and os.environ.get("RANK", "0") == "0":  # one copy in a distributed run: rank 0's
         out.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(result, out)
         print(f"copied {result} to {out}", file=sys.stderr)

@@ -482,6 +482,7 @@ def _train_loop(cfg, policy, opt, rng, source: Collection, buffer: ShardedBuffer
             if signals.requested():
                 log_every(f"stopped by signal {signals.signum or 'on another rank'} after iteration {it + 1}; "
                           "resume state saved (continue with --resume)")
+                last = {**last, "stopped_by_signal": signals.signum or -1}
                 break
     return last
 

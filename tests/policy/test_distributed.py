@@ -231,3 +231,17 @@ def test_a_rank_killed_under_torchrun_comes_back_and_resumes(tmp_path):
     assert "world size 2 (gloo)" in out
     assert "resumed at update" in out, out[-3000:]
     assert read_train_state(state / "ppo_state.pt")["update"] == 5
+
+
+def test_a_recipe_stops_at_the_stage_a_signal_stopped(tmp_path):
+    from navbench.policy.recipe import load_recipe, run_recipe
+
+    recipe = load_recipe("pointnav/v2")
+    ran = []
+
+    def run(trainer, cfg, out, state_dir, init, resume):
+        ran.append(Path(out).stem)
+        return {"stopped_by_signal": signal.SIGUSR1} if len(ran) == 1 else {}
+
+    run_recipe(recipe, tmp_path, init=tmp_path / "init.pth", run=run)
+    assert ran == [recipe.stages[0].name]
