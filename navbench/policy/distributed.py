@@ -87,7 +87,7 @@ def launch_env(environ: dict[str, str] | None = None) -> dict[str, str]:
 _INFO = DistInfo()
 
 
-def init(device: str = "cpu", timeout_s: float = 1800.0) -> DistInfo:
+def init(device: str = "cpu", timeout_s: float = 4 * 3600.0) -> DistInfo:
     """Join the process group this process was launched into (once; later calls return the same answer)."""
     global _INFO
     if dist.is_available() and dist.is_initialized():

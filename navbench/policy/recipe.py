@@ -156,9 +156,15 @@ def run_trainer(trainer: str, cfg: Any, out: Path, state_dir: Path, init: Path |
     """Run one trainer (imported here: the CLI stays light until it trains)."""
     bf16_warning(trainer, cfg)
     if trainer == "encoder":
+        from navbench.policy import distributed
         from navbench.policy.pretrain import main
 
-        return main(cfg, out, state_dir, resume)
+        # the encoder's pre-training is not distributed: rank 0 runs it while the other ranks wait for its output
+        dist = distributed.init()
+        try:
+            return main(cfg, out, state_dir, resume) if dist.is_main else None
+        finally:
+            distributed.barrier()
     if trainer == "dagger":
         from navbench.policy.train import main
     else:

@@ -370,6 +370,9 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         source = Collection(Collector(make_envs(cfg.num_envs, cfg.train_split, cfg.seed + start_it, first), cfg, rng,
                                       policy))
     buffer = ShardedBuffer(cfg.buffer_frames, ddp.rank_state_path(state_dir / "buffer"))
+    if start_it == 0:  # a fresh run: shards an earlier run left are not this run's
+        for stale in buffer.directory.glob("iteration_*.pt"):
+            stale.unlink()
     local = ddp.load_local(state_path, "iteration", start_it) if start_it > 0 else None
     if local is not None:  # continue the envs, the episodes in flight, the buffer and the random streams exactly
         source.restore(local["collect"])
