@@ -179,9 +179,11 @@ def training_forward(policy: torch.nn.Module) -> Any:
 # ------------------------------------------------------------------------------------------ preemption
 class Preemption:
     """DD-PPO's early end of a rollout: ``should_stop(done, total)`` is True once ``fraction`` of the ranks
-    have called ``finished()`` for this rollout and ``done >= min_share * total``. Never in a one-rank run."""
+    have called ``finished()`` for this rollout and ``done >= min_share * total``. Never in a one-rank run.
+    ``rollout`` names the rollout uniquely within the run (e.g. ``<checkpoint name>/<update>``: a recipe's stages
+    share the process group's store)."""
 
-    def __init__(self, fraction: float, min_share: float, rollout: int):
+    def __init__(self, fraction: float, min_share: float, rollout: str):
         self.fraction, self.min_share = fraction, min_share
         self.store = None
         self.key = ""

@@ -326,7 +326,7 @@ def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frame
                 factor = update_lr_factor(cfg, u)
                 opt.param_groups[0]["lr"], opt.param_groups[1]["lr"] = cfg.lr * factor, cfg.critic_lr * factor
             t0 = time.time()
-            preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, u)
+            preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, f"{Path(out).name}/{u}")
             data, finished = source.collect(policy, *([preempt] if source.local is not None else []))
             t_collect = time.time() - t0
             t0 = time.time()

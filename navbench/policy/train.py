@@ -444,7 +444,7 @@ def _train_loop(cfg, policy, opt, rng, source: Collection, buffer: ShardedBuffer
                 group["lr"] = lr
             policy.eval()
             t0 = time.time()
-            preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, it)
+            preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, f"{Path(out).name}/{it}")
             eps, successes = source.collect(policy, cfg.frames_per_iteration, beta,
                                             *([preempt] if source.local is not None else []))
             buffer.add_iteration(it + 1, eps)

@@ -82,9 +82,23 @@ def _rank_main(rank: int, world: int, port: int, kind: str, out: str) -> None:
     info = ddp.init()
     assert info.world_size == world and info.backend == "gloo"
     try:
-        torch.save(_update(kind, world, rank), f"{out}.{rank}")
+        torch.save(_preemption(rank) if kind == "preempt" else _update(kind, world, rank), f"{out}.{rank}")
     finally:
         ddp.shutdown()
+
+
+def _preemption(rank: int) -> dict[str, bool]:
+    """Rank 0 finishes its rollout at once; rank 1 asks whether to end its own early, at 0 and at 2 of 8 steps."""
+    fast = ddp.Preemption(0.5, 0.25, "stage/0")
+    never = ddp.Preemption(1.0, 0.25, "stage/0")
+    if rank == 0:
+        fast.finished()
+    ddp.barrier()
+    other = ddp.Preemption(0.5, 0.25, "stage/1")
+    out = {"before_min_share": fast.should_stop(0, 8), "after_min_share": fast.should_stop(2, 8),
+           "fraction_1": never.should_stop(2, 8), "other_rollout": other.should_stop(2, 8)}
+    ddp.barrier()
+    return out
 
 
 def _on_loopback(kind: str, tmp_path: Path, world: int = 2) -> list[dict[str, torch.Tensor]]:
@@ -245,3 +259,9 @@ def test_a_recipe_stops_at_the_stage_a_signal_stopped(tmp_path):
 
     run_recipe(recipe, tmp_path, init=tmp_path / "init.pth", run=run)
     assert ran == [recipe.stages[0].name]
+
+
+def test_a_rank_ends_its_rollout_early_once_enough_ranks_finished_and_it_did_its_minimum_share(tmp_path):
+    answers = _on_loopback("preempt", tmp_path)[1]
+    assert answers == {"before_min_share": False, "after_min_share": True, "fraction_1": False,
+                       "other_rollout": False}
