@@ -294,6 +294,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
                                     np.random.default_rng(ddp.rank_seeds([cfg.seed, start, 1]))))
     window: list[dict] = []  # the last 100 finished rollout episodes of this rank
     local = ddp.load_local(state_path, "update", start) if start > 0 else None
+    if local is not None and len(local["collect"]) != max(1, cfg.workers):  # saved with another --workers
+        local = None
     if local is not None:  # continue the envs, recurrent states and random streams exactly
         source.restore(local["collect"])
         ddp.set_rng_state(rng, local["rng"])

@@ -374,6 +374,8 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         for stale in buffer.directory.glob("iteration_*.pt"):
             stale.unlink()
     local = ddp.load_local(state_path, "iteration", start_it) if start_it > 0 else None
+    if local is not None and len(local["collect"]) != max(1, cfg.workers):  # saved with another --workers
+        local = None
     if local is not None:  # continue the envs, the episodes in flight, the buffer and the random streams exactly
         source.restore(local["collect"])
         ddp.set_rng_state(rng, local["rng"])
