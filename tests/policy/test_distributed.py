@@ -75,14 +75,15 @@ def _update(kind: str, world: int, rank: int) -> dict[str, torch.Tensor]:
     return {k: v.detach().clone() for k, v in policy.state_dict().items()}
 
 
-def _rank_main(rank: int, world: int, port: int, kind: str, out: str) -> None:
+def _rank_main(rank: int, world: int, port: int, out: str) -> None:
     os.environ.update(RANK=str(rank), WORLD_SIZE=str(world), LOCAL_RANK=str(rank), MASTER_ADDR="127.0.0.1",
                       MASTER_PORT=str(port))
     torch.set_num_threads(1)
     info = ddp.init()
     assert info.world_size == world and info.backend == "gloo"
     try:
-        torch.save(_preemption(rank) if kind == "preempt" else _update(kind, world, rank), f"{out}.{rank}")
+        torch.save({"dagger": _update("dagger", world, rank), "ppo": _update("ppo", world, rank),
+                    "preempt": _preemption(rank)}, f"{out}.{rank}")
     finally:
         ddp.shutdown()
 
@@ -101,10 +102,16 @@ def _preemption(rank: int) -> dict[str, bool]:
     return out
 
 
-def _on_loopback(kind: str, tmp_path: Path, world: int = 2) -> list[dict[str, torch.Tensor]]:
+@pytest.fixture(scope="module")
+def loopback(tmp_path_factory) -> list[dict]:
+    """Two gloo ranks on 127.0.0.1, each with its results of the DAgger and PPO updates and the preemption rule."""
+    return _on_loopback(tmp_path_factory.mktemp("loopback"))
+
+
+def _on_loopback(tmp_path: Path, world: int = 2) -> list[dict]:
     ctx = multiprocessing.get_context("spawn")
     port = ddp.free_port()
-    procs = [ctx.Process(target=_rank_main, args=(r, world, port, kind, str(tmp_path / kind))) for r in range(world)]
+    procs = [ctx.Process(target=_rank_main, args=(r, world, port, str(tmp_path / "rank"))) for r in range(world)]
     for p in procs:
         p.start()
     try:
@@ -116,14 +123,14 @@ def _on_loopback(kind: str, tmp_path: Path, world: int = 2) -> list[dict[str, to
             if p.is_alive():
                 p.kill()
                 p.join()
-    return [torch.load(f"{tmp_path / kind}.{r}") for r in range(world)]
+    return [torch.load(f"{tmp_path / 'rank'}.{r}") for r in range(world)]
 
 
 @pytest.mark.parametrize("kind", ["dagger", "ppo"])
-def test_two_gloo_ranks_update_as_one_process_on_the_union_of_their_batches(kind, tmp_path):
+def test_two_gloo_ranks_update_as_one_process_on_the_union_of_their_batches(kind, loopback):
     single = _update(kind, 1, 0)
     before = _tiny_policy().state_dict()
-    ranks = _on_loopback(kind, tmp_path)
+    ranks = [r[kind] for r in loopback]
     moved = [k for k in single if not torch.equal(single[k], before[k])]
     assert moved, "the update moved nothing"
     for k in single:
@@ -261,7 +268,7 @@ def test_a_recipe_stops_at_the_stage_a_signal_stopped(tmp_path):
     assert ran == [recipe.stages[0].name]
 
 
-def test_a_rank_ends_its_rollout_early_once_enough_ranks_finished_and_it_did_its_minimum_share(tmp_path):
-    answers = _on_loopback("preempt", tmp_path)[1]
+def test_a_rank_ends_its_rollout_early_once_enough_ranks_finished_and_it_did_its_minimum_share(loopback):
+    answers = loopback[1]["preempt"]
     assert answers == {"before_min_share": False, "after_min_share": True, "fraction_1": False,
                        "other_rollout": False}
