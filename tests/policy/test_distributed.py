@@ -234,20 +234,35 @@ def test_a_rank_killed_under_torchrun_comes_back_and_resumes(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NAVBENCH_PROGRESS": "0", "OMP_NUM_THREADS": "1"}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                             start_new_session=True)
+    seen: set[int] = set()  # every worker torchrun started, to end them whatever happens
     try:
         deadline = time.monotonic() + 120
         while not (state / "ppo_state.rank1.pt").is_file():  # both ranks have saved an update
+            seen.update(_children(proc.pid))
             if proc.poll() is not None or time.monotonic() > deadline:
                 pytest.fail(f"the run ended before any resume state:\n{proc.communicate(timeout=30)[0][-3000:]}")
             time.sleep(0.1)
         workers = _children(proc.pid)
         assert len(workers) == 2
+        seen.update(workers)
         os.kill(max(workers), signal.SIGKILL)  # one of the two ranks dies
+        time.sleep(1)
+        seen.update(_children(proc.pid))  # the restarted ones
         out, _ = proc.communicate(timeout=180)
     finally:
         if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+            proc.terminate()  # torchrun ends its workers on SIGTERM
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        for pid in seen | set(_children(proc.pid)):
+            try:  # only if that pid is still one of this run's workers
+                if str(state) in Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace"):
+                    os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
     assert proc.returncode == 0, out[-3000:]
     assert "world size 2 (gloo)" in out
     assert "resumed at update" in out, out[-3000:]
