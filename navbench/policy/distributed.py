@@ -98,8 +98,16 @@ def init(device: str = "cpu", timeout_s: float = 4 * 3600.0) -> DistInfo:
         return _INFO
     os.environ.update(env)
     backend = "nccl" if torch.device(device).type == "cuda" else "gloo"
-    dist.init_process_group(backend, init_method="env://", rank=int(env["RANK"]),
-                            world_size=int(env["WORLD_SIZE"]), timeout=datetime.timedelta(seconds=timeout_s))
+    rank, world = int(env["RANK"]), int(env["WORLD_SIZE"])
+    timeout = datetime.timedelta(seconds=timeout_s)
+    # torchrun's agent already serves a store at MASTER_ADDR:MASTER_PORT (it outlives restarts); otherwise rank 0
+    # serves one. Each restart keeps its keys apart, so a restarted rank never reads a dead rank's address.
+    agent = os.environ.get("TORCHELASTIC_USE_AGENT_STORE", "").lower() == "true"
+    store = dist.TCPStore(env["MASTER_ADDR"], int(env["MASTER_PORT"]), world, is_master=not agent and rank == 0,
+                          timeout=timeout, wait_for_workers=False)
+    attempt = os.environ.get("TORCHELASTIC_RESTART_COUNT", "0")
+    dist.init_process_group(backend, store=dist.PrefixStore(f"navbench/attempt_{attempt}", store), rank=rank,
+                            world_size=world, timeout=timeout)
     _INFO = DistInfo(dist.get_rank(), dist.get_world_size(), int(env.get("LOCAL_RANK", "0")), backend)
     return _INFO
 
