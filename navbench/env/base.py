@@ -5,6 +5,7 @@ Concrete envs (``pointnav.py``, ``objectnav.py``) only add their goal sensor and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -219,6 +220,37 @@ class NavEnv(gym.Env):
             self._renderer.close()
             self._renderer = None
         self._scene_path = None
+
+    # ------------------------------------------------------------------ snapshots
+    def snapshot(self) -> dict[str, Any]:
+        """The episode in progress and the env's random stream as plain data (JSON-able), so that a training
+        run saved between steps continues exactly where it stopped (:meth:`restore`)."""
+        assert self.episode is not None  # set by reset()
+        return {"episode_id": self.episode.episode_id,
+                "start_position": [float(v) for v in self.episode.start_position],
+                "start_rotation": [float(v) for v in self.episode.start_rotation],
+                "position": [float(v) for v in self._position], "yaw": float(self._yaw),
+                "num_steps": self._num_steps, "collisions": self._collisions, "path_length": self._path_length,
+                "stop_called": self._stop_called, "done": self._done, "rng": self.np_random.bit_generator.state}
+
+    def restore(self, snap: dict[str, Any]) -> dict[str, np.ndarray]:
+        """Continue the episode :meth:`snapshot` described (an episode of this env's dataset, possibly with
+        another start pose under an id suffixed to the dataset's); returns its current observation."""
+        eid = snap["episode_id"]
+        base = next((e for e in self.dataset.episodes if e.episode_id == eid), None) or next(
+            (e for e in self.dataset.episodes if eid.startswith(f"{e.episode_id}-")), None)
+        if base is None:
+            raise ValueError(f"episode {eid!r} is not in this env's dataset")
+        ep = dataclasses.replace(base, episode_id=eid, start_position=list(snap["start_position"]),
+                                 start_rotation=list(snap["start_rotation"]))
+        self.reset(options={"episode": ep})
+        self._position = np.asarray(snap["position"], np.float64)
+        self._yaw = float(snap["yaw"])
+        self._num_steps, self._collisions = int(snap["num_steps"]), int(snap["collisions"])
+        self._path_length, self._stop_called = float(snap["path_length"]), bool(snap["stop_called"])
+        self._done = bool(snap["done"])
+        self.np_random.bit_generator.state = snap["rng"]
+        return self._observe()
 
     # ------------------------------------------------------------------ state
     @property

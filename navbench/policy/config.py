@@ -63,9 +63,9 @@ class TrainConfig:
     batch_episodes: int = option(16, "whole episodes per update")
     epochs_per_iteration: float = option(16.0, "gradient steps = this x new frames / frames per update")
     lr: float = option(5e-4, "learning rate (Adam)")
-    lr_schedule: str = option("constant", "learning rate over the iterations: constant, or cosine from --lr to "
-                              "--lr-min", ("constant", "cosine"))
-    lr_min: float = option(1e-5, "the cosine schedule's last rate")
+    lr_schedule: str = option("constant", "learning rate over the iterations: constant, or cosine or linear from "
+                              "--lr to --lr-min", ("constant", "cosine", "linear"))
+    lr_min: float = option(1e-5, "the cosine or linear schedule's last rate")
     weight_decay: float = option(0.0, "Adam's L2 weight decay")
     inflection_weight: float = option(3.0, "loss weight of steps where the expert changes its action")
     collision_weight: float = option(1.0, "loss weight of steps right after a refused FORWARD")
@@ -80,6 +80,10 @@ class TrainConfig:
     seed: int = option(0, "seed of the rollouts and the updates")
     threads: int = option(2, "torch threads (split between the workers)")
     workers: int = option(1, "rollout processes sharing the envs (results depend on it, not on timing)")
+    preempt_fraction: float = option(0.6, "distributed runs: a rank ends its rollout early once this share of the "
+                                     "ranks finished theirs (1: never)")
+    preempt_min_share: float = option(0.25, "distributed runs: the share of its rollout a rank collects before it "
+                                      "may end early")
     bf16: bool = option(False, "bfloat16 autocast in the updates (faster only where the CPU has AVX512-BF16 or AMX)")
     act_bf16: bool = option(False, "bfloat16 autocast for the acting policy's encoder in rollouts")
 
@@ -94,6 +98,8 @@ class PPOConfig:
     updates: int = option(300, "PPO updates (rollouts)")
     lr: float = option(2.5e-5, "the actor's learning rate (Adam)")
     critic_lr: float = option(1e-3, "the value head's learning rate")
+    lr_schedule: str = option("constant", "both learning rates over the updates: constant, or linear down to 0 at "
+                              "the last update (habitat-baselines' linear decay)", ("constant", "linear"))
     gamma: float = option(0.99, "discount")
     gae_lambda: float = option(0.95, "GAE lambda")
     clip: float = option(0.2, "PPO ratio clip")
@@ -105,6 +111,8 @@ class PPOConfig:
     critic_warmup: int = option(30, "first updates that train only the value head")
     slack_reward: float = option(-0.01, "reward per step")
     success_reward: float = option(2.5, "reward of a successful STOP")
+    terminal_reward: str = option("flat", "the successful STOP's reward: flat --success-reward, or --success-reward "
+                                  "x the episode's SPL (a long path earns less)", ("flat", "spl"))
     bc_weight: float = option(0.0, "weight of a cross-entropy term to the geodesic expert's actions (0: off)")
     tight_starts: float = option(0.0, "probability that a rollout episode starts beside an obstacle")
     act_bf16: bool = option(False, "bfloat16 autocast for the acting policy's encoder in rollouts")
@@ -114,6 +122,10 @@ class PPOConfig:
     threads: int = option(2, "torch threads (split between the workers)")
     workers: int = option(1, "rollout processes sharing the envs (results depend on it, not on timing)")
     save_every: int = option(5, "updates between checkpoints")
+    preempt_fraction: float = option(0.6, "distributed runs: a rank ends its rollout early once this share of the "
+                                     "ranks finished theirs (1: never)")
+    preempt_min_share: float = option(0.25, "distributed runs: the share of its rollout a rank collects before it "
+                                      "may end early")
 
 
 CONFIGS = {"encoder": PretrainConfig, "dagger": TrainConfig, "ppo": PPOConfig}

@@ -33,7 +33,8 @@ import torch
 import torch.nn.functional as F
 
 from navbench.loop_progress import progress
-from navbench.policy.checkpoint import load_checkpoint, load_train_state, save_checkpoint, save_train_state
+from navbench.policy import distributed as ddp
+from navbench.policy.checkpoint import load_checkpoint, load_train_state, save_checkpoint
 from navbench.policy.config import PPOConfig
 from navbench.policy.csv_log import log_row
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
@@ -42,9 +43,20 @@ from navbench.policy.rollout import Collection, EnvSlots, make_envs
 __all__ = ["PPOConfig", "Rollout", "gae", "ppo_update", "step_reward", "train_ppo"]
 
 
-def step_reward(d_before: float, d_after: float, success: bool, cfg: PPOConfig) -> float:
-    """habitat-lab's PointNav reward for one step: progress in geodesic distance, slack, success bonus."""
-    return d_before - d_after + cfg.slack_reward + (cfg.success_reward if success else 0.0)
+def step_reward(d_before: float, d_after: float, success: bool, cfg: PPOConfig, spl: float = 1.0) -> float:
+    """habitat-lab's PointNav reward for one step: progress in geodesic distance, slack, success bonus (times the
+    episode's ``spl`` with ``terminal_reward = "spl"``)."""
+    bonus = cfg.success_reward * (spl if cfg.terminal_reward == "spl" else 1.0)
+    return d_before - d_after + cfg.slack_reward + (bonus if success else 0.0)
+
+
+def update_lr_factor(cfg: PPOConfig, u: int) -> float:
+    """The share of the configured learning rates that update ``u`` (0-based) uses."""
+    if cfg.lr_schedule == "constant":
+        return 1.0
+    if cfg.lr_schedule == "linear":
+        return 1.0 - u / cfg.updates
+    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or linear")
 
 
 def gae(rewards: np.ndarray, values: np.ndarray, dones: np.ndarray, last_value: np.ndarray,
@@ -112,9 +124,20 @@ class Rollout:
                 feat[None], goal.to(dev)[None], self.prev.to(dev)[None], self.mask.to(dev)[None], self.hidden.to(dev))
         return feat.cpu().clone(), goal, logits[0].cpu().clone(), value[0].cpu().clone(), hidden.cpu().clone()
 
-    def collect(self) -> tuple[dict[str, torch.Tensor], list[dict]]:
-        """``rollout_steps`` steps of every env: (the update's tensors, success and SPL of the episodes that
-        ended)."""
+    def snapshot(self) -> dict:
+        """Everything the next rollout continues from: envs, recurrent state, random streams."""
+        return {"slots": self.slots.snapshot(), "dist": [float(d) for d in self.dist], "hidden": self.hidden.clone(),
+                "prev": self.prev.clone(), "mask": self.mask.clone(), "gen": self.gen.get_state()}
+
+    def restore(self, snap: dict) -> None:
+        self.slots.restore(snap["slots"])
+        self.dist = np.array(snap["dist"], np.float64)
+        self.hidden, self.prev, self.mask = snap["hidden"].clone(), snap["prev"].clone(), snap["mask"].clone()
+        self.gen.set_state(snap["gen"])
+
+    def collect(self, preempt: ddp.Preemption | None = None) -> tuple[dict[str, torch.Tensor], list[dict]]:
+        """``rollout_steps`` steps of every env (fewer when ``preempt`` ends the rollout early): (the update's
+        tensors, success and SPL of the episodes that ended)."""
         cfg, slots = self.cfg, self.slots
         T, n = cfg.rollout_steps, len(slots)
         keys = ("feat", "goal", "prev", "mask", "action", "logp", "value")
@@ -123,6 +146,9 @@ class Rollout:
         finished: list[dict] = []
         hidden0 = self.hidden.clone()
         for t in range(T):
+            if preempt is not None and preempt.should_stop(t, T):
+                rewards, dones = rewards[:t], dones[:t]
+                break
             feat, goal, logits, value, hidden = self._step_policy()
             dist = torch.distributions.Categorical(logits=logits)
             action = torch.multinomial(dist.probs, 1, generator=self.gen)[:, 0]
@@ -135,7 +161,7 @@ class Rollout:
             for i in range(n):
                 term, trunc, info, _ = slots.step(i, int(action[i]))
                 d = info["distance_to_goal"]
-                rewards[t, i] = step_reward(self.dist[i], d, bool(term and info["success"]), cfg)
+                rewards[t, i] = step_reward(self.dist[i], d, bool(term and info["success"]), cfg, info["spl"])
                 self.dist[i] = d
                 if term or trunc:
                     dones[t, i] = 1.0
@@ -145,6 +171,8 @@ class Rollout:
                     self.hidden[i] = 0.0
                     self.prev[i] = 0
                     self.mask[i] = False
+        if preempt is not None:
+            preempt.finished()
         last_value = self._step_policy()[3].numpy()
         out = {k: torch.stack(v) for k, v in buf.items()}
         adv = gae(rewards, out["value"].numpy(), dones, last_value, cfg.gamma, cfg.gae_lambda)
@@ -155,12 +183,24 @@ class Rollout:
         return out, finished
 
 
+def normalized_advantages(adv: torch.Tensor) -> torch.Tensor:
+    """Advantages less their mean, over their standard deviation, both taken over every rank's rollout."""
+    if not ddp.info().distributed:
+        return (adv - adv.mean()) / (adv.std() + 1e-5)
+    a = adv.double()
+    total, total_sq, count = ddp.all_sum([float(a.sum()), float((a * a).sum()), float(a.numel())])
+    mean = total / count
+    std = max(0.0, (total_sq - count * mean * mean) / max(1.0, count - 1)) ** 0.5
+    return ((adv - mean) / (std + 1e-5)).to(adv.dtype)
+
+
 def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: dict[str, torch.Tensor],
-               cfg: PPOConfig, actor: bool, rng: np.random.Generator) -> dict[str, float]:
-    """Clipped PPO epochs over env groups; with ``actor`` False only the value loss is applied."""
+               cfg: PPOConfig, actor: bool, rng: np.random.Generator, forward=None) -> dict[str, float]:
+    """Clipped PPO epochs over env groups; with ``actor`` False only the value loss is applied. ``forward`` is
+    the training forward (``policy.forward_features``, or its DDP wrapper in a distributed run)."""
+    forward = policy.forward_features if forward is None else forward
     n = data["action"].shape[1]
-    adv = data["adv"]
-    adv = (adv - adv.mean()) / (adv.std() + 1e-5)
+    adv = normalized_advantages(data["adv"])
     stats: dict[str, list[float]] = {k: [] for k in ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_frac")}
     if cfg.bc_weight > 0:
         stats["bc_loss"] = []
@@ -171,8 +211,8 @@ def ppo_update(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, data: d
     for _ in range(cfg.ppo_epochs):
         for idx in np.array_split(rng.permutation(n), cfg.num_minibatches):
             idx = torch.as_tensor(idx, device=dev)
-            logits, value, _ = policy.forward_features(data["feat"][:, idx], data["goal"][:, idx],
-                                                       data["prev"][:, idx], data["mask"][:, idx], data["hidden0"][idx])
+            logits, value, _ = forward(data["feat"][:, idx], data["goal"][:, idx], data["prev"][:, idx],
+                                       data["mask"][:, idx], data["hidden0"][idx])
             logp_all = F.log_softmax(logits, -1)
             logp = logp_all.gather(-1, data["action"][:, idx, None])[..., 0]
             ratio = torch.exp(logp - data["logp"][:, idx])
@@ -212,14 +252,21 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
               ) -> dict[str, float]:
     """Fine-tune ``init``'s weights under ``cfg`` (or resume from ``state_dir``); writes ``out`` and its
     ``.log.csv``. The updates (and, with one worker, the rollouts' forward passes) run on ``device``
-    (resolved); rollout workers act on the CPU."""
+    (resolved); rollout workers act on the CPU. Under torchrun or SLURM every rank runs this
+    (:mod:`navbench.policy.distributed`): rank 0 writes the checkpoint and the log, every rank resumes from the
+    state rank 0 saved."""
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
+    dist = ddp.init(device)
+    device = ddp.rank_device(device)
+    resume = resume or ddp.restarted()
     out, state_dir = Path(out), Path(state_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     state_dir.mkdir(parents=True, exist_ok=True)
     state_path = state_dir / "ppo_state.pt"
     log_path = out.with_suffix(".log.csv")
+    if not dist.is_main:
+        log_every = _quiet
 
     policy = PointNavResNetPolicy(PolicyNetConfig()).to(device)
     policy.net.visual_encoder.requires_grad_(False)
@@ -237,50 +284,87 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
     else:
         policy.load_state_dict(load_checkpoint(init).state_dict())
         log_every(f"initialised from {init}")
-        if log_path.exists():
+        if dist.is_main and log_path.exists():
             log_path.unlink()
+    if dist.distributed:
+        log_every(f"world size {dist.world_size} ({dist.backend}): {cfg.num_envs} envs per rank")
+    ddp.barrier()  # the log is fresh before any rank writes
     policy.eval()  # no dropout or batch statistics anywhere; eval() only marks inference
-    rng = np.random.default_rng([cfg.seed, start])
+    rng = np.random.default_rng(ddp.rank_seeds([cfg.seed, start]))
     gen = torch.Generator().manual_seed(int(rng.integers(2**62)))
     env_seed = cfg.seed * 7919 + start
+    first = dist.rank * cfg.num_envs  # env i of rank r is seeded base + r * num_envs + i
     if cfg.workers > 1:
-        source = Collection.in_workers(Rollout, cfg, env_seed, [[cfg.seed, start, 2, w] for w in range(cfg.workers)])
+        source = Collection.in_workers(Rollout, cfg, env_seed, [ddp.rank_seeds([cfg.seed, start, 2, w])
+                                                                 for w in range(cfg.workers)], first_env=first)
     else:
-        source = Collection(Rollout(make_envs(cfg.num_envs, cfg.train_split, env_seed), cfg, policy, gen,
-                                    np.random.default_rng([cfg.seed, start, 1])))
+        source = Collection(Rollout(make_envs(cfg.num_envs, cfg.train_split, env_seed, first), cfg, policy, gen,
+                                    np.random.default_rng(ddp.rank_seeds([cfg.seed, start, 1]))))
+    window: list[dict] = []  # the last 100 finished rollout episodes of this rank
+    local = ddp.load_local(state_path, "update", start) if start > 0 else None
+    if local is not None and len(local["collect"]) != max(1, cfg.workers):  # saved with another --workers
+        local = None
+    if local is not None:  # continue the envs, recurrent states and random streams exactly
+        source.restore(local["collect"])
+        ddp.set_rng_state(rng, local["rng"])
+        torch.set_rng_state(local["torch_rng"])
+        window = list(local["window"])
+    elif start > 0:
+        log_every("the resume state holds no rollout state for this world size: the envs start afresh")
     try:
         return _ppo_loop(cfg, policy, opt, source, rng, start, frames, wall0, init, out, log_path, state_path,
-                         log_every)
+                         log_every, window)
     finally:
         source.close()
 
 
+def _quiet(*_args) -> None:
+    """The log of a rank other than 0: its rows are rank 0's."""
+
+
 def _ppo_loop(cfg: PPOConfig, policy, opt, source: Collection, rng, start, frames, wall0, init, out,
-              log_path, state_path, log_every) -> dict[str, float]:
-    """The updates of :func:`train_ppo`: collect, update, log, save."""
+              log_path, state_path, log_every, window: list[dict]) -> dict[str, float]:
+    """The updates of :func:`train_ppo`: collect, update, log, save (also when SIGTERM or SIGUSR1 asks)."""
+    dist = ddp.info()
     t_start = time.time() - wall0
     last: dict[str, float] = {}
-    window: list[dict] = []  # the last 100 finished rollout episodes
-    for u in progress(range(start, cfg.updates), desc="ppo updates"):
-        t0 = time.time()
-        data, finished = source.collect(policy)
-        t_collect = time.time() - t0
-        t0 = time.time()
-        stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng)
-        window = (window + finished)[-100:]
-        frames += int(data["action"].numel())
-        last = {"update": u + 1, "frames": frames, "actor": int(u >= cfg.critic_warmup),
-                "reward_per_step": float(data["reward"].mean()),
-                "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
-                "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan"),
-                "episodes": len(window), **stats,
-                "collect_s": t_collect, "train_s": time.time() - t0, "wall_s": time.time() - t_start}
-        log_every(log_row(log_path, last, digits=4))
-        if (u + 1) % cfg.save_every == 0 or u + 1 == cfg.updates:
-            save_checkpoint(out, policy, {"ppo_config": dataclasses.asdict(cfg), "init": str(init), "frames": frames,
-                                          "wall_s": last["wall_s"], "update": u + 1})
-            save_train_state(state_path, {"policy": policy.state_dict(), "optimizer": opt.state_dict(),
-                                          "update": u + 1, "frames": frames, "wall_s": last["wall_s"]})
+    forward = ddp.training_forward(policy)
+    with ddp.StopSignals() as signals:
+        for u in (progress(range(start, cfg.updates), desc="ppo updates") if dist.is_main
+                  else range(start, cfg.updates)):
+            if cfg.lr_schedule != "constant":
+                factor = update_lr_factor(cfg, u)
+                opt.param_groups[0]["lr"], opt.param_groups[1]["lr"] = cfg.lr * factor, cfg.critic_lr * factor
+            t0 = time.time()
+            preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, f"{Path(out).name}/{u}")
+            data, finished = source.collect(policy, *([preempt] if source.local is not None else []))
+            t_collect = time.time() - t0
+            t0 = time.time()
+            stats = ppo_update(policy, opt, data, cfg, actor=u >= cfg.critic_warmup, rng=rng, forward=forward)
+            window = (window + finished)[-100:]
+            frames += int(ddp.all_sum([float(data["action"].numel())])[0])
+            rollout = {"reward_per_step": float(data["reward"].mean()),
+                       "rollout_success": float(np.mean([e["success"] for e in window])) if window else float("nan"),
+                       "rollout_spl": float(np.mean([e["spl"] for e in window])) if window else float("nan")}
+            last = {"update": u + 1, "frames": frames, "actor": int(u >= cfg.critic_warmup), **ddp.all_mean(rollout),
+                    "episodes": int(ddp.all_sum([float(len(window))])[0]), **ddp.all_mean(stats),
+                    "collect_s": t_collect, "train_s": time.time() - t0, "wall_s": time.time() - t_start}
+            if dist.is_main:
+                log_every(log_row(log_path, last, digits=4))
+            stop = signals.requested()
+            if (u + 1) % cfg.save_every == 0 or u + 1 == cfg.updates or stop:
+                if dist.is_main:
+                    save_checkpoint(out, policy, {"ppo_config": dataclasses.asdict(cfg), "init": str(init),
+                                                  "frames": frames, "wall_s": last["wall_s"], "update": u + 1})
+                ddp.save_resume(state_path, {"policy": policy.state_dict(), "optimizer": opt.state_dict(),
+                                             "update": u + 1, "frames": frames, "wall_s": last["wall_s"]},
+                                {"update": u + 1, "collect": source.snapshot(), "rng": ddp.rng_state(rng),
+                                 "torch_rng": torch.get_rng_state(), "window": window})
+            if stop:
+                log_every(f"stopped by signal {signals.signum or 'on another rank'} after update {u + 1}; "
+                          "resume state saved (continue with --resume)")
+                last = {**last, "stopped_by_signal": signals.signum or -1}
+                break
     return last
 
 
@@ -288,5 +372,6 @@ def main(cfg: PPOConfig, out: Path, state_dir: Path, init: Path | None, resume: 
          device: str = "cpu") -> dict[str, float]:
     """``navbench train ppo``: fine-tune, print the last log row as JSON."""
     result = train_ppo(cfg, out, init, resume=resume, state_dir=state_dir, device=device)
-    print(json.dumps(result))
+    if ddp.info().is_main:
+        print(json.dumps(result))
     return result

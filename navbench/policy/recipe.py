@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
+import os
 import shutil
 import sys
 import tomllib
@@ -158,9 +159,15 @@ def run_trainer(trainer: str, cfg: Any, out: Path, state_dir: Path, init: Path |
     """Run one trainer (imported here: the CLI stays light until it trains) with its updates on ``device``."""
     bf16_warning(trainer, cfg)
     if trainer == "encoder":
+        from navbench.policy import distributed
         from navbench.policy.pretrain import main
 
-        return main(cfg, out, state_dir, resume, device=device)
+        # the encoder's pre-training is not distributed: rank 0 runs it while the other ranks wait for its output
+        dist = distributed.init()
+        try:
+            return main(cfg, out, state_dir, resume, device=device) if dist.is_main else None
+        finally:
+            distributed.barrier()
     if trainer == "dagger":
         from navbench.policy.train import main
     else:
@@ -188,11 +195,14 @@ def run_recipe(recipe: Recipe, out_dir: Path, resume: bool = False, only: str | 
                 raise FileNotFoundError(f"{previous}: stage {stage.name!r} starts from it; run the stage "
                                         "before it first")
             print(f"stage {stage.name} ({stage.trainer}) -> {stage_out}", file=sys.stderr)
-            run(stage.trainer, stage.config, stage_out, out_dir / f"{stage.name}_state",
-                previous if stage.trainer != "encoder" else None, resume)
+            done = run(stage.trainer, stage.config, stage_out, out_dir / f"{stage.name}_state",
+                       previous if stage.trainer != "encoder" else None, resume)
             result = stage_out
+            if isinstance(done, dict) and done.get("stopped_by_signal"):
+                print(f"stage {stage.name} stopped by a signal: rerun with --resume to continue", file=sys.stderr)
+                return result
         previous = stage_out
-    if out is not None:
+    if out is not None and os.environ.get("RANK", "0") == "0":  # one copy in a distributed run: rank 0's
         out.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(result, out)
         print(f"copied {result} to {out}", file=sys.stderr)
@@ -250,6 +260,14 @@ def add_train_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
 
 def main(args: argparse.Namespace) -> int:
     """``navbench train``'s entry: a recipe with ``--config``, else the trainer subcommand."""
+    try:
+        return _main(args)
+    finally:
+        if "navbench.policy.distributed" in sys.modules:  # a trainer joined a process group: leave it
+            sys.modules["navbench.policy.distributed"].shutdown()
+
+
+def _main(args: argparse.Namespace) -> int:
     device = resolve_device(args.device)
     if args.config is not None:
         if args.trainer is not None:

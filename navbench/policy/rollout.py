@@ -125,6 +125,27 @@ class EnvSlots:
         self.collisions[i] = info["collisions"]
         return term, trunc, info, blocked
 
+    def snapshot(self) -> dict:
+        """Every env's episode in progress, the start draws' random stream and the experts' plans."""
+        experts = [None if e is None else {"plan_xz": e._plan_xz, "plan_yaw": e._plan_yaw, "yaw0": e._yaw0,
+                                           "turns_ahead": e.turns_ahead} for e in self.experts]
+        return {"envs": [env.snapshot() for env in self.envs], "rng": self.rng.bit_generator.state,
+                "collisions": list(self.collisions), "experts": experts}
+
+    def restore(self, snap: dict) -> None:
+        """Continue from :meth:`snapshot`'s state (the envs must step the same datasets)."""
+        if len(snap["envs"]) != len(self.envs):
+            raise ValueError(f"a snapshot of {len(snap['envs'])} envs cannot continue {len(self.envs)}")
+        for i, (env, s) in enumerate(zip(self.envs, snap["envs"])):
+            self.obs[i] = env.restore(s)
+            e = snap["experts"][i]
+            if self.expert is not None and e is not None:
+                f = self.experts[i] = make_expert(env, *self.expert)
+                f._plan_xz = None if e["plan_xz"] is None else tuple(e["plan_xz"])
+                f._plan_yaw, f._yaw0, f.turns_ahead = e["plan_yaw"], e["yaw0"], e["turns_ahead"]
+        self.collisions = list(snap["collisions"])
+        self.rng.bit_generator.state = snap["rng"]
+
     def close(self) -> None:
         for env in self.envs:
             env.close()
@@ -150,6 +171,12 @@ class CollectorWorker:
         policy.load_state_dict({**policy.state_dict(), **weights})
         return self.collector.collect(*args)
 
+    def snapshot(self) -> dict:
+        return self.collector.snapshot()
+
+    def restore(self, snap: dict) -> None:
+        self.collector.restore(snap)
+
     def close(self) -> None:
         for env in self.collector.envs:
             env.close()
@@ -169,11 +196,12 @@ class Collection:
         self._encoder_sent = False
 
     @classmethod
-    def in_workers(cls, collector_cls: type, cfg: Any, env_seed: int, rng_seeds: Sequence[list[int]]) -> Collection:
+    def in_workers(cls, collector_cls: type, cfg: Any, env_seed: int, rng_seeds: Sequence[list[int]],
+                   first_env: int = 0) -> Collection:
         """``cfg.workers`` processes, worker ``w`` stepping its share of ``cfg.num_envs`` envs (seeded from
-        ``env_seed`` as in one process) with random streams from ``rng_seeds[w]``."""
+        ``env_seed`` as in one process, numbered from ``first_env``) with random streams from ``rng_seeds[w]``."""
         shares = worker_shares(cfg.num_envs, cfg.workers)
-        pool = WorkerPool(CollectorWorker, [(collector_cls, cfg, first, n, env_seed, rng_seeds[w])
+        pool = WorkerPool(CollectorWorker, [(collector_cls, cfg, first_env + first, n, env_seed, rng_seeds[w])
                                             for w, (first, n) in enumerate(shares)],
                           threads=max(1, cfg.threads // cfg.workers))
         return cls(pool=pool, cls=collector_cls)
@@ -186,6 +214,22 @@ class Collection:
         self._encoder_sent = True
         share = self.cls.worker_args(args, len(self.pool))
         return self.cls.merge(self.pool.call("collect", [(weights, share)] * len(self.pool)))
+
+    def snapshot(self) -> list[dict]:
+        """Each collector's state (one per worker, or the local one's), for an exact resume."""
+        if self.local is not None:
+            return [self.local.snapshot()]  # type: ignore[attr-defined]
+        return self.pool.call("snapshot")
+
+    def restore(self, snaps: list[dict]) -> None:
+        if self.local is not None:
+            if len(snaps) != 1:
+                raise ValueError(f"a snapshot of {len(snaps)} rollout workers cannot continue in one process")
+            self.local.restore(snaps[0])  # type: ignore[attr-defined]
+            return
+        if len(snaps) != len(self.pool):
+            raise ValueError(f"a snapshot of {len(snaps)} rollout workers cannot continue in {len(self.pool)}")
+        self.pool.call("restore", [(s,) for s in snaps])
 
     def close(self) -> None:
         if self.pool is not None:

@@ -40,7 +40,14 @@ from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
 from navbench.loop_progress import progress
 from navbench.paths import split_file
-from navbench.policy.checkpoint import load_checkpoint, load_train_state, save_checkpoint, save_train_state
+from navbench.policy import distributed as ddp
+from navbench.policy.checkpoint import (
+    load_checkpoint,
+    load_train_state,
+    read_train_state,
+    save_checkpoint,
+    save_train_state,
+)
 from navbench.policy.config import TrainConfig
 from navbench.policy.csv_log import log_row
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
@@ -106,7 +113,9 @@ def iteration_lr(cfg: TrainConfig, it: int) -> float:
         return cfg.lr
     if cfg.lr_schedule == "cosine":
         return cosine_rate(cfg.lr, cfg.lr_min, it / max(1, cfg.iterations - 1))
-    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant or cosine")
+    if cfg.lr_schedule == "linear":
+        return cfg.lr + (cfg.lr_min - cfg.lr) * min(1.0, it / max(1, cfg.iterations - 1))
+    raise ValueError(f"unknown lr_schedule {cfg.lr_schedule!r}: choose constant, cosine or linear")
 
 
 def inflection_weights(labels: np.ndarray, w: float) -> np.ndarray:
@@ -172,8 +181,30 @@ class Collector:
                 "mask": np.array(s["mask"], bool), "label": labels,
                 "weight": step_weights(labels, np.array(s["blocked"]), goal, self.cfg)}
 
-    def collect(self, frames: int, beta: float) -> tuple[list[dict], list[float]]:
-        """At least ``frames`` steps over the envs: (episodes that ended, their successes)."""
+    def snapshot(self) -> dict:
+        """The envs and the episodes in flight (their recorded steps), for an exact resume."""
+        state = []
+        for s in self.state:
+            state.append({"steps": s["steps"], "last": s["last"], "new": s["new"], "hit": bool(s["hit"]),
+                          "feat": torch.from_numpy(np.stack(s["feat"])) if s["feat"] else None,
+                          "goal": torch.from_numpy(np.stack(s["goal"])) if s["goal"] else None,
+                          "prev": [int(v) for v in s["prev"]], "mask": [bool(v) for v in s["mask"]],
+                          "label": [int(v) for v in s["label"]], "blocked": [bool(v) for v in s["blocked"]]})
+        return {"slots": self.slots.snapshot(), "state": state}
+
+    def restore(self, snap: dict) -> None:
+        self.slots.restore(snap["slots"])
+        self.state = []
+        for s in snap["state"]:
+            self.state.append({**s, "feat": [] if s["feat"] is None else list(s["feat"].numpy()),
+                               "goal": [] if s["goal"] is None else list(s["goal"].numpy()),
+                               "prev": list(s["prev"]), "mask": list(s["mask"]), "label": list(s["label"]),
+                               "blocked": list(s["blocked"])})
+
+    def collect(self, frames: int, beta: float, preempt: ddp.Preemption | None = None
+                ) -> tuple[list[dict], list[float]]:
+        """At least ``frames`` steps over the envs (fewer when ``preempt`` ends the collection early): (episodes
+        that ended, their successes)."""
         cfg, rng, slots = self.cfg, self.rng, self.slots
         learner = self.learner()
         out: list[dict[str, np.ndarray]] = []
@@ -183,6 +214,8 @@ class Collector:
                 learner.reset(i)
         count = 0
         while count < frames:
+            if preempt is not None and preempt.should_stop(count, frames):
+                break
             # the learner's forward pass also gives the encoder output that the buffer stores
             actions, visual = learner.act_and_encode(np.stack([o["depth"] for o in slots.obs]),
                                                      np.stack([o["pointgoal_with_gps_compass"] for o in slots.obs]))
@@ -209,6 +242,8 @@ class Collector:
                     slots.restart(i)
                     self.state[i] = self._fresh()
                     learner.reset(i)
+        if preempt is not None:
+            preempt.finished()
         return out, successes
 
 
@@ -263,19 +298,25 @@ def build_learner(cfg: TrainConfig) -> PointNavResNetPolicy:
 
 
 def train_step(policy: PointNavResNetPolicy, opt: torch.optim.Optimizer, batch: dict[str, torch.Tensor],
-               cfg: TrainConfig) -> tuple[float, float]:
-    """One update on a batch of stored episodes: weighted cross-entropy to the expert's labels. (loss, accuracy)"""
+               cfg: TrainConfig, forward=None) -> tuple[float, float]:
+    """One update on a batch of stored episodes: weighted cross-entropy to the expert's labels. (loss, accuracy)
+
+    ``forward`` is the training forward (``policy.forward_features``, or its DDP wrapper in a distributed run,
+    where the loss is normalised by every rank's total weight: the averaged gradient is then the gradient of
+    one process on the union of the ranks' batches)."""
+    forward = policy.forward_features if forward is None else forward
     T, n = batch["label"].shape
     dev = next(policy.parameters()).device
     batch = {k: v.to(dev) for k, v in batch.items()}
     hidden = policy.initial_hidden(n, dev)
     with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=cfg.bf16):
-        logits, _, _ = policy.forward_features(batch["feat"].float(), batch["goal"], batch["prev"], batch["mask"],
-                                               hidden)
+        logits, _, _ = forward(batch["feat"].float(), batch["goal"], batch["prev"], batch["mask"], hidden)
     logits = logits.float()
     w = batch["weight"]
+    dist = ddp.info()
+    norm = w.sum() if not dist.distributed else ddp.all_sum([float(w.sum())])[0] / dist.world_size
     loss = (F.cross_entropy(logits.reshape(T * n, -1), batch["label"].reshape(-1), reduction="none")
-            * w.reshape(-1)).sum() / w.sum()
+            * w.reshape(-1)).sum() / norm
     opt.zero_grad(set_to_none=True)
     loss.backward()
     torch.nn.utils.clip_grad_norm_([p for p in policy.parameters() if p.requires_grad], cfg.grad_clip)
@@ -289,16 +330,22 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
           init: Path | None = None, log_every=print, device: str = "cpu") -> dict[str, float]:
     """Run ``cfg`` from ``init``'s weights (or resume from ``state_dir``); writes ``out`` and its ``.log.csv``.
     The learner's updates (and, with one worker, its rollouts) run on ``device`` (resolved); rollout workers
-    act on the CPU."""
+    act on the CPU. Under torchrun or SLURM every rank runs this (:mod:`navbench.policy.distributed`) with its
+    own envs and buffer; rank 0 writes the checkpoint and the log."""
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
-    rng = np.random.default_rng(cfg.seed)
+    dist = ddp.init(device)
+    device = ddp.rank_device(device)
+    resume = resume or ddp.restarted()
+    rng = np.random.default_rng(ddp.rank_seeds(cfg.seed))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     state_dir = Path(state_dir)
     state_dir.mkdir(parents=True, exist_ok=True)
     state_path = state_dir / "train_state.pt"  # weights + optimizer: resumable, not shipped
     log_path = out.with_suffix(".log.csv")
+    if not dist.is_main:
+        log_every = _quiet
 
     policy = build_learner(cfg).to(device)
     opt = torch.optim.Adam([p for p in policy.parameters() if p.requires_grad], lr=cfg.lr,
@@ -306,80 +353,168 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
     start_it, frames_total, wall0 = 0, 0, 0.0
     if resume and state_path.is_file():
         start_it, frames_total, wall0 = load_train_state(state_path, policy, opt, "iteration")
-        rng = np.random.default_rng([cfg.seed, start_it])
+        rng = np.random.default_rng(ddp.rank_seeds([cfg.seed, start_it]))
         log_every(f"resumed at iteration {start_it} ({frames_total} frames, {wall0:.0f} s)")
     else:
         if init is not None:  # warm start: weights only, fresh optimizer
             policy.load_state_dict(load_checkpoint(init).state_dict())
             log_every(f"initialised from {init}")
-        if log_path.exists():
+        if dist.is_main and log_path.exists():
             log_path.unlink()
+    if dist.distributed:
+        log_every(f"world size {dist.world_size} ({dist.backend}): {cfg.num_envs} envs per rank")
+    ddp.barrier()
 
+    first = dist.rank * cfg.num_envs  # env i of rank r is seeded base + r * num_envs + i
     if cfg.workers > 1:
         source = Collection.in_workers(Collector, cfg, cfg.seed + start_it,
-                                       [[cfg.seed, start_it, w] for w in range(cfg.workers)])
+                                       [ddp.rank_seeds([cfg.seed, start_it, w]) for w in range(cfg.workers)],
+                                       first_env=first)
     else:
-        source = Collection(Collector(make_envs(cfg.num_envs, cfg.train_split, cfg.seed + start_it), cfg, rng, policy))
+        source = Collection(Collector(make_envs(cfg.num_envs, cfg.train_split, cfg.seed + start_it, first), cfg, rng,
+                                      policy))
+    buffer = ShardedBuffer(cfg.buffer_frames, ddp.rank_state_path(state_dir / "buffer"))
+    if start_it == 0:  # a fresh run: shards an earlier run left are not this run's
+        for stale in buffer.directory.glob("iteration_*.pt"):
+            stale.unlink()
+    local = ddp.load_local(state_path, "iteration", start_it) if start_it > 0 else None
+    if local is not None and len(local["collect"]) != max(1, cfg.workers):  # saved with another --workers
+        local = None
+    if local is not None:  # continue the envs, the episodes in flight, the buffer and the random streams exactly
+        source.restore(local["collect"])
+        ddp.set_rng_state(rng, local["rng"])
+        torch.set_rng_state(local["torch_rng"])
+        buffer.load(local["shards"])
+    elif start_it > 0:
+        log_every("the resume state holds no rollout state for this world size: envs and buffer start afresh")
     try:
-        return _train_loop(cfg, policy, opt, rng, source, start_it, frames_total, wall0, out, log_path, state_path,
-                           log_every)
+        return _train_loop(cfg, policy, opt, rng, source, buffer, start_it, frames_total, wall0, out, log_path,
+                           state_path, log_every)
     finally:
         source.close()
 
 
-def _train_loop(cfg, policy, opt, rng, source: Collection, start_it, frames_total, wall0, out, log_path,
-                state_path, log_every) -> dict[str, float]:
-    """The iterations of :func:`train`: collect, aggregate, update, monitor, log, save."""
-    buffer = EpisodeBuffer(cfg.buffer_frames)
+def _quiet(*_args) -> None:
+    """The log of a rank other than 0: its rows are rank 0's."""
+
+
+class ShardedBuffer(EpisodeBuffer):
+    """The aggregated buffer, each iteration's new episodes also written to ``directory`` as one shard, so a
+    resumed run rebuilds the same buffer; shards wholly dropped from the buffer are deleted."""
+
+    def __init__(self, max_frames: int, directory: Path):
+        super().__init__(max_frames)
+        self.directory = Path(directory)
+        self.shards: list[list[int]] = []  # [iteration, episodes] of the shards on disk, oldest first
+        self.added = 0  # episodes added so far (those before added - len(episodes) were dropped)
+
+    def _path(self, it: int) -> Path:
+        return self.directory / f"iteration_{it:06d}.pt"
+
+    def add_iteration(self, it: int, eps: list[dict[str, np.ndarray]], save: bool = True) -> None:
+        for e in eps:
+            self.add(e)
+        self.added += len(eps)
+        if save:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            save_train_state(self._path(it), {"episodes": [{k: torch.from_numpy(np.ascontiguousarray(v))
+                                                            for k, v in e.items()} for e in eps]})
+            self.shards.append([it, len(eps)])
+        oldest, first = self.added - len(self.episodes), self.added - sum(n for _, n in self.shards)
+        while self.shards and first + self.shards[0][1] <= oldest:
+            first += self.shards[0][1]
+            self._path(self.shards.pop(0)[0]).unlink(missing_ok=True)
+
+    def load(self, shards: list[list[int]]) -> None:
+        """Rebuild the buffer from the shards a saved state lists (adding them in order drops the same episodes)."""
+        for it, _ in shards:
+            eps = read_train_state(self._path(it))["episodes"]
+            self.add_iteration(it, [{k: v.numpy() for k, v in e.items()} for e in eps], save=False)
+        self.shards = [list(x) for x in shards]
+
+
+def _train_loop(cfg, policy, opt, rng, source: Collection, buffer: ShardedBuffer, start_it, frames_total, wall0,
+                out, log_path, state_path, log_every) -> dict[str, float]:
+    """The iterations of :func:`train`: collect, aggregate, update, monitor, log, save (also when SIGTERM or
+    SIGUSR1 asks)."""
+    dist = ddp.info()
     t_start = time.time() - wall0
     last: dict[str, float] = {}
-    for it in progress(range(start_it, cfg.iterations), desc="dagger iterations"):
-        beta = max(cfg.beta_min, cfg.beta0 * cfg.beta_decay ** it)
-        lr = iteration_lr(cfg, it)
-        for group in opt.param_groups:
-            group["lr"] = lr
-        policy.eval()
-        t0 = time.time()
-        eps, successes = source.collect(policy, cfg.frames_per_iteration, beta)
-        for e in eps:
-            buffer.add(e)
-        new_frames = sum(len(e["label"]) for e in eps)
-        frames_total += new_frames
-        t_collect = time.time() - t0
-        policy.train()
-        if not buffer.episodes:  # none ended yet: the running episodes carry over into the next collection
-            n_updates = 0
-        else:
-            seq_len = buffer.frames / len(buffer.episodes)
-            n_updates = max(1, round(new_frames * cfg.epochs_per_iteration / (seq_len * cfg.batch_episodes)))
-        losses, accs = [], []
-        t0 = time.time()
-        for _ in range(n_updates):
-            loss, acc = train_step(policy, opt, buffer.sample(rng, cfg.batch_episodes), cfg)
-            losses.append(loss)
-            accs.append(acc)
-        t_train = time.time() - t0
-        policy.eval()
-        monitor = (evaluate(policy, cfg.monitor_episodes, cfg.monitor_max_steps) if cfg.monitor_episodes > 0
-                   else {"select_sr": float("nan"), "select_spl": float("nan")})
-        last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}",
-                "loss": float(np.mean(losses)) if losses else float("nan"),
-                "acc": float(np.mean(accs)) if accs else float("nan"),
-                "rollout_success": float(np.mean(successes)) if successes else float("nan"), **monitor,
-                "collect_s": t_collect, "train_s": t_train, "updates": n_updates, "buffer_frames": buffer.frames,
-                "wall_s": time.time() - t_start}
-        log_every(log_row(log_path, last, digits=3))
-        meta = {"train_config": dataclasses.asdict(cfg), "frames": frames_total, "wall_s": last["wall_s"],
-                "iteration": it + 1, **monitor}
-        save_checkpoint(out, policy, meta)
-        save_train_state(state_path, {"policy": policy.state_dict(), "optimizer": opt.state_dict(),
-                                      "iteration": it + 1, "frames": frames_total, "wall_s": last["wall_s"]})
+    forward = ddp.training_forward(policy)
+    iterations = range(start_it, cfg.iterations)
+    with ddp.StopSignals() as signals:
+        for it in (progress(iterations, desc="dagger iterations") if dist.is_main else iterations):
+            beta = max(cfg.beta_min, cfg.beta0 * cfg.beta_decay ** it)
+            lr = iteration_lr(cfg, it)
+            for group in opt.param_groups:
+                group["lr"] = lr
+            policy.eval()
+            t0 = time.time()
+            preempt = ddp.Preemption(cfg.preempt_fraction, cfg.preempt_min_share, f"{Path(out).name}/{it}")
+            eps, successes = source.collect(policy, cfg.frames_per_iteration, beta,
+                                            *([preempt] if source.local is not None else []))
+            buffer.add_iteration(it + 1, eps)
+            new_frames = sum(len(e["label"]) for e in eps)
+            t_collect = time.time() - t0
+            policy.train()
+            n_updates = _updates(cfg, buffer, new_frames)
+            new_frames = int(ddp.all_sum([float(new_frames)])[0])
+            frames_total += new_frames
+            losses, accs = [], []
+            t0 = time.time()
+            for _ in range(n_updates):
+                loss, acc = train_step(policy, opt, buffer.sample(rng, cfg.batch_episodes), cfg, forward)
+                losses.append(loss)
+                accs.append(acc)
+            t_train = time.time() - t0
+            policy.eval()
+            monitor = (evaluate(policy, cfg.monitor_episodes, cfg.monitor_max_steps)
+                       if cfg.monitor_episodes > 0 and dist.is_main
+                       else {"select_sr": float("nan"), "select_spl": float("nan")})
+            means = ddp.all_mean({"loss": float(np.mean(losses)) if losses else float("nan"),
+                                  "acc": float(np.mean(accs)) if accs else float("nan"),
+                                  "rollout_success": float(np.mean(successes)) if successes else float("nan")})
+            buffer_frames = int(ddp.all_sum([float(buffer.frames)])[0])
+            last = {"iteration": it + 1, "frames": frames_total, "beta": beta, "lr": f"{lr:.4g}",
+                    "loss": means["loss"], "acc": means["acc"], "rollout_success": means["rollout_success"],
+                    **monitor, "collect_s": t_collect, "train_s": t_train, "updates": n_updates,
+                    "buffer_frames": buffer_frames, "wall_s": time.time() - t_start}
+            if dist.is_main:
+                log_every(log_row(log_path, last, digits=3))
+                meta = {"train_config": dataclasses.asdict(cfg), "frames": frames_total, "wall_s": last["wall_s"],
+                        "iteration": it + 1, **monitor}
+                save_checkpoint(out, policy, meta)
+            ddp.save_resume(state_path, {"policy": policy.state_dict(), "optimizer": opt.state_dict(),
+                                         "iteration": it + 1, "frames": frames_total, "wall_s": last["wall_s"]},
+                            {"iteration": it + 1, "collect": source.snapshot(), "rng": ddp.rng_state(rng),
+                             "torch_rng": torch.get_rng_state(), "shards": buffer.shards})
+            if signals.requested():
+                log_every(f"stopped by signal {signals.signum or 'on another rank'} after iteration {it + 1}; "
+                          "resume state saved (continue with --resume)")
+                last = {**last, "stopped_by_signal": signals.signum or -1}
+                break
     return last
+
+
+def _updates(cfg: TrainConfig, buffer: EpisodeBuffer, new_frames: int) -> int:
+    """Gradient steps of this iteration: ``epochs_per_iteration`` passes over the new frames, in batches of
+    ``batch_episodes`` episodes of the buffer's mean length; the same on every rank (from the ranks' totals),
+    none while some rank's buffer is empty (the episodes in flight carry over into the next collection)."""
+    if not ddp.info().distributed:
+        if not buffer.episodes:
+            return 0
+        seq_len = buffer.frames / len(buffer.episodes)
+        return max(1, round(new_frames * cfg.epochs_per_iteration / (seq_len * cfg.batch_episodes)))
+    if ddp.all_min([float(len(buffer.episodes))])[0] == 0:
+        return 0
+    frames, episodes, new = ddp.all_sum([float(buffer.frames), float(len(buffer.episodes)), float(new_frames)])
+    return max(1, round(new * cfg.epochs_per_iteration / (frames / episodes * cfg.batch_episodes)))
 
 
 def main(cfg: TrainConfig, out: Path, state_dir: Path, init: Path | None, resume: bool,
          device: str = "cpu") -> dict[str, float]:
     """``navbench train dagger``: train, print the last log row as JSON."""
     result = train(cfg, out, resume=resume, state_dir=state_dir, init=init, device=device)
-    print(json.dumps(result))
+    if ddp.info().is_main:
+        print(json.dumps(result))
     return result

@@ -17,6 +17,7 @@ worker order: the same seed gives the same results whatever the timing.
 from __future__ import annotations
 
 import os
+import signal
 import traceback
 from collections.abc import Callable, Sequence
 from multiprocessing import get_context
@@ -49,6 +50,8 @@ def share_cores(threads: int) -> None:
 
 
 def _serve(conn, factory: Callable[..., Any], args: tuple, threads: int) -> None:
+    # SLURM's time-limit warning may reach every process of the job: the trainer saves and then closes its workers
+    signal.signal(signal.SIGUSR1, signal.SIG_IGN)
     share_cores(threads)
     try:
         obj = factory(*args)

@@ -77,7 +77,10 @@ OLD_STAGES = {
 }
 
 RENAMED = {"dagger": {"val_episodes": "monitor_episodes", "val_max_steps": "monitor_max_steps",
-                      "batch_chunks": "batch_episodes"}}
+                      "batch_chunks": "batch_episodes"},
+           "ppo": {"success_spl": "terminal_reward"}}
+# Options added after these configs were written (distributed runs' preemption): they held their defaults then.
+ADDED = {"preempt_fraction", "preempt_min_share"}
 # Options removed as experiment residue, each with the value at which it changed nothing (the behaviour the code
 # now has), or None where the option only mattered under another removed one (noted beside it).
 REMOVED = {
@@ -87,10 +90,10 @@ REMOVED = {
                "chunk_len": None,  # truncated chunks only (full_episodes False)
                "aux_free_space_weight": None, "free_space_headings_deg": None, "free_space_range": None,  # encoder
                "success_distance": 0.2},  # the task's radius, which the envs always used
-    "ppo": {"waste_weight": 0.0, "collision_penalty": 0.0, "success_spl": False, "replay_failures": 0.0,
+    "ppo": {"waste_weight": 0.0, "collision_penalty": 0.0, "replay_failures": 0.0,
             "replay_buffer": None,  # replay only
             "train_encoder": False, "encoder_lr_scale": None, "bf16": None,  # the encoder's update pass only
-            "lr_schedule": "constant", "lr_min": None},  # the cosine schedule only
+            "lr_min": None},  # the cosine schedule only
 }
 
 def as_new(trainer: str, old: dict) -> dict:
@@ -102,6 +105,8 @@ def as_new(trainer: str, old: dict) -> dict:
             neutral = REMOVED[trainer][key]
             assert neutral is None or value == neutral, f"{trainer}.{key} = {value!r} is behaviour that was removed"
             continue
+        if key == "success_spl":  # the SPL-scaled success bonus, now terminal_reward
+            value = "spl" if value else "flat"
         if key == "expert_success_distance" and value is None:
             value = old.get("success_distance", 0.2)
         if isinstance(value, list):
@@ -138,7 +143,10 @@ def test_every_stage_is_the_config_the_old_makefile_command_produced(name):
     assert [s.trainer for s in stages] == [t for t, _ in OLD_STAGES[name]]
     for stage, (trainer, options) in zip(stages, OLD_STAGES[name]):
         expected = as_new(trainer, {**OLD_DEFAULTS[trainer], **options})
-        assert dataclasses.asdict(stage.config) == expected, stage.name
+        actual = dataclasses.asdict(stage.config)
+        added = [k for k in ADDED if k in actual]
+        assert {k: actual.pop(k) for k in added} == {k: getattr(type(stage.config)(), k) for k in added}
+        assert actual == expected, stage.name
 
 
 @pytest.mark.parametrize(("name", "checkpoint", "key"), [("2h", "pointnav_2h.pth", "train_config"),
@@ -154,7 +162,7 @@ def test_the_last_stage_is_the_training_config_stored_in_the_shipped_file(name, 
     actual = dataclasses.asdict(last.config)
     # options added after the file was trained were not stored: they held their defaults then
     missing = set(actual) - set(expected)
-    assert missing <= {"act_bf16", "workers"}
+    assert missing <= {"act_bf16", "workers", *ADDED}
     assert {k: actual[k] for k in missing} == {k: getattr(type(last.config)(), k) for k in missing}
     assert {k: actual[k] for k in expected} == expected
 
@@ -166,8 +174,8 @@ def test_a_stage_with_an_unknown_or_mistyped_option_is_refused_by_name(tmp_path)
         load_recipe(bad)
     with pytest.raises(ValueError, match="iterations: expected int"):
         build_config("dagger", {"iterations": 1.5})
-    with pytest.raises(ValueError, match="lr_schedule must be one of constant, cosine"):
-        build_config("dagger", {"lr_schedule": "linear"})
+    with pytest.raises(ValueError, match="lr_schedule must be one of constant, cosine, linear"):
+        build_config("dagger", {"lr_schedule": "step"})
     assert build_config("dagger", {"lr": 1}).lr == 1.0  # TOML ints are fine for floats
 
 

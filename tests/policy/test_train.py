@@ -193,7 +193,7 @@ def test_cosine_schedule_runs_from_lr_to_lr_min_and_constant_stays():
     assert all(a > b for a, b in zip(rates, rates[1:]))
     assert iteration_lr(dataclasses.replace(cfg, lr_schedule="constant"), 3) == 4e-4
     with pytest.raises(ValueError, match="linear"):
-        iteration_lr(dataclasses.replace(cfg, lr_schedule="linear"), 0)
+        iteration_lr(dataclasses.replace(cfg, lr_schedule="step"), 0)
 
 
 def test_tight_starts_keep_the_goal_and_start_beside_an_obstacle():
