@@ -48,6 +48,9 @@ class RunConfig:
     # "I/N": this run is shard I (1-based) of N, the I-th of N contiguous blocks of the selected episodes
     # in file order (see select_episodes); None: all of them.
     shard: str | None = None
+    # The named environment configuration (configs/env/NAME.toml, or a file's stem) ``env`` came from; None:
+    # navbench's defaults with the ``env`` overrides.
+    env_config_name: str | None = None
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)

@@ -88,10 +88,12 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
 
 
 def config_json(cfg: RunConfig) -> dict[str, Any]:
-    """What config.json records: the RunConfig (its shard only when set) and navbench's version."""
+    """What config.json records: the RunConfig (its shard and env configuration's name only when set) and
+    navbench's version."""
     out = dict(dataclasses.asdict(cfg), navbench_version=__version__)
-    if out.get("shard") is None:
-        out.pop("shard", None)
+    for key in ("shard", "env_config_name"):
+        if out.get(key) is None:
+            out.pop(key, None)
     return out
 
 
