@@ -119,7 +119,8 @@ def redwood_depth(depth_m: np.ndarray, multiplier: float, rng: np.random.Generat
     model = redwood_model()
     h, w = depth_m.shape
     ymax, xmax = h - 1.0, w - 1.0
-    r = rng.standard_normal((3, h, w)).astype(np.float32)
+    # upstream draws float64 normals, keeps them as float32 and computes with them in float64
+    r = rng.standard_normal((3, h, w)).astype(np.float32).astype(np.float64)
     j, i = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
     y = (np.clip(j + r[0] * 0.25 * multiplier, 0.0, ymax) + 0.5).astype(np.int64)
     x = (np.clip(i + r[1] * 0.25 * multiplier, 0.0, xmax) + 0.5).astype(np.int64)
