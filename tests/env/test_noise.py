@@ -3,6 +3,8 @@ noise against a separate reference, seeding, the agent-state calls and the named
 
 import dataclasses
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +14,9 @@ from navbench.env.config import MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, EnvConfig, 
 from navbench.env.noise import ACTUATION_MODELS, gaussian_rgb, redwood_depth, redwood_model, sample_motion
 from navbench.env.pointnav import PointNavEnv
 from navbench.env.sensors import pointgoal_polar, to_agent_frame
-from redwood_reference import simulate as redwood_reference
+
+sys.path.insert(0, str(Path(__file__).parent))
+from redwood_reference import simulate as redwood_reference  # noqa: E402
 
 STEP, TURN = 0.25, math.radians(30.0)
 
@@ -114,7 +118,7 @@ def test_redwood_matches_the_reference_in_distribution(pointnav_file):
                                                       max_depth=10.0, min_depth=0.0))
     env.reset(seed=0, options={"episode": 0})
     views = []
-    for k in range(4):
+    for _ in range(4):
         views.append(env._renderer.render(*env.camera_pose(), rgb=False, depth=True).depth)
         env.step(TURN_LEFT)
     far = np.full((120, 160), 12.0, np.float32)  # beyond the sensor's range: every pixel dropped
