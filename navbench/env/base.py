@@ -336,9 +336,9 @@ class NavEnv(gym.Env):
                 obs["rgb"] = out.rgb
                 self._last_rgb = out.rgb
                 if c.rgb_noise is not None:
-                    from navbench.env.noise import gaussian_rgb
+                    from navbench.env.noise import rgb_noise
                     assert self._noise_rng is not None
-                    obs["rgb"] = gaussian_rgb(out.rgb, c.rgb_noise_intensity, self._noise_rng)
+                    obs["rgb"] = rgb_noise(out.rgb, c.rgb_noise, c.rgb_noise_intensity, self._noise_rng)
             if c.depth:
                 assert out.depth is not None
                 depth = out.depth

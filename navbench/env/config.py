@@ -39,7 +39,7 @@ SUCCESS_DISTANCE = {"pointnav": 0.2, "objectnav": 0.1, "ovon": 0.25}
 ACTUATION_NOISE = tuple(f"{robot}-{controller}" for robot in ("LoCoBot", "LoCoBot-Lite")
                         for controller in ("ILQR", "Proportional", "Movebase"))
 DEPTH_NOISE = ("redwood",)
-RGB_NOISE = ("gaussian",)
+RGB_NOISE = ("gaussian", "speckle", "poisson", "salt_and_pepper")
 # Knobs of Habitat's realistic conditions (navbench.env.noise; docs/realistic.md), with the values that
 # leave a noiseless, level-camera run. A run's protocol lists them only when they differ from these.
 CONDITIONS = {"actuation_noise": None, "actuation_noise_multiplier": 1.0, "depth_noise": None,
@@ -75,11 +75,12 @@ class EnvConfig:
     # infrastructure
     cell_size: float = 0.05
     gl_platform: str = "osmesa"  # or "egl"
-    # realistic conditions (navbench.env.noise): habitat-sim's PyRobot actuation noise as "<robot>-<controller>"
-    # ("LoCoBot-Proportional", "LoCoBot-Lite-ILQR", ...), Redwood depth noise ("redwood"), Gaussian RGB noise
-    # ("gaussian", habitat-sim's intensity_constant), the camera's pitch (Habitat's sensor orientation about
-    # x, negative looks down) and whether GPS+compass are sensed (without: PointNav's goal is the static
-    # `pointgoal`, polar from the start, as Habitat's PointNav challenges give it)
+    # realistic conditions (navbench.env.noise; docs/realistic.md): habitat-sim's PyRobot actuation noise as
+    # "<robot>-<controller>" ("LoCoBot-Proportional", "LoCoBot-Lite-ILQR", ...), Redwood depth noise ("redwood"),
+    # RGB noise ("gaussian" with habitat-sim's intensity_constant; also "speckle", "poisson", "salt_and_pepper"),
+    # the camera's pitch (Habitat's sensor orientation about x, negative looks down) and whether GPS+compass
+    # are sensed (without: PointNav's goal is the static `pointgoal`, polar from the start, as Habitat's
+    # PointNav challenges give it)
     actuation_noise: str | None = None
     actuation_noise_multiplier: float = 1.0
     depth_noise: str | None = None

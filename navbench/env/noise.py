@@ -6,7 +6,8 @@ Each is sampled as habitat-sim samples it, from a generator the env seeds per ep
   contributed from PyRobot, https://pyrobot.org; please cite PyRobot when you use them);
 - depth: habitat-sim ``src_python/habitat_sim/sensors/noise_models/redwood_depth_noise_model.py`` with its
   ``data/redwood-depth-dist-model.npy`` (vendored under ``configs/noise/``, MIT, with its attribution);
-- RGB: habitat-sim ``src_python/habitat_sim/sensors/noise_models/gaussian_noise_model.py``.
+- RGB: habitat-sim ``src_python/habitat_sim/sensors/noise_models/gaussian_noise_model.py`` (and
+  ``speckle_noise_model.py``, ``poisson_noise_model.py``, ``salt_and_pepper_noise_model.py``).
 
     >>> m = ACTUATION_MODELS["LoCoBot-ILQR"]
     >>> m.linear.mean, m.linear.var
@@ -146,6 +147,44 @@ def gaussian_rgb(rgb: np.ndarray, intensity: float, rng: np.random.Generator) ->
     truncated back to uint8 (habitat-sim's intensity_constant, mean 0, sigma 1)."""
     noise = rng.standard_normal(rgb.shape) * intensity
     return (np.clip(rgb / 255.0 + noise, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def speckle_rgb(rgb: np.ndarray, intensity: float, rng: np.random.Generator) -> np.ndarray:
+    """Speckle noise: each channel value in [0, 1] units times (1 + N(0, 1) x ``intensity``), clipped, to uint8."""
+    img = rgb / 255.0
+    return (np.clip(img + img * rng.standard_normal(rgb.shape) * intensity, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def poisson_rgb(rgb: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Poisson noise: with V the image's count of distinct values rounded up to a power of two, each value x
+    in [0, 1] units becomes Poisson(x V) / V, clipped, to uint8."""
+    img = rgb / 255.0
+    values = 2.0 ** np.ceil(np.log2(len(np.unique(img))))
+    return (np.clip(rng.poisson(img * values) / values, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def salt_and_pepper_rgb(rgb: np.ndarray, rng: np.random.Generator, amount: float = 0.05,
+                        salt_vs_pepper: float = 0.5) -> np.ndarray:
+    """Salt-and-pepper noise with upstream's defaults and its quirks kept: ``ceil(amount x size x s)`` salt
+    and as many pepper draws, each index drawn in [0, dim - 1) (never the last row, column or channel), and
+    salt written as the value 1, as upstream writes it into a uint8 image."""
+    out = rgb.copy()
+    for count, value in ((math.ceil(amount * rgb.size * salt_vs_pepper), 1),
+                         (math.ceil(amount * rgb.size * (1.0 - salt_vs_pepper)), 0)):
+        idx = tuple(rng.integers(0, max(n - 1, 1), int(count)) for n in rgb.shape)
+        out[idx] = value
+    return out
+
+
+def rgb_noise(rgb: np.ndarray, model: str, intensity: float, rng: np.random.Generator) -> np.ndarray:
+    """``rgb`` with EnvConfig's ``rgb_noise`` model applied (``intensity``: gaussian's and speckle's constant)."""
+    if model == "gaussian":
+        return gaussian_rgb(rgb, intensity, rng)
+    if model == "speckle":
+        return speckle_rgb(rgb, intensity, rng)
+    if model == "poisson":
+        return poisson_rgb(rgb, rng)
+    return salt_and_pepper_rgb(rgb, rng)
 
 
 def episode_generator(seed: int, scene_id: str, episode_id: str) -> np.random.Generator:

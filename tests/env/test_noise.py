@@ -254,3 +254,20 @@ def test_named_configurations_load_and_bad_ones_are_one_line(tmp_path):
     bad.write_text("widht = 3\n")
     with pytest.raises(ValueError, match="unknown EnvConfig field"):
         EnvConfig.load(bad)
+
+
+def test_the_other_rgb_models_as_habitat_draws_them():
+    from navbench.env.noise import rgb_noise
+    rng = np.random.default_rng(0)
+    img = np.full((100, 100, 3), 100, np.uint8)
+    speckle = rgb_noise(img, "speckle", 0.2, rng).astype(np.float64)  # x (1 + 0.2 N(0, 1))
+    assert speckle.std() == pytest.approx(20.0, rel=0.05)
+    grey = np.tile(np.arange(0, 256, 4, dtype=np.uint8), (64, 1))[..., None].repeat(3, axis=2)  # 64 values
+    poisson = rgb_noise(grey, "poisson", 0.2, rng).astype(np.float64)
+    mid = poisson[:, 32]  # grey 128 = 0.502: Poisson(0.502 x 64) / 64, std 255 x sqrt(0.502 / 64) = 22.6 levels
+    assert mid.std() == pytest.approx(22.6, rel=0.15) and abs(mid.mean() - 128 + 0.5) < 3.0
+    sp = rgb_noise(img, "salt_and_pepper", 0.2, rng)
+    changed = sp != img
+    assert set(np.unique(sp[changed])) <= {0, 1}  # upstream writes salt as 1
+    assert not changed[-1].any() and not changed[:, -1].any() and not changed[..., 2].any()
+    assert changed.sum() == pytest.approx(0.05 * img.size, rel=0.15)  # repeated indices land once
