@@ -53,6 +53,15 @@ def test_an_agent_that_needs_gps_exits_2_in_one_line_under_the_challenge(agent, 
     assert len(err) == 1 and needle in err[0] and agent in err[0]
 
 
+def test_an_agent_that_maps_with_a_level_camera_exits_2_under_a_pitched_one(capsys, tmp_path):
+    pitched = tmp_path / "pitched.toml"
+    pitched.write_text("camera_pitch_deg = -20.0\n")
+    assert main(["run", "--agent", "frontier", "--env-config", str(pitched), "--limit", "1",
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "level camera" in err[0] and not (tmp_path / "o").exists()
+
+
 def test_an_unknown_env_config_exits_2_naming_the_choices(capsys, tmp_path):
     assert main(["run", "--task", "pointnav", "--env-config", "habitat-2099", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
