@@ -77,3 +77,18 @@ def test_pointnav_dead_reckons_under_the_challenge_configuration(pointnav_file, 
     cj = json.loads((tmp_path / "c" / "config.json").read_text())
     assert cj["env_config_name"] == "habitat-challenge-pointnav-2021" and cj["success_distance"] == 0.36
     assert cj["env"]["gps_compass"] is False and cj["env"]["camera_pitch_deg"] == -20.0
+
+
+def test_a_habitat_agent_is_told_the_static_goal_sensor_without_gps_compass():
+    from navbench.agents.habitat_compat import run_arguments
+    from navbench.eval.config import RunConfig
+
+    class HabitatLike:
+        def __init__(self, success_distance, goal_sensor_uuid):
+            pass
+
+    cfg = RunConfig(task="pointnav", split="val", agent="x", episodes="e", scene_dir="s", success_distance=0.36,
+                    env={"gps_compass": False})
+    assert run_arguments(HabitatLike, cfg, {})["goal_sensor_uuid"] == "pointgoal"
+    cfg.env = {}
+    assert run_arguments(HabitatLike, cfg, {})["goal_sensor_uuid"] == "pointgoal_with_gps_compass"
