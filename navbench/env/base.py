@@ -95,7 +95,9 @@ class NavEnv(gym.Env):
         if self.config.actuation_noise is not None:
             from navbench.env.noise import ACTUATION_MODELS
             self._actuation = ACTUATION_MODELS[self.config.actuation_noise]
-        self._noise_rng: np.random.Generator | None = None
+        self._noise_rng: np.random.Generator | None = None  # actuation
+        self._depth_rng: np.random.Generator | None = None
+        self._rgb_rng: np.random.Generator | None = None
 
     # ------------------------------------------------------------------ spaces
     def _observation_spaces(self) -> dict[str, spaces.Space]:
@@ -156,7 +158,12 @@ class NavEnv(gym.Env):
         episode = self._select_episode(options)
         if self.config.noisy:
             from navbench.env.noise import episode_generator
-            self._noise_rng = episode_generator(int(self.np_random_seed), episode.scene_id, episode.episode_id)
+            seed, scene, ep = int(self.np_random_seed), episode.scene_id, episode.episode_id
+            # one generator per source, so what is rendered never changes the motion (a replay or a video
+            # that renders other images retraces the run); depth takes stream 0 when the motion is exact
+            self._noise_rng = episode_generator(seed, scene, ep)
+            self._depth_rng = self._noise_rng if self._actuation is None else episode_generator(seed, scene, ep, 1)
+            self._rgb_rng = episode_generator(seed, scene, ep, 2)
         self._load_scene(episode.scene_id, float(episode.start_position[1]))
         assert self.navgrid is not None
         start = np.asarray(episode.start_position, np.float64)
@@ -337,15 +344,15 @@ class NavEnv(gym.Env):
                 self._last_rgb = out.rgb
                 if c.rgb_noise is not None:
                     from navbench.env.noise import rgb_noise
-                    assert self._noise_rng is not None
-                    obs["rgb"] = rgb_noise(out.rgb, c.rgb_noise, c.rgb_noise_intensity, self._noise_rng)
+                    assert self._rgb_rng is not None
+                    obs["rgb"] = rgb_noise(out.rgb, c.rgb_noise, c.rgb_noise_intensity, self._rgb_rng)
             if c.depth:
                 assert out.depth is not None
                 depth = out.depth
                 if c.depth_noise is not None:  # on metres, before the clip (a dropped pixel, 0, clips to min)
                     from navbench.env.noise import redwood_depth
-                    assert self._noise_rng is not None
-                    depth = redwood_depth(depth, c.depth_noise_multiplier, self._noise_rng)
+                    assert self._depth_rng is not None
+                    depth = redwood_depth(depth, c.depth_noise_multiplier, self._depth_rng)
                 obs["depth"] = normalize_depth(depth, c.min_depth, c.max_depth, c.normalize_depth)
             if c.semantic:
                 assert out.ids is not None

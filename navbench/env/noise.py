@@ -187,8 +187,9 @@ def rgb_noise(rgb: np.ndarray, model: str, intensity: float, rng: np.random.Gene
     return salt_and_pepper_rgb(rgb, rng)
 
 
-def episode_generator(seed: int, scene_id: str, episode_id: str) -> np.random.Generator:
-    """The noise generator of one episode: the env's seed and the episode, not the order episodes ran in."""
+def episode_generator(seed: int, scene_id: str, episode_id: str, stream: int = 0) -> np.random.Generator:
+    """Noise generator ``stream`` of one episode: the env's seed and the episode, not the order episodes ran in."""
     import hashlib
     key = int.from_bytes(hashlib.sha256(f"{scene_id}\0{episode_id}".encode()).digest()[:8], "little")
-    return np.random.default_rng([int(seed) & 0xFFFFFFFFFFFFFFFF, key])
+    entropy = [int(seed) & 0xFFFFFFFFFFFFFFFF, key] + ([stream] if stream else [])
+    return np.random.default_rng(entropy)
