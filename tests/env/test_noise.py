@@ -271,3 +271,23 @@ def test_the_other_rgb_models_as_habitat_draws_them():
     assert set(np.unique(sp[changed])) <= {0, 1}  # upstream writes salt as 1
     assert not changed[-1].any() and not changed[:, -1].any() and not changed[..., 2].any()
     assert changed.sum() == pytest.approx(0.05 * img.size, rel=0.15)  # repeated indices land once
+
+
+def test_what_is_rendered_never_changes_the_noisy_motion(pointnav_file):
+    """Actuation, depth and RGB draw from separate generators: a replay that renders other images (a video)
+    retraces the run, and its depth frames are the ones the agent saw."""
+    base = dict(actuation_noise="LoCoBot-Proportional", depth_noise="redwood", rgb_noise="gaussian", width=48,
+                height=32)
+    paths, depths = [], []
+    for rgb in (False, True):
+        env = PointNavEnv(pointnav_file, config=EnvConfig(rgb=rgb, **base))
+        env.reset(seed=1)
+        obs, _ = env.reset(options={"episode": 2})
+        frames, poses = [obs["depth"]], []
+        for a in (MOVE_FORWARD, TURN_RIGHT, MOVE_FORWARD, TURN_LEFT, MOVE_FORWARD):
+            frames.append(env.step(a)[0]["depth"])
+            poses.append((*env.agent_position, env.agent_yaw))
+        paths.append(poses)
+        depths.append(frames)
+    assert paths[0] == paths[1]
+    assert all(np.array_equal(a, b) for a, b in zip(*depths))
