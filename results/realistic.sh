@@ -38,6 +38,8 @@ tables() {
   echo "scene ($FK for the frontier agent, $KC for the Habitat Challenge 2021 PointNav run), against its noiseless"
   echo "reference run on the same episodes (paired intervals, noisy minus noiseless). The protocols differ, which"
   echo "is the point, hence \`--mix-protocols\`. The challenge run also has its own success distance (0.36 m, not 0.2 m)."
+  echo "With oracle perception the memory agent and the PointNav policy read depth (and instance ids), not RGB: of"
+  echo "the depth+RGB condition only the depth noise reaches them. GPS+compass stay exact (docs/realistic.md)."
   runs() { for c in $CONDITIONS; do echo "$RUNS/$1-$c"; done; }
   section "Memory agent, ObjectNav val_unseen" "$RUNS/objectnav/val_unseen/memory" "$K" \
     $(runs objectnav/val_unseen/memory)
