@@ -13,6 +13,7 @@ runs_all() {
   for c in $CONDITIONS; do $REAL --per-scene "$K" --split val_unseen --agent memory --env-config "$c"; done
   for c in $CONDITIONS; do $REAL --per-scene "$K" --task pointnav --split val --env-config "$c"; done
   $REAL --per-scene "$KC" --task pointnav --split val --env-config habitat-challenge-pointnav-2021
+  $REAL --per-scene "$KC" --task pointnav --split val --env-config navbench-dead-reckoning
   for c in $CONDITIONS; do $REAL --per-scene "$FK" --split val_unseen --agent frontier --env-config "$c"; done
 }
 section() {  # section TITLE BASE_RUN PER_SCENE RUN...
@@ -47,8 +48,9 @@ tables() {
     "$RUNS/objectnav/val_unseen/frontier" "$FK" \
     $(runs objectnav/val_unseen/frontier)
   section "PointNav policy, PointNav val" "$RUNS/pointnav/val/pointnav" "$K" $(runs pointnav/val/pointnav)
-  section "PointNav policy, Habitat Challenge 2021 PointNav configuration (no GPS+compass: dead reckoning)" \
-    "$RUNS/pointnav/val/pointnav" "$KC" "$RUNS/pointnav/val/pointnav-habitat-challenge-pointnav-2021"
+  section "PointNav policy without GPS+compass (dead reckoning): the Habitat Challenge 2021 PointNav configuration, and navbench's conditions without GPS+compass" \
+    "$RUNS/pointnav/val/pointnav" "$KC" "$RUNS/pointnav/val/pointnav-habitat-challenge-pointnav-2021" \
+    "$RUNS/pointnav/val/pointnav-navbench-dead-reckoning"
 }
 case ${1:-tables} in
   run) runs_all ;;
