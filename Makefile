@@ -12,7 +12,7 @@ LIMIT_ARG = $(if $(LIMIT),--limit $(LIMIT),)
 BENCH ?= runs/benchmark_h36
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
-	figures wheel-check lint results-benchmark
+	figures wheel-check lint results-benchmark results-realistic
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 osmesa:  # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing
@@ -36,8 +36,7 @@ lint: setup  # ruff, pyright on the public modules (pyproject.toml), the import 
 	$(BIN)/ruff check . && $(BIN)/pyright && $(BIN)/python -m pytest -q tests/test_layout.py
 clean:
 	rm -rf $(VENV) .pytest_cache dist build
-# Reference tables in results/ (results/README.md says what each holds). Runs land in
-# results/runs/<task>/<split>/<label>/; LIMIT=N runs the first N episodes of each.
+# Reference tables in results/ (results/README.md); runs land in results/runs/<task>/<split>/<label>/; LIMIT=N: first N each.
 results-oracle: setup
 	for s in $(OBJNAV_SPLITS); do $(RUN) --split $$s --agent oracle $(LIMIT_ARG) || exit 1; done
 	$(RUN) --task pointnav --split val --agent oracle $(LIMIT_ARG)
@@ -91,6 +90,7 @@ results-benchmark: setup  # the generated 36-house benchmark's val_unseen (docs/
 	  --scene-dir $(BENCH)/scenes $(LIMIT_ARG) || exit 1; done
 	h=$(RUNS)/objectnav/val_unseen_h36; { echo '# Generated benchmark (36 houses), val_unseen: `make results-benchmark`'; \
 	  echo; $(NB) table $$h/*; echo; echo '```'; $(NB) compare $$h/frontier $$h/memory; echo '```'; } > results/benchmark_h36.md
+results-realistic: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/realistic.sh all  # docs/realistic.md; resumable
 figures: setup  # docs/img/topdown.png and docs/img/report.png, the README's pictures
 	NB=$(NB) bash docs/figures.sh
 # The shipped PointNav checkpoints' recipes (policies/MODEL_CARD.md); outputs under runs/pointnav/.

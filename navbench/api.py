@@ -84,7 +84,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
              out: str | Path | None = None, runs_dir: str | Path = "runs", resume: bool = False,
              overwrite: bool = False, workers: int | None = None, envs_per_worker: int | None = None,
              backend: str = "local", address: str | None = None, retries: int = 2,
-             step_timeout: float | None = None, fail_fast: bool = False,
+             step_timeout: float | None = None, fail_fast: bool = False, env_config: Any = None,
              progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
              on_run_dir: Callable[[Path], None] | None = None, device: str = "cpu", precision: str = "fp32",
              _episodes: tuple[str, str | None, Path, float] | None = None) -> RunSummary:
@@ -127,6 +127,10 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         retries: times an episode whose worker died is retried before it is recorded as failed.
         step_timeout: seconds an agent call may take before its episode fails.
         fail_fast: raise at the first failed episode instead of recording it.
+        env_config: the conditions: a named configuration (``"habitat-challenge-pointnav-2021"``, see
+            ``navbench.env.config.env_config_names()``), a TOML file of EnvConfig fields, or an
+            :class:`~navbench.env.config.EnvConfig` (default: navbench's). Its success distance applies
+            unless ``success_distance`` is given; the label gets its name (docs/realistic.md).
         progress: called as ``progress(record, done, total)`` after each episode.
         video: ``"failures"`` or ``"all"``: also write ``out/videos/EPISODE.mp4`` for those episodes.
         on_run_dir: called with the run directory once it is known, before any episode runs.
@@ -159,12 +163,19 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     resolved = resolve_agent(default_agent(task) if agent is None else agent, options, seed,
                              envs_per_worker=envs_per_worker, device=device)
 
+    env, env_name = _env_config(env_config)
+    if success_distance is None and env is not None:
+        success_distance = env.success_distance
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
                     scene_dir=str(scene_dir or SCENES_DIR),
                     success_distance=success_distance if success_distance is not None else default_sd,
                     seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=resolved.envs_per_worker,
-                    agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision)
-    cfg.label = label or resolved.label
+                    agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision,
+                    env={} if env is None else env.overrides(), env_config_name=env_name)
+    if env is not None:
+        from navbench.agents.registry import check_conditions
+        check_conditions(resolved.spec if resolved.builtin else None, task, env)
+    cfg.label = label or (resolved.label + (f"-{env_name}" if env_name else ""))
     parsed_shard = parse_shard(shard)
     if out is None:
         out = run_dir(task, split or file_split(episodes_path), cfg.label, runs_dir)
@@ -185,6 +196,18 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         write_videos(out, video, quiet=progress is None)
     warn_failed(summary, out)
     return summary
+
+
+def _env_config(env_config: Any) -> tuple[Any, str | None]:
+    """(EnvConfig or None, the name config.json records) for ``evaluate``'s ``env_config``."""
+    from navbench.env.config import EnvConfig, env_config_name
+    if env_config is None:
+        return None, None
+    if isinstance(env_config, EnvConfig):
+        return env_config, None
+    if isinstance(env_config, (str, Path)):
+        return EnvConfig.load(env_config), env_config_name(env_config)
+    raise ValueError(f"env_config: expected a name, a TOML file or an EnvConfig, got {env_config!r}"[:200])
 
 
 def warn_failed(summary: RunSummary, out: Path) -> None:

@@ -69,7 +69,8 @@ def cmd_run(args) -> int:
             shard=args.shard, seed=args.seed, scene_dir=args.scene_dir, success_distance=args.success_distance,
             out=args.out, runs_dir=args.runs_dir, resume=args.resume, overwrite=args.overwrite, workers=workers,
             envs_per_worker=args.envs_per_worker, backend=args.backend, address=args.address, retries=args.retries,
-            step_timeout=args.step_timeout, fail_fast=args.fail_fast, progress=None if args.quiet else Progress(),
+            step_timeout=args.step_timeout, fail_fast=args.fail_fast, env_config=args.env_config,
+            progress=None if args.quiet else Progress(),
             video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
             _episodes=episodes)
     out = where[0]
@@ -358,6 +359,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fail-fast", action="store_true", help="stop at the first failed episode (exit 2) instead of "
                                                            "recording it and going on")
     r.add_argument("--success-distance", type=_positive)
+    r.add_argument("--env-config", metavar="NAME|FILE",
+                   help="the conditions: a named configuration (habitat-challenge-pointnav-2020, "
+                        "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, navbench, ...: "
+                        "configs/env/) or a TOML file of EnvConfig fields (sensors, noise; docs/realistic.md)")
     flags = r.add_argument_group("agent options (in brackets: the agents that read each; another agent's flag "
                                  "is an error)")
     AGENT_FLAGS.update(add_flags(flags, {name: spec.options for name, spec in AGENTS.items()}))

@@ -115,7 +115,11 @@ def run_arguments(target: Any, cfg: Any, options: dict[str, Any]) -> dict[str, A
         if name == "success_distance" and getattr(cfg, "success_distance", None) is not None:
             out[name] = float(cfg.success_distance)
         elif name == "goal_sensor_uuid":
-            out[name] = GOAL_SENSOR.get(getattr(cfg, "task", "pointnav"), GOAL_SENSOR["pointnav"])
+            uuid = GOAL_SENSOR.get(getattr(cfg, "task", "pointnav"), GOAL_SENSOR["pointnav"])
+            env = getattr(cfg, "env", None)
+            if uuid == GOAL_SENSOR["pointnav"] and isinstance(env, dict) and env.get("gps_compass") is False:
+                uuid = "pointgoal"  # Habitat's PointNav challenges: the static goal sensor
+            out[name] = uuid
     return out
 
 

@@ -76,8 +76,11 @@ def _inference_config(cfg):
 
 def make_pointnav(cfg):
     from navbench.agents.pointnav import PointNavAgent
+    env = cfg.env_config(("depth",))
     return PointNavAgent(_options(cfg, PolicyOptions).checkpoint, _inference_config(cfg),
-                         num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed, device=_device(cfg))
+                         num_envs=max(1, cfg.envs_per_worker), seed=cfg.seed, device=_device(cfg),
+                         step=(env.forward_step, env.turn_angle_deg),
+                         depth=(env.min_depth, env.max_depth, env.normalize_depth))
 
 
 def scan_config(keyframe_res: str, all_frames: bool):
@@ -199,6 +202,10 @@ class AgentSpec:
     scene_option: str | None = None
     # Explores the house for its goal: `navbench viz` shades the cells its depth camera saw unless told not to.
     explores: bool = False
+    # Works without GPS+compass (EnvConfig.gps_compass false: Habitat's PointNav challenges).
+    gps_free: bool = False
+    # Back-projects depth with a level camera, so cannot run with a pitched one (EnvConfig.camera_pitch_deg).
+    level_camera: bool = False
 
     def __call__(self, cfg: Any) -> Any:
         return self.factory(cfg)
@@ -216,17 +223,35 @@ class AgentSpec:
 _POLICY_FILES = dict(run_files=_checkpoint_file, envs_per_worker=8)
 AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path (an upper bound)"),
-    AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)"),
-    AgentSpec("random", make_random, RandomOptions, help="Habitat's random agent"),
-    AgentSpec("pointnav", make_pointnav, PointNavOptions, help="the PointNav policy", **_POLICY_FILES),
+    AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)",
+              level_camera=True),
+    AgentSpec("random", make_random, RandomOptions, help="Habitat's random agent", gps_free=True),
+    AgentSpec("pointnav", make_pointnav, PointNavOptions, help="the PointNav policy (without GPS+compass it "
+              "dead-reckons from its own actions)", gps_free=True, **_POLICY_FILES),
     AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory, localisation, then the PointNav policy",
-              prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", **_POLICY_FILES),
+              prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", level_camera=True,
+              **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
-              explores=True, **_POLICY_FILES),
+              explores=True, level_camera=True, **_POLICY_FILES),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}
 DEFAULT_TASK_AGENT = {"objectnav": "memory", "pointnav": "pointnav"}  # `navbench run` without --agent
+
+
+def check_conditions(agent: str | None, task: str, env: Any) -> None:
+    """A one-line ValueError when built-in ``agent`` cannot run under ``env`` (an EnvConfig): an agent that
+    knows its pose from GPS+compass under a configuration without them, or one that back-projects depth
+    with a level camera under a pitched one. Plug-ins and remote agents are not checked."""
+    spec = AGENTS.get(agent) if agent is not None else None
+    if spec is None:
+        return
+    if not env.gps_compass and not spec.gps_free:
+        raise ValueError(f"agent {agent!r} knows its pose from GPS+compass, which this configuration does not "
+                         f"give (gps_compass = false); run it under one that does, or use --agent pointnav")
+    if env.camera_pitch_deg != 0.0 and spec.level_camera:
+        raise ValueError(f"agent {agent!r} maps depth with a level camera: it cannot run with camera_pitch_deg "
+                         f"{env.camera_pitch_deg:g}")
 
 
 def agent_spec(name: str) -> AgentSpec:

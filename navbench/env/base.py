@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -35,6 +35,25 @@ def resolve_scene_path(scene_id: str, scene_dir: Path) -> Path:
     Habitat's HM3D / MP3D episode files, ``scene_dir`` may be ``scene_datasets/`` (see
     :func:`navbench.scene.datasets.resolve_scene`). SceneError, listing where it looked, if missing."""
     return resolve_scene(scene_id, Path(scene_dir))
+
+
+class AgentState(NamedTuple):
+    """habitat-sim's AgentState, as far as navigation reads it: ``position`` (3,), ``rotation`` [x, y, z, w]."""
+    position: np.ndarray
+    rotation: np.ndarray
+
+
+def camera_at(position: np.ndarray, yaw: float, config: EnvConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The camera's (position, rotation [x, y, z, w]) for an agent at ``position`` facing ``yaw``: the
+    agent's height above it, pitched about its x axis by ``camera_pitch_deg`` (Habitat's sensor orientation)."""
+    eye = position + np.array([0.0, config.agent_height, 0.0])
+    if config.camera_pitch_deg == 0.0:
+        return eye, quat_from_yaw(yaw)
+    # q_yaw * q_pitch (rotation about +y, then about the camera's own x axis)
+    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
+    half = math.radians(config.camera_pitch_deg) / 2.0
+    cp, sp = math.cos(half), math.sin(half)
+    return eye, np.array([cy * sp, sy * cp, -sy * sp, cy * cp])
 
 
 class NavEnv(gym.Env):
@@ -71,6 +90,15 @@ class NavEnv(gym.Env):
         self.episode: Episode | None = None
         self._done = True
         self._last_rgb: np.ndarray | None = None
+        # Realistic conditions (navbench.env.noise): draws come from a generator seeded by the env's seed
+        # and the episode, so a record does not depend on which worker ran it or what ran before.
+        self._actuation = None
+        if self.config.actuation_noise is not None:
+            from navbench.env.noise import ACTUATION_MODELS
+            self._actuation = ACTUATION_MODELS[self.config.actuation_noise]
+        self._noise_rng: np.random.Generator | None = None  # actuation
+        self._depth_rng: np.random.Generator | None = None
+        self._rgb_rng: np.random.Generator | None = None
 
     # ------------------------------------------------------------------ spaces
     def _observation_spaces(self) -> dict[str, spaces.Space]:
@@ -84,9 +112,10 @@ class NavEnv(gym.Env):
             obs["depth"] = spaces.Box(lo, hi, (c.height, c.width, 1), np.float32)
         if c.semantic:
             obs["semantic"] = spaces.Box(-1, np.iinfo(np.int32).max, (c.height, c.width, 1), np.int32)
-        big = np.finfo(np.float32).max  # Habitat's GPS bounds: any finite float32
-        obs["gps"] = spaces.Box(-big, big, (2,), np.float32)
-        obs["compass"] = spaces.Box(-np.pi, np.pi, (1,), np.float32)
+        if c.gps_compass:
+            big = np.finfo(np.float32).max  # Habitat's GPS bounds: any finite float32
+            obs["gps"] = spaces.Box(-big, big, (2,), np.float32)
+            obs["compass"] = spaces.Box(-np.pi, np.pi, (1,), np.float32)
         return obs
 
     # ------------------------------------------------------------------ scene
@@ -128,6 +157,14 @@ class NavEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         episode = self._select_episode(options)
+        if self.config.noisy:
+            from navbench.env.noise import episode_generator
+            seed, scene, ep = int(self.np_random_seed), episode.scene_id, episode.episode_id
+            # one generator per source, so what is rendered never changes the motion (a replay or a video
+            # that renders other images retraces the run); depth takes stream 0 when the motion is exact
+            self._noise_rng = episode_generator(seed, scene, ep)
+            self._depth_rng = self._noise_rng if self._actuation is None else episode_generator(seed, scene, ep, 1)
+            self._rgb_rng = episode_generator(seed, scene, ep, 2)
         self._load_scene(episode.scene_id, float(episode.start_position[1]))
         assert self.navgrid is not None
         start = np.asarray(episode.start_position, np.float64)
@@ -188,6 +225,8 @@ class NavEnv(gym.Env):
         self._num_steps += 1
         if action == STOP:
             self._stop_called = True
+        elif self._actuation is not None:
+            self._noisy_move(action)
         elif action == MOVE_FORWARD:
             fwd = heading_vector(self._yaw)
             assert self._motion is not None  # set by reset()
@@ -205,6 +244,25 @@ class NavEnv(gym.Env):
         truncated = not terminated and self._num_steps >= self.config.max_steps
         self._done = terminated or truncated
         return self._observe(), 0.0, terminated, truncated, self._info()
+
+    def _noisy_move(self, action: int) -> None:
+        """One MOVE_FORWARD or turn as habitat-sim's PyRobot noisy controls make it: the sampled translation
+        (a turn's too), through the same collision rule as a noiseless step, then the sampled rotation."""
+        from navbench.env.noise import sample_motion
+        from navbench.env.sensors import from_agent_frame
+        assert self._actuation is not None and self._noise_rng is not None and self._motion is not None
+        c = self.config
+        turn = 0.0 if action == MOVE_FORWARD else \
+            (1.0 if action == TURN_LEFT else -1.0) * math.radians(c.turn_angle_deg)
+        fwd, right, dyaw = sample_motion(self._actuation, c.forward_step if action == MOVE_FORWARD else 0.0, turn,
+                                         c.actuation_noise_multiplier, self._noise_rng)
+        target = self._position + from_agent_frame(fwd, right, self._yaw)
+        new, collided = self._motion.try_step(self._position, target, sliding=c.allow_sliding)
+        step = new - self._position if self._motion is self.layered else (new - self._position)[[0, 2]]
+        self._path_length += float(np.linalg.norm(step))
+        self._position = np.asarray(new, np.float64)
+        self._collisions += int(collided)
+        self._yaw = wrap_angle(self._yaw + dyaw)
 
     def render(self):
         if self.render_mode != "rgb_array":
@@ -275,7 +333,35 @@ class NavEnv(gym.Env):
         return self._motion is not None and self._motion is self.layered
 
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._position + np.array([0.0, self.config.agent_height, 0.0]), quat_from_yaw(self._yaw)
+        return camera_at(self._position, self._yaw, self.config)
+
+    # ------------------------------------------------------------------ habitat-sim's agent state
+    def get_agent_state(self) -> AgentState:
+        """The agent's state as habitat-sim's ``Agent.get_state()`` gives it: ``position`` (3,) on the floor,
+        ``rotation`` [x, y, z, w] (a rotation about +y)."""
+        return AgentState(self.agent_position, self.agent_rotation)
+
+    def set_agent_state(self, position, rotation) -> None:
+        """Place the agent as habitat-sim's ``set_agent_state`` does (no collision check); the episode goes
+        on from there, its measures (distance to goal) read at the new place."""
+        if self.episode is None:
+            raise RuntimeError("call reset() before set_agent_state()")
+        p = np.asarray(position, np.float64).reshape(-1)
+        if p.shape != (3,) or not np.isfinite(p).all():
+            raise ValueError(f"position must be 3 finite numbers, got {np.asarray(position).tolist()}")
+        self._position, self._yaw = p.copy(), yaw_from_quat(rotation)
+
+    def get_observations_at(self, position=None, rotation=None) -> dict[str, np.ndarray]:
+        """The observations at ``position`` / ``rotation`` (the agent's own if None), noise included, as
+        habitat-sim's ``get_observations_at``; the agent is left where it was."""
+        saved = self._position, self._yaw
+        try:
+            if position is not None or rotation is not None:
+                self.set_agent_state(saved[0] if position is None else position,
+                                     quat_from_yaw(saved[1]) if rotation is None else rotation)
+            return self._observe()
+        finally:
+            self._position, self._yaw = saved
 
     def distance_to_goal(self) -> float:
         return float(self._field.distance(self._position))
@@ -291,14 +377,24 @@ class NavEnv(gym.Env):
                 assert out.rgb is not None  # rendered when asked for
                 obs["rgb"] = out.rgb
                 self._last_rgb = out.rgb
+                if c.rgb_noise is not None:
+                    from navbench.env.noise import rgb_noise
+                    assert self._rgb_rng is not None
+                    obs["rgb"] = rgb_noise(out.rgb, c.rgb_noise, c.rgb_noise_intensity, self._rgb_rng)
             if c.depth:
                 assert out.depth is not None
-                obs["depth"] = normalize_depth(out.depth, c.min_depth, c.max_depth, c.normalize_depth)
+                depth = out.depth
+                if c.depth_noise is not None:  # on metres, before the clip (a dropped pixel, 0, clips to min)
+                    from navbench.env.noise import redwood_depth
+                    assert self._depth_rng is not None
+                    depth = redwood_depth(depth, c.depth_noise_multiplier, self._depth_rng)
+                obs["depth"] = normalize_depth(depth, c.min_depth, c.max_depth, c.normalize_depth)
             if c.semantic:
                 assert out.ids is not None
                 obs["semantic"] = out.ids.astype(np.int32)[..., None]
-        obs["gps"] = gps(self._position, self._start_position, self._start_yaw)
-        obs["compass"] = compass(self._yaw, self._start_yaw)
+        if c.gps_compass:
+            obs["gps"] = gps(self._position, self._start_position, self._start_yaw)
+            obs["compass"] = compass(self._yaw, self._start_yaw)
         obs.update(self._goal_observation())
         return obs
 

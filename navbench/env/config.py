@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+import tomllib
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import TYPE_CHECKING
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from navbench.paths import CONFIGS_DIR
 
 if TYPE_CHECKING:
     from navbench.scene.navigability import NavGridConfig
@@ -29,6 +34,17 @@ class Action(IntEnum):
 # Success distances by task as Habitat's configs set them; HM3D-OVON uses 0.25 m (naokiyokoyama/ovon
 # config/experiments/*.yaml, habitat.task.measurements.success.success_distance).
 SUCCESS_DISTANCE = {"pointnav": 0.2, "objectnav": 0.1, "ovon": 0.25}
+
+# The noise models navbench.env.noise samples: habitat-sim's PyRobot robots and controllers, its depth and RGB models.
+ACTUATION_NOISE = tuple(f"{robot}-{controller}" for robot in ("LoCoBot", "LoCoBot-Lite")
+                        for controller in ("ILQR", "Proportional", "Movebase"))
+DEPTH_NOISE = ("redwood",)
+RGB_NOISE = ("gaussian", "speckle", "poisson", "salt_and_pepper")
+# Knobs of Habitat's realistic conditions (navbench.env.noise; docs/realistic.md), with the values that
+# leave a noiseless, level-camera run. A run's protocol lists them only when they differ from these.
+CONDITIONS = {"actuation_noise": None, "actuation_noise_multiplier": 1.0, "depth_noise": None,
+              "depth_noise_multiplier": 1.0, "rgb_noise": None, "rgb_noise_intensity": 0.2,
+              "camera_pitch_deg": 0.0, "gps_compass": True}
 
 
 @dataclass(frozen=True)
@@ -60,6 +76,70 @@ class EnvConfig:
     cell_size: float = 0.05
     # "auto": EGL when a GPU is present, else OSMesa (navbench.render.gl_platform); or "osmesa", "egl"
     gl_platform: str = "auto"
+    # realistic conditions (navbench.env.noise; docs/realistic.md): habitat-sim's PyRobot actuation noise as
+    # "<robot>-<controller>" ("LoCoBot-Proportional", "LoCoBot-Lite-ILQR", ...), Redwood depth noise ("redwood"),
+    # RGB noise ("gaussian" with habitat-sim's intensity_constant; also "speckle", "poisson", "salt_and_pepper"),
+    # the camera's pitch (Habitat's sensor orientation about x, negative looks down) and whether GPS+compass
+    # are sensed (without: PointNav's goal is the static `pointgoal`, polar from the start, as Habitat's
+    # PointNav challenges give it)
+    actuation_noise: str | None = None
+    actuation_noise_multiplier: float = 1.0
+    depth_noise: str | None = None
+    depth_noise_multiplier: float = 1.0
+    rgb_noise: str | None = None
+    rgb_noise_intensity: float = 0.2
+    camera_pitch_deg: float = 0.0
+    gps_compass: bool = True
+
+    def __post_init__(self) -> None:
+        for name, value, known in (("actuation_noise", self.actuation_noise, ACTUATION_NOISE),
+                                   ("depth_noise", self.depth_noise, DEPTH_NOISE),
+                                   ("rgb_noise", self.rgb_noise, RGB_NOISE)):
+            if value is not None and value not in known:
+                raise ValueError(f"{name} {value!r}: choose one of {', '.join(known)} (or none)")
+        for name in ("actuation_noise_multiplier", "depth_noise_multiplier", "rgb_noise_intensity"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < float("inf")):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        if not -90.0 < self.camera_pitch_deg < 90.0:
+            raise ValueError(f"camera_pitch_deg must be within (-90, 90), got {self.camera_pitch_deg!r}")
+
+    @property
+    def noisy(self) -> bool:
+        """Whether any of actuation, depth or RGB noise is on."""
+        return bool(self.actuation_noise or self.depth_noise or self.rgb_noise)
+
+    def conditions(self) -> dict[str, Any]:
+        """The realistic-condition knobs that differ from a noiseless, level, GPS+compass run."""
+        return {k: getattr(self, k) for k, v in CONDITIONS.items() if getattr(self, k) != v}
+
+    def overrides(self) -> dict[str, Any]:
+        """The fields that differ from ``EnvConfig()``, as a run's config.json records them (``env``); which
+        images are rendered and the success distance are the run's, not the configuration's."""
+        base = EnvConfig()
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                if f.name not in ("rgb", "depth", "semantic", "success_distance")
+                and getattr(self, f.name) != getattr(base, f.name)}
+
+    @classmethod
+    def load(cls, name_or_path: str | Path) -> EnvConfig:
+        """A named configuration (``configs/env/NAME.toml``: see :func:`env_config_names`) or a TOML file of
+        EnvConfig fields. A missing file, an unknown field or a bad value is a one-line ValueError."""
+        path = env_config_path(name_or_path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except OSError as exc:
+            raise ValueError(f"{path}: cannot read ({exc.strerror})") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{path}: not valid TOML ({exc})") from None
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"{path}: unknown EnvConfig field(s) {', '.join(unknown)}")
+        try:
+            return cls(**data)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{path}: {exc}") from None
 
     def nav_grid_config(self) -> NavGridConfig:
         """The navigability grid this body moves on: its height, radius and climb, at ``cell_size``."""
@@ -67,3 +147,27 @@ class EnvConfig:
         from navbench.scene.navigability import NavGridConfig
         return NavGridConfig(agent_height=self.agent_height, agent_radius=self.agent_radius,
                              max_climb=self.max_climb, cell_size=self.cell_size)
+
+
+def env_config_names() -> list[str]:
+    """The named configurations ``EnvConfig.load`` and ``navbench run --env-config`` take."""
+    return sorted(p.stem for p in (CONFIGS_DIR / "env").glob("*.toml"))
+
+
+def env_config_path(name_or_path: str | Path) -> Path:
+    """The file of a named configuration, or the path given when it is a file (ValueError, naming the
+    known names, when it is neither)."""
+    p = Path(name_or_path)
+    if p.is_file():
+        return p
+    named = CONFIGS_DIR / "env" / f"{name_or_path}.toml"
+    if "/" not in str(name_or_path) and named.is_file():
+        return named
+    raise ValueError(f"env config {str(name_or_path)!r}: no such file, nor a named configuration "
+                     f"({', '.join(env_config_names())})")
+
+
+def env_config_name(name_or_path: str | Path) -> str:
+    """How a run records and labels a configuration: its name, or a file's name without ``.toml``."""
+    p = Path(name_or_path)
+    return p.name[:-5] if p.is_file() and p.name.endswith(".toml") else p.name

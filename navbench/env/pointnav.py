@@ -40,6 +40,9 @@ class PointNavEnv(NavEnv):
     - ``compass``: ``(1,) float32`` heading relative to the start, radians, counter-clockwise positive.
     - ``pointgoal_with_gps_compass``: ``(2,) float32`` [rho, theta] of the goal in the agent frame,
       theta counter-clockwise positive (Habitat's polar convention).
+    - With ``EnvConfig(gps_compass=False)`` (Habitat's PointNav challenges): no ``gps``/``compass``, and
+      ``pointgoal`` instead: [rho, theta] of the goal from the episode's start pose, the same every step.
+    - Realistic conditions (``EnvConfig`` actuation, depth and RGB noise, camera pitch): docs/realistic.md.
 
     ## Rewards
     Always 0: navbench is an evaluation harness; training code shapes its own reward from ``info``.
@@ -76,10 +79,18 @@ class PointNavEnv(NavEnv):
     def _observation_spaces(self):
         obs = super()._observation_spaces()
         big = np.finfo(np.float32).max
-        obs["pointgoal_with_gps_compass"] = spaces.Box(-big, big, (2,), np.float32)
+        obs[self.goal_sensor] = spaces.Box(-big, big, (2,), np.float32)
         return obs
+
+    @property
+    def goal_sensor(self) -> str:
+        """``pointgoal_with_gps_compass`` (the goal from where the agent is), or without GPS+compass
+        Habitat's static ``pointgoal`` (the goal from the start pose, the same every step)."""
+        return "pointgoal_with_gps_compass" if self.config.gps_compass else "pointgoal"
 
     def _goal_observation(self):
         assert self.episode is not None  # set by reset()
         goal = np.asarray(self.episode.goals[0].position, np.float64)
+        if not self.config.gps_compass:
+            return {"pointgoal": pointgoal_polar(goal, self._start_position, self._start_yaw)}
         return {"pointgoal_with_gps_compass": pointgoal_polar(goal, self._position, self._yaw)}

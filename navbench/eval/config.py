@@ -53,6 +53,9 @@ class RunConfig:
     # "fp16"). config.json records each only when it is not the default (cpu, fp32).
     device: str = "cpu"
     precision: str = "fp32"
+    # The named environment configuration (configs/env/NAME.toml, or a file's stem) ``env`` came from; None:
+    # navbench's defaults with the ``env`` overrides.
+    env_config_name: str | None = None
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)

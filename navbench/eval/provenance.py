@@ -4,8 +4,9 @@
 
 - ``protocol``: the task, success distance, step limit, action set and step sizes, sensor size, HFOV and
   depth range, the agent's body (height, radius, climb), the start snapping, the navigability grid's
-  cell size and the version of its rules (``navigability``): every rule that changes a score given the
-  same agent. ``protocol_id`` is the first 12 hex
+  cell size and the version of its rules (``navigability``), and the realistic conditions that are on
+  (actuation, depth and RGB noise, camera pitch, ``gps_compass: false``; docs/realistic.md): every rule
+  that changes a score given the same agent. ``protocol_id`` is the first 12 hex
   digits of the sha256 of its canonical JSON. The policy's decoding is the agent's choice, not the
   protocol's: it is recorded in config.json's ``agent_options`` and shown by ``navbench table``.
 - ``navbench``: version, and the git commit with a dirty flag when run from a checkout;
@@ -38,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from navbench._version import __version__
-from navbench.env.config import ACTION_NAMES, SUCCESS_DISTANCE, EnvConfig
+from navbench.env.config import ACTION_NAMES, CONDITIONS, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
 from navbench.scene import NAVIGABILITY_VERSION
 
@@ -61,6 +62,9 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
     except TypeError as exc:
         raise ProtocolError(f"'env' is not EnvConfig's ({exc})") from None
     fields = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in _NOT_PROTOCOL}
+    # realistic conditions (noise, camera pitch, no GPS+compass) only when on: a noiseless run's protocol is
+    # what it was before they existed, and a noisy one never matches it
+    fields = {k: v for k, v in fields.items() if k not in CONDITIONS or v != CONDITIONS[k]}
     fields["success_distance"] = success_distance if success_distance is not None else SUCCESS_DISTANCE.get(task)
     fields["navigability"] = NAVIGABILITY_VERSION
     return {"task": task, "actions": list(ACTION_NAMES), **dict(sorted(fields.items()))}

@@ -54,7 +54,7 @@ __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "r
 # beyond float rounding, docs/comparing.md).
 _RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device")
 # RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
-_DEFAULT_OMITTED = {"shard": None, "device": "cpu", "precision": "fp32"}
+_DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32"}
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -91,8 +91,8 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
 
 
 def config_json(cfg: RunConfig) -> dict[str, Any]:
-    """What config.json records: the RunConfig (its shard, device and precision only when not the default)
-    and navbench's version."""
+    """What config.json records: the RunConfig (its shard, env configuration's name, device and precision only
+    when set or not the default) and navbench's version."""
     out = dict(dataclasses.asdict(cfg), navbench_version=__version__)
     for key, default in _DEFAULT_OMITTED.items():
         if out.get(key) == default:
