@@ -39,7 +39,14 @@ from navbench._version import __version__
 from navbench.episodes.io import episode_keys
 from navbench.episodes.types import EpisodeDataset
 from navbench.eval.config import Execution, RunConfig, parse_shard, select_episodes, shard_of
-from navbench.eval.provenance import config_protocol, protocol_id, write_provenance
+from navbench.eval.provenance import (
+    benchmark_root,
+    config_protocol,
+    data_path,
+    protocol_id,
+    sha256,
+    write_provenance,
+)
 from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.stats import add_intervals
@@ -51,7 +58,7 @@ __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "r
            "select_episodes", "shard_of", "summarize"]
 
 # Keys that may differ between a run and its resumption without changing any episode's result.
-_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version")
+_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "benchmark_dir")
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -88,10 +95,24 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
 
 
 def config_json(cfg: RunConfig) -> dict[str, Any]:
-    """What config.json records: the RunConfig (its shard only when set) and navbench's version."""
+    """What config.json records: the RunConfig (its shard only when set) and navbench's version. A run of a
+    generated benchmark records its episode file and scene dir relative to the benchmark's directory, with
+    ``benchmark`` (the episode file's sha256; provenance.json has the scenes') and ``benchmark_dir`` (that
+    directory as given, when given relative; never an absolute path): see
+    :func:`navbench.eval.config.recorded_paths`."""
     out = dict(dataclasses.asdict(cfg), navbench_version=__version__)
     if out.get("shard") is None:
         out.pop("shard", None)
+    episodes = data_path(cfg.episodes)
+    if episodes["root"] == "benchmark":
+        scenes = data_path(cfg.scene_dir)
+        root = Path(cfg.episodes).parents[len(Path(episodes["path"]).parts) - 1]
+        out["episodes"] = episodes["path"]
+        if scenes["root"] == "benchmark" and Path(cfg.scene_dir).resolve() == (root / scenes["path"]).resolve():
+            out["scene_dir"] = scenes["path"]
+        out["benchmark"] = {"episodes_sha256": sha256(cfg.episodes)}
+        if not root.is_absolute() and root.resolve() == benchmark_root(cfg.episodes):
+            out["benchmark_dir"] = root.as_posix()
     return out
 
 

@@ -40,6 +40,11 @@ def test_every_reference_run_is_named_and_recorded_as_the_cli_would():
         split = cfg["split"] or file_split(cfg["episodes"])  # a bundled split, or the generated benchmark's file
         assert d.relative_to(RUNS).parts == (cfg["task"], split, run_label(cfg["agent"], o, cfg["seed"])), d
         assert cfg["label"] == d.name and json.loads((d / "summary.json").read_text())["agent"] == d.name, d
+        if cfg["split"] is None:  # a generated benchmark's run: its files named relative to it, with checksums
+            files = json.loads((d / "provenance.json").read_text())["files"]
+            assert files["episodes"]["root"] == files["scene_dir"]["root"] == "benchmark", d
+            assert (files["episodes"]["path"], files["scene_dir"]["path"]) == (cfg["episodes"], cfg["scene_dir"]), d
+            assert files["episodes"]["sha256"] == cfg["benchmark"]["episodes_sha256"], d
 
 
 def ref_config(ref_dir: Path) -> RunConfig:
