@@ -12,11 +12,11 @@
   ``versions`` of Python, torch, numpy, gymnasium, pyrender and trimesh; ``opengl_renderer``; ``cpu``
   (model and flags); it is rewritten when a run is resumed (the records may then come from two machines);
 - ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
-  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to
-  navbench's data root when it lies under it (``"root": "navbench"``), else to the directory of the generated
-  benchmark holding it (``"root": "benchmark"``: a directory with ``benchmark.json``; ``files.benchmark``
-  then holds the sha256 of its ``SHA256SUMS``), else as given; the episode file's ``split_version`` when it
-  states one (navbench's generated splits do).
+  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to the
+  directory of the generated benchmark holding it (``"root": "benchmark"``: a directory with ``benchmark.json``;
+  ``files.benchmark`` then holds the sha256 of its ``SHA256SUMS``), else to navbench's data root when it lies
+  under it (``"root": "navbench"``), else as given; the episode file's ``split_version`` when it states one
+  (navbench's generated splits do).
 
 A run directory without provenance.json (written before it existed) gets its protocol derived from
 config.json and the EnvConfig defaults of the navbench reading it, without ``navigability`` (config.json
@@ -152,17 +152,17 @@ def benchmark_root(path: str | Path) -> Path | None:
 
 
 def data_path(path: str | Path) -> dict[str, str]:
-    """``{"path": ..., "root": "navbench"}`` for a file under navbench's data root, ``"root": "benchmark"``
-    (the path relative to it) for one in a generated benchmark's directory, else the path as given."""
+    """``{"path": ..., "root": "benchmark"}`` (the path relative to it) for a file in a generated benchmark's
+    directory (wherever that is, a checkout's ``runs/`` too), ``"root": "navbench"`` for one under navbench's
+    data root, else the path as given."""
     p = Path(path)
-    try:
-        return {"path": p.resolve().relative_to(ROOT.resolve()).as_posix(), "root": "navbench"}
-    except ValueError:
-        pass
     root = benchmark_root(p)
     if root is not None:
         return {"path": p.resolve().relative_to(root).as_posix(), "root": "benchmark"}
-    return {"path": str(p), "root": "absolute" if p.is_absolute() else "cwd"}
+    try:
+        return {"path": p.resolve().relative_to(ROOT.resolve()).as_posix(), "root": "navbench"}
+    except ValueError:
+        return {"path": str(p), "root": "absolute" if p.is_absolute() else "cwd"}
 
 
 def benchmark_sums(episodes: str | Path) -> Path | None:

@@ -22,7 +22,8 @@ from navbench.viz.replay import Run
 
 @pytest.fixture()
 def bench(objectnav_file, tmp_path, monkeypatch):
-    """A benchmark-shaped directory (benchmark.json, SHA256SUMS, objectnav/, scenes/) under the working dir."""
+    """A benchmark-shaped directory (benchmark.json, SHA256SUMS, objectnav/, scenes/) in the working dir, which
+    stands for a checkout (make results-benchmark writes it to runs/benchmark_h36)."""
     root = tmp_path / "work" / "bench"
     (root / "objectnav").mkdir(parents=True)
     shutil.copy(objectnav_file, root / "objectnav" / "val_unseen_h1.json.gz")
@@ -33,6 +34,7 @@ def bench(objectnav_file, tmp_path, monkeypatch):
     (root / "SHA256SUMS").write_text("".join(f"{hashlib.sha256(p.read_bytes()).hexdigest()}  "
                                              f"{p.relative_to(root).as_posix()}\n" for p in files))
     monkeypatch.chdir(tmp_path / "work")
+    monkeypatch.setattr("navbench.eval.provenance.ROOT", tmp_path / "work")  # as `runs/` of a checkout is
     return root
 
 
