@@ -105,13 +105,13 @@ def config_json(cfg: RunConfig) -> dict[str, Any]:
         out.pop("shard", None)
     episodes = data_path(cfg.episodes)
     if episodes["root"] == "benchmark":
-        scenes = data_path(cfg.scene_dir)
-        root = Path(cfg.episodes).parents[len(Path(episodes["path"]).parts) - 1]
+        bench, given, depth = benchmark_root(cfg.episodes), Path(cfg.episodes), len(Path(episodes["path"]).parts)
         out["episodes"] = episodes["path"]
-        if scenes["root"] == "benchmark" and Path(cfg.scene_dir).resolve() == (root / scenes["path"]).resolve():
-            out["scene_dir"] = scenes["path"]
+        if benchmark_root(cfg.scene_dir) == bench:
+            out["scene_dir"] = data_path(cfg.scene_dir)["path"]
         out["benchmark"] = {"episodes_sha256": sha256(cfg.episodes)}
-        if not root.is_absolute() and root.resolve() == benchmark_root(cfg.episodes):
+        root = given.parents[depth - 1] if len(given.parents) >= depth else None  # the directory as given
+        if root is not None and not root.is_absolute() and root.resolve() == bench:
             out["benchmark_dir"] = root.as_posix()
     return out
 

@@ -175,6 +175,8 @@ def _episode_set(run_dir: Path) -> str:
     try:
         cfg = json.loads((run_dir / "config.json").read_text())
         name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
+        if isinstance(cfg.get("benchmark"), dict) and cfg["benchmark"].get("episodes_sha256"):
+            return str(cfg["benchmark"]["episodes_sha256"])  # a generated benchmark's file, named relative to it
     except (OSError, ValueError, AttributeError):
         return "?"
     try:
