@@ -26,7 +26,7 @@ run: setup  # the memory agent on ObjectNav val_unseen: the README's headline Ob
 	$(NB) run --split val_unseen
 test: setup
 	$(BIN)/python -m pytest
-test-slow: setup  # slow end-to-end checks, e.g. the committed reference runs reproduce to the last digit
+test-slow: setup  # slow end-to-end checks, e.g. the committed reference runs reproduce (outcomes and actions exactly, floats per CPU class)
 	$(BIN)/python -m pytest -m slow
 wheel-check: setup  # sdist + wheel (dist/), then the wheel alone in a fresh venv: both tasks from an empty dir
 	bash tests/wheel_check.sh $(BIN)/python $(PY)

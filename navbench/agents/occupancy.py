@@ -37,6 +37,8 @@ import skfmm
 from sklearn.cluster import KMeans
 from threadpoolctl import ThreadpoolController
 
+from navbench.scene.pose import vector_length
+
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 
 _KMEANS_CACHE_SIZE = 256  # split results kept per map: most frontier clusters come back unchanged next step
@@ -233,7 +235,7 @@ class OccupancyMap:
     def line_of_sight(self, a: np.ndarray, b: np.ndarray, traversable: np.ndarray) -> bool:
         """True when the straight segment between world points ``a`` and ``b`` crosses only traversable cells."""
         a, b = np.asarray(a, np.float64)[[0, 2]], np.asarray(b, np.float64)[[0, 2]]
-        n = max(2, int(np.ceil(np.linalg.norm(b - a) / (self.config.cell_size / 2))) + 1)
+        n = max(2, int(math.ceil(vector_length(b - a) / (self.config.cell_size / 2))) + 1)
         cells = self.to_cell(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
         if not self.inside(cells).all():
             return False

@@ -27,7 +27,7 @@ from navbench.scene.cache import layers_for, load_scene_and_navgrid, navgrid_for
 from navbench.scene.datasets import resolve_scene
 from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid
-from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat
+from navbench.scene.pose import heading_vector, quat_from_yaw, vector_length, wrap_angle, yaw_from_quat
 
 
 def resolve_scene_path(scene_id: str, scene_dir: Path) -> Path:
@@ -174,7 +174,7 @@ class NavEnv(gym.Env):
         if not on_grid:
             snapped = self.navgrid.snap_point(start)
             on_grid = np.isfinite(snapped).all() and \
-                np.linalg.norm((snapped - start)[[0, 2]]) <= self.config.start_snap_tolerance
+                vector_length((snapped - start)[[0, 2]]) <= self.config.start_snap_tolerance
             start = snapped if on_grid else start
         self.episode = episode
         self._goals = self._goal_points(episode)
@@ -234,7 +234,7 @@ class NavEnv(gym.Env):
                                                   sliding=self.config.allow_sliding)
             # Habitat's path length sums 3-D displacements (y changes on stairs and ramps only).
             step = new - self._position if self._motion is self.layered else (new - self._position)[[0, 2]]
-            self._path_length += float(np.linalg.norm(step))
+            self._path_length += vector_length(step)
             self._position = np.asarray(new, np.float64)
             self._collisions += int(collided)
         elif action in (TURN_LEFT, TURN_RIGHT):

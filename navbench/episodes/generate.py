@@ -39,7 +39,7 @@ from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_layers, load_scene_and_navgrid, navgrid_for
 from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid
-from navbench.scene.pose import quat_from_yaw
+from navbench.scene.pose import quat_from_yaw, vector_length
 
 # The version of the generated splits, written first in every file and recorded in run directories
 # (provenance.json); it changes whenever the same seed draws other episodes (CHANGELOG, "Benchmark versions").
@@ -126,7 +126,7 @@ def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.
             goal = grid.sample_navigable_point(rng)
             start = grid.sample_navigable_point(rng)
             geo = grid.geodesic_distance(start, goal)
-            euc = float(np.linalg.norm((goal - start)[[0, 2]]))
+            euc = vector_length((goal - start)[[0, 2]])
             if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
                 break
         else:
@@ -147,7 +147,7 @@ def _layered_pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: n
             if not nav.connected(start, goal):  # on storeys nothing joins: never drawn (and no field to build)
                 continue
             geo = float(nav.distance_field(goal).distance(start))  # what the env measures
-            euc = float(np.linalg.norm(goal - start))
+            euc = vector_length(goal - start)
             if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
                 break
         else:

@@ -12,13 +12,14 @@ import dataclasses
 import itertools
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from navbench.env.config import EnvConfig
 from navbench.episodes.types import Episode, EpisodeDataset
 from navbench.eval.rundir import RunError
 
-__all__ = ["BACKENDS", "Execution", "RunConfig", "parse_shard", "select_episodes", "shard_of"]
+__all__ = ["BACKENDS", "Execution", "RunConfig", "parse_shard", "recorded_paths", "select_episodes", "shard_of"]
 
 BACKENDS = ("local", "ray")
 
@@ -161,3 +162,21 @@ def select_episodes(dataset: EpisodeDataset, limit: int | None, per_scene: int |
     def stream(keys: bool = False) -> Iterator[Any]:
         return ((e.scene_id, e.episode_id) for e in dataset.episodes) if keys else iter(dataset.episodes)
     return selector(limit, per_scene, shard)(stream)
+
+
+def recorded_paths(cfg: dict[str, Any], where: str | Path = "") -> tuple[str, str]:
+    """(episode file, scene dir) of a run's config.json as this machine can open them. A generated benchmark's
+    run records them relative to the benchmark's directory (``benchmark`` holds the episode file's sha256):
+    they are read in ``benchmark_dir`` when it was recorded and holds them, else in the current directory."""
+    episodes, scene_dir = str(cfg.get("episodes") or ""), str(cfg.get("scene_dir") or "")
+    bench = cfg.get("benchmark")
+    if not isinstance(bench, dict) or Path(episodes).is_absolute():
+        return episodes, scene_dir
+    bases = [Path(str(cfg["benchmark_dir"]))] if cfg.get("benchmark_dir") else []
+    for base in [*bases, Path(".")]:
+        if (base / episodes).is_file():
+            return str(base / episodes), str(scene_dir if Path(scene_dir).is_absolute() else base / scene_dir)
+    places = " or ".join([*(str(b) for b in bases), "the current directory"])
+    raise RunError(f"{f'{where}: ' if where else ''}{episodes} (sha256 {str(bench.get('episodes_sha256'))[:12]}...) "
+                   f"is named relative to its generated benchmark's directory, not found in {places}: "
+                   f"run from the benchmark's directory")

@@ -16,13 +16,13 @@ from pathlib import Path
 from typing import Any
 
 from navbench.episodes.io import load_dataset
-from navbench.eval.config import RunConfig, selector
+from navbench.eval.config import RunConfig, recorded_paths, selector
 from navbench.eval.provenance import check_same_protocol, merge_provenance
 from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.runner import config_diff, summarize
 
 # Keys shards may differ in: how each was run, not what it computes.
-_MERGE_FREE_KEYS = ("shard", "workers", "envs_per_worker", "navbench_version")
+_MERGE_FREE_KEYS = ("shard", "workers", "envs_per_worker", "navbench_version", "benchmark_dir")
 
 
 def _config(d: Path) -> dict[str, Any]:
@@ -59,6 +59,7 @@ def merge(run_dirs: list[Path], out: Path, overwrite: bool = False, note=print) 
         seen_shards[s] = d
     cfg = RunConfig(**{k: v for k, v in first.items() if k in RunConfig.__dataclass_fields__})
     cfg.shard = None
+    cfg.episodes, cfg.scene_dir = recorded_paths(first, run_dirs[0] / "config.json")
     expected = [(e.scene_id, e.episode_id) for e in load_dataset(cfg.episodes, selector(cfg.limit,
                                                                                          cfg.per_scene)).episodes]
     wanted = set(expected)

@@ -15,9 +15,11 @@
   them part of the protocol: docs/comparing.md); it is rewritten when a run is resumed (the records may then
   come from two machines);
 - ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
-  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to
-  navbench's data root when it lies under it (``"root": "navbench"``), else as given; the episode file's
-  ``split_version`` when it states one (navbench's generated splits do).
+  beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to the
+  directory of the generated benchmark holding it (``"root": "benchmark"``: a directory with ``benchmark.json``;
+  ``files.benchmark`` then holds the sha256 of its ``SHA256SUMS``), else to navbench's data root when it lies
+  under it (``"root": "navbench"``), else as given; the episode file's ``split_version`` when it states one
+  (navbench's generated splits do).
 
 A run directory without provenance.json (written before it existed) gets its protocol derived from
 config.json and the EnvConfig defaults of the navbench reading it, without ``navigability`` (config.json
@@ -144,13 +146,36 @@ def sha256(path: str | Path) -> str:
     return h.hexdigest()
 
 
+BENCHMARK_MANIFEST = "benchmark.json"  # what marks a directory written by `navbench generate benchmark`
+
+
+def benchmark_root(path: str | Path) -> Path | None:
+    """The generated benchmark directory holding ``path`` (its scene dir, or a file up to two folders down)."""
+    for parent in Path(path).resolve().parents[:3]:
+        if (parent / BENCHMARK_MANIFEST).is_file():
+            return parent
+    return None
+
+
 def data_path(path: str | Path) -> dict[str, str]:
-    """``{"path": ..., "root": "navbench"}`` for a file under navbench's data root, else the path as given."""
+    """``{"path": ..., "root": "benchmark"}`` (the path relative to it) for a file in a generated benchmark's
+    directory (wherever that is, a checkout's ``runs/`` too), ``"root": "navbench"`` for one under navbench's
+    data root, else the path as given."""
     p = Path(path)
+    root = benchmark_root(p)
+    if root is not None:
+        return {"path": p.resolve().relative_to(root).as_posix(), "root": "benchmark"}
     try:
         return {"path": p.resolve().relative_to(ROOT.resolve()).as_posix(), "root": "navbench"}
     except ValueError:
         return {"path": str(p), "root": "absolute" if p.is_absolute() else "cwd"}
+
+
+def benchmark_sums(episodes: str | Path) -> Path | None:
+    """The ``SHA256SUMS`` of the generated benchmark holding the episode file ``episodes`` (it names the
+    sha256 of every file of the benchmark); None for a file in no benchmark, or a benchmark without one."""
+    root = benchmark_root(episodes) if data_path(episodes)["root"] == "benchmark" else None
+    return root / "SHA256SUMS" if root is not None and (root / "SHA256SUMS").is_file() else None
 
 
 def file_entry(path: str | Path) -> dict[str, str]:
@@ -251,6 +276,8 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
         episodes_entry["split_version"] = version
     files: dict[str, Any] = {"episodes": episodes_entry, "scene_dir": data_path(cfg.scene_dir),
                              "scenes": {}}
+    if (sums := benchmark_sums(cfg.episodes)) is not None:
+        files["benchmark"] = {"sha256sums": sha256(sums)}
     for scene_id in sorted({e.scene_id for e in episodes or []}):
         try:
             path = resolve_scene(scene_id, Path(cfg.scene_dir))

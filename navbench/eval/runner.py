@@ -39,7 +39,14 @@ from navbench._version import __version__
 from navbench.episodes.io import episode_keys
 from navbench.episodes.types import EpisodeDataset
 from navbench.eval.config import Execution, RunConfig, parse_shard, select_episodes, shard_of
-from navbench.eval.provenance import config_protocol, protocol_id, write_provenance
+from navbench.eval.provenance import (
+    benchmark_root,
+    config_protocol,
+    data_path,
+    protocol_id,
+    sha256,
+    write_provenance,
+)
 from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.stats import add_intervals
@@ -52,7 +59,7 @@ __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "r
 
 # Keys that may differ between a run and its resumption without changing any episode's result (the device:
 # beyond float rounding, docs/comparing.md).
-_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device")
+_RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device", "benchmark_dir")
 # RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
 _DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32"}
 
@@ -92,11 +99,24 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
 
 def config_json(cfg: RunConfig) -> dict[str, Any]:
     """What config.json records: the RunConfig (its shard, env configuration's name, device and precision only
-    when set or not the default) and navbench's version."""
+    when set or not the default) and navbench's version. A run of a generated benchmark records its episode
+    file and scene dir relative to the benchmark's directory, with ``benchmark`` (the episode file's sha256;
+    provenance.json has the scenes') and ``benchmark_dir`` (that directory as given, when given relative;
+    never an absolute path): see :func:`navbench.eval.config.recorded_paths`."""
     out = dict(dataclasses.asdict(cfg), navbench_version=__version__)
     for key, default in _DEFAULT_OMITTED.items():
         if out.get(key) == default:
             out.pop(key, None)
+    episodes = data_path(cfg.episodes)
+    if episodes["root"] == "benchmark":
+        bench, given, depth = benchmark_root(cfg.episodes), Path(cfg.episodes), len(Path(episodes["path"]).parts)
+        out["episodes"] = episodes["path"]
+        if benchmark_root(cfg.scene_dir) == bench:
+            out["scene_dir"] = data_path(cfg.scene_dir)["path"]
+        out["benchmark"] = {"episodes_sha256": sha256(cfg.episodes)}
+        root = given.parents[depth - 1] if len(given.parents) >= depth else None  # the directory as given
+        if root is not None and not root.is_absolute() and root.resolve() == bench:
+            out["benchmark_dir"] = root.as_posix()
     return out
 
 

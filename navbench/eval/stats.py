@@ -175,6 +175,8 @@ def _episode_set(run_dir: Path) -> str:
     try:
         cfg = json.loads((run_dir / "config.json").read_text())
         name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
+        if isinstance(cfg.get("benchmark"), dict) and cfg["benchmark"].get("episodes_sha256"):
+            return str(cfg["benchmark"]["episodes_sha256"])  # a generated benchmark's file, named relative to it
     except (OSError, ValueError, AttributeError):
         return "?"
     try:
@@ -189,12 +191,13 @@ def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:
     import json
 
     from navbench.episodes.io import load_dataset
-    from navbench.eval.config import select_episodes
+    from navbench.eval.config import recorded_paths, select_episodes
     from navbench.paths import split_file
 
     cfg = json.loads((run_dir / "config.json").read_text())
     bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
-    path = bundled if bundled is not None and bundled.is_file() else Path(cfg["episodes"])
+    path = bundled if bundled is not None and bundled.is_file() else \
+        Path(recorded_paths(cfg)[0])
     return {(e.scene_id, e.episode_id) for e in select_episodes(load_dataset(path), None, per_scene=k)}
 
 

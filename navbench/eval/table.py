@@ -90,6 +90,8 @@ def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
     """The run's records of the first ``first`` episodes of its dataset file (file order); a run
     lacking any of them is an error."""
     from navbench.episodes.io import load_dataset
+    from navbench.eval.config import recorded_paths
+    from navbench.eval.rundir import RunError
     from navbench.eval.runner import read_records
     from navbench.paths import split_file
 
@@ -99,7 +101,11 @@ def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
         raise TableError(f"{run_dir / 'config.json'}: corrupt config (no 'task', or neither 'split' nor 'episodes')")
     # a bundled split is read where this checkout keeps it (config.json holds the writer's path)
     bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
-    episodes = bundled if bundled is not None and bundled.is_file() else Path(cfg.get("episodes") or "")
+    try:
+        episodes = bundled if bundled is not None and bundled.is_file() else \
+            Path(recorded_paths(cfg, run_dir / "config.json")[0])
+    except RunError as exc:
+        raise TableError(str(exc)) from None
     head = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), first))).episodes
     keep = {(e.scene_id, e.episode_id) for e in head}
     recs = [r for r in read_records(run_dir / "episodes.jsonl") if (r["scene_id"], r["episode_id"]) in keep]

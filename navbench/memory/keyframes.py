@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from navbench.scene.pose import vector_length
+
 # A pose as the selector sees it: (position [x, y, z], rotation [x, y, z, w]).
 Pose = tuple[Sequence[float] | np.ndarray, Sequence[float] | np.ndarray]
 
@@ -66,7 +68,7 @@ class KeyframeSelector:
         p, r = _as_pose(position, rotation)
         if self._last is not None:
             last_p, last_r = self._last
-            moved = float(np.linalg.norm(p - last_p))
+            moved = vector_length(p - last_p)
             turned = float(np.degrees((last_r.inv() * r).magnitude()))
             if moved < self.translation and turned < self.rotation_deg:
                 return False

@@ -42,6 +42,7 @@ from scipy.spatial import cKDTree
 
 from navbench.scene.asset import SceneError
 from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points, grid_cells, storey_levels
+from navbench.scene.pose import vector_length
 
 # Unit lattice steps (row, col): the four orthogonal ones first, then the diagonals.
 _UNIT = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)]
@@ -485,7 +486,7 @@ class LayeredNav:
             return math.inf
         d = self.distances(goals)
         p = _points(start, "start")
-        best = d[s] + float(np.linalg.norm(self.position(s)[[0, 2]] - p[[0, 2]]))
+        best = d[s] + vector_length(self.position(s)[[0, 2]] - p[[0, 2]])
         row = self.graph.getrow(s)
         for t in row.indices:
             q = self.position(t)

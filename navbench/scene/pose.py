@@ -18,6 +18,20 @@ def _finite(values: np.ndarray, name: str) -> np.ndarray:
     return values
 
 
+def sum_squares(v) -> float:
+    """Sum of the squares of a short vector's entries, left to right in Python floats: the same bits on every
+    CPU (numpy's 1-D ``norm`` and ``@`` go through BLAS, whose kernels fuse multiply-adds on some CPUs only)."""
+    total = 0.0
+    for c in v:
+        total += float(c) * float(c)
+    return total
+
+
+def vector_length(v) -> float:
+    """Euclidean length of a short vector with the same bits on every CPU (see :func:`sum_squares`)."""
+    return math.sqrt(sum_squares(v))
+
+
 def wrap_angle(angle: float) -> float:
     """Wrap an angle in radians to [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
@@ -40,7 +54,7 @@ def yaw_from_quat(q_xyzw) -> float:
     q = _finite(np.asarray(q_xyzw, dtype=float).reshape(-1), "quaternion")
     if q.shape != (4,):
         raise ValueError(f"quaternion must have 4 values [x, y, z, w], got {q.tolist()}")
-    n = float(q @ q)
+    n = sum_squares(q)
     if n < 1e-12:
         raise ValueError(f"quaternion has zero norm: {q.tolist()}")
     x, y, z, w = q / math.sqrt(n)

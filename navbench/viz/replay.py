@@ -17,8 +17,9 @@ import numpy as np
 
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, ObjectGoal
-from navbench.eval.config import RunConfig
+from navbench.eval.config import RunConfig, recorded_paths
 from navbench.eval.failures import failure_kind
+from navbench.eval.rundir import RunError
 from navbench.eval.runner import read_records
 from navbench.eval.worker import make_env
 from navbench.safeio import read_input
@@ -61,7 +62,12 @@ class Run:
         if not isinstance(raw, dict) or bad:
             raise ReplayError(f"{cfg_file}: not a run config ({'a ' + type(raw).__name__ if not bad else bad[0]!r}"
                               f"{' is not a string' if bad else ''})")
-        return cls(path, RunConfig(**{k: v for k, v in raw.items() if k in names}), records)
+        cfg = RunConfig(**{k: v for k, v in raw.items() if k in names})
+        try:
+            cfg.episodes, cfg.scene_dir = recorded_paths(raw, cfg_file)
+        except RunError as exc:
+            raise ReplayError(str(exc)) from None
+        return cls(path, cfg, records)
 
     @property
     def label(self) -> str:

@@ -1,5 +1,6 @@
 """The committed reference runs: named and recorded as `navbench run` would today, and (slow, `make
-test-slow`) reproduced to the last digit by their own config.json."""
+test-slow`) reproduced by their own config.json as navbench.eval.reproduce defines it: outcomes, steps and
+actions exactly; float metrics exactly on the recording machine's CPU class, within FLOAT_TOLERANCE on another."""
 
 import hashlib
 import json
@@ -12,6 +13,7 @@ from navbench.episodes.benchmark import HOUSE_SEED_BASE, per_scene_counts, split
 from navbench.episodes.generate import SceneGoals, objectnav_split
 from navbench.episodes.io import file_split, save_dataset
 from navbench.episodes.split_vocabulary import UNSEEN_CATEGORIES
+from navbench.eval.reproduce import FLOAT_TOLERANCE, record_differences, same_cpu_class
 from navbench.eval.runner import RunConfig, read_records, run
 from navbench.paths import RESULTS_DIR, SCENES_DIR, split_file
 from navbench.scene.procedural import generate_house
@@ -38,6 +40,11 @@ def test_every_reference_run_is_named_and_recorded_as_the_cli_would():
         split = cfg["split"] or file_split(cfg["episodes"])  # a bundled split, or the generated benchmark's file
         assert d.relative_to(RUNS).parts == (cfg["task"], split, run_label(cfg["agent"], o, cfg["seed"])), d
         assert cfg["label"] == d.name and json.loads((d / "summary.json").read_text())["agent"] == d.name, d
+        if cfg["split"] is None:  # a generated benchmark's run: its files named relative to it, with checksums
+            files = json.loads((d / "provenance.json").read_text())["files"]
+            assert files["episodes"]["root"] == files["scene_dir"]["root"] == "benchmark", d
+            assert (files["episodes"]["path"], files["scene_dir"]["path"]) == (cfg["episodes"], cfg["scene_dir"]), d
+            assert files["episodes"]["sha256"] == cfg["benchmark"]["episodes_sha256"], d
 
 
 def ref_config(ref_dir: Path) -> RunConfig:
@@ -47,15 +54,15 @@ def ref_config(ref_dir: Path) -> RunConfig:
 
 def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> None:
     """Run the first ``n`` episodes of ``cfg`` in this process (the default execution: one worker) and
-    compare every metric with the committed records."""
+    compare each record with the committed one (floats exactly on the recording CPU class)."""
     cfg.limit = n
     run(cfg, AGENTS[cfg.agent], out)
     ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
     got = read_records(out / "episodes.jsonl")
     assert len(got) == n
-    for r in got:
-        for k in ("success", "spl", "soft_spl", "distance_to_goal", "num_steps", "path_length"):
-            assert r[k] == ref[r["episode_id"]][k], (r["episode_id"], k)
+    exact = same_cpu_class(ref_dir)
+    diffs = {r["episode_id"]: d for r in got if (d := record_differences(r, ref[r["episode_id"]], exact))}
+    assert not diffs, f"floats compared {'exactly' if exact else f'to {FLOAT_TOLERANCE}'}: {diffs}"
 
 
 @pytest.mark.slow

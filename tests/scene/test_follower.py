@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -11,7 +12,15 @@ from scipy.spatial.transform import Rotation
 
 from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, GreedyFollower
 from navbench.scene.navigability import NavGrid
-from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat, yaw_towards
+from navbench.scene.pose import (
+    heading_vector,
+    quat_from_yaw,
+    sum_squares,
+    vector_length,
+    wrap_angle,
+    yaw_from_quat,
+    yaw_towards,
+)
 
 TURN = math.radians(30)
 
@@ -203,3 +212,14 @@ def test_clearance_weighted_field_is_distance_in_the_open_and_slower_near_walls(
     assert along.distance(P(2.76, 0.5)) > along_plain.distance(P(2.76, 0.5)) + 0.1
     finite = np.isfinite(plain.values)
     assert (weighted.values[finite] >= plain.values[finite] - 0.02).all()
+
+
+def test_vector_length_rounds_each_square_and_sum_as_plain_float_code_does():
+    """BLAS ddot (numpy's 1-D norm and ``@``) fuses multiply-adds on some CPUs: ``fma(b, b, a * a)`` rounds once
+    where ``a * a + b * b`` rounds twice. These two entries tell them apart; the helpers must give the unfused sum."""
+    a, b = 0.1257302210933933, -0.1321048632913019
+    fused = float(Fraction(b) * Fraction(b) + Fraction(a * a))
+    assert fused != a * a + b * b
+    assert sum_squares(np.array([a, b])) == a * a + b * b
+    assert vector_length(np.array([a, 0.0, b])) == math.sqrt(a * a + b * b)
+    assert vector_length([3.0, 4.0]) == 5.0 and vector_length(np.zeros(3)) == 0.0

@@ -17,6 +17,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
+from navbench.scene.pose import vector_length
 from navbench.scene.procedural.config import PLAN_UNIT, HouseConfig
 from navbench.scene.procedural.furniture import CATEGORIES, COLOURS, WALL_MOUNT_HEIGHT, Category, paint
 from navbench.scene.procedural.plan import Door, Room
@@ -435,7 +436,7 @@ def furnish(rng: np.random.Generator, cfg: HouseConfig, rooms: list[Room], doors
 
 
 def _colour_distance(a, b) -> float:
-    return float(np.linalg.norm(np.asarray(a, float) - np.asarray(b, float)))
+    return vector_length(np.asarray(a, float) - np.asarray(b, float))
 
 
 def assign_colours(rng: np.random.Generator, items: list[_Placed], floor_rgb: list, wall_rgb) -> None:
