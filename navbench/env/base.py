@@ -259,7 +259,7 @@ class NavEnv(gym.Env):
         target = self._position + from_agent_frame(fwd, right, self._yaw)
         new, collided = self._motion.try_step(self._position, target, sliding=c.allow_sliding)
         step = new - self._position if self._motion is self.layered else (new - self._position)[[0, 2]]
-        self._path_length += float(np.linalg.norm(step))
+        self._path_length += vector_length(step)
         self._position = np.asarray(new, np.float64)
         self._collisions += int(collided)
         self._yaw = wrap_angle(self._yaw + dyaw)
