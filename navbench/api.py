@@ -160,10 +160,9 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     check_precision(precision)
     # `navbench run` resolved the episodes already (for the task's default agent): a user's file is read once
     task, split, episodes_path, default_sd = _episodes or resolve_episodes(task, split, episodes)
-    resolved = resolve_agent(default_agent(task) if agent is None else agent, options, seed,
-                             envs_per_worker=envs_per_worker, device=device)
-
     env, env_name = _env_config(env_config)
+    resolved = resolve_agent(default_agent(task) if agent is None else agent, options, seed,
+                             envs_per_worker=envs_per_worker, device=device, task=task, env=env)
     if success_distance is None and env is not None:
         success_distance = env.success_distance
     cfg = RunConfig(task=task, split=split, agent=resolved.spec, episodes=str(episodes_path),
@@ -172,9 +171,6 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                     seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=resolved.envs_per_worker,
                     agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision,
                     env={} if env is None else env.overrides(), env_config_name=env_name)
-    if env is not None:
-        from navbench.agents.registry import check_conditions
-        check_conditions(resolved.spec if resolved.builtin else None, task, env)
     cfg.label = label or (resolved.label + (f"-{env_name}" if env_name else ""))
     parsed_shard = parse_shard(shard)
     if out is None:

@@ -239,7 +239,8 @@ class Bound:
 
 
 def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int = 0, *,
-                  envs_per_worker: int | None = None, device: str = "cpu") -> ResolvedAgent:
+                  envs_per_worker: int | None = None, device: str = "cpu", task: str | None = None,
+                  env: Any = None) -> ResolvedAgent:
     """Whatever names an agent, with its options, checked up front (one-line ValueError naming the agent).
 
     Args:
@@ -252,6 +253,8 @@ def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int =
         envs_per_worker: episodes a worker steps at once (None: the built-in's default, else the
             class's or instance's ``num_envs``, else 1); more than 1 for an agent that cannot batch is refused.
         device: ``auto``, ``cpu``, ``cuda`` or ``cuda:N`` (:func:`navbench.device.resolve_device`).
+        task, env: the run's task and EnvConfig, when it is not navbench's default: a built-in agent that cannot
+            work under it (:func:`navbench.agents.registry.check_conditions`) is refused.
 
     Returns:
         The resolved agent.
@@ -285,6 +288,9 @@ def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int =
                              f"not {resolved.spec!r}, which steps one at a time")
         resolved.envs_per_worker = envs_per_worker
     resolved.device = resolve_device(device)
+    if env is not None and resolved.builtin:
+        from navbench.agents.registry import check_conditions
+        check_conditions(resolved.spec, task or "", env)
     return resolved
 
 

@@ -38,7 +38,10 @@ def test_every_reference_run_is_named_and_recorded_as_the_cli_would():
                                  **{k: o[k] for k in CHOICES if k in o})
         assert o == expected, d
         split = cfg["split"] or file_split(cfg["episodes"])  # a bundled split, or the generated benchmark's file
-        assert d.relative_to(RUNS).parts == (cfg["task"], split, run_label(cfg["agent"], o, cfg["seed"])), d
+        # a run under a named env configuration carries its name (navbench.evaluate's label)
+        label = run_label(cfg["agent"], o, cfg["seed"]) + (f"-{cfg['env_config_name']}" if cfg.get("env_config_name")
+                                                           else "")
+        assert d.relative_to(RUNS).parts == (cfg["task"], split, label), d
         assert cfg["label"] == d.name and json.loads((d / "summary.json").read_text())["agent"] == d.name, d
         if cfg["split"] is None:  # a generated benchmark's run: its files named relative to it, with checksums
             files = json.loads((d / "provenance.json").read_text())["files"]
