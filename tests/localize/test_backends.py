@@ -1,20 +1,19 @@
 """Each real perception backend run end to end on a tiny randomly initialised model saved to disk.
 
-Configs are shaped like transformers' own model tests (hidden size 32, one layer). Tokenizers cannot
-be downloaded, so each test builds a word-level tokenizer from a small vocabulary; image processors are
-built offline (SAM 3's needs torchvision, so its preprocessor_config.json is written directly, which is
-all the backend reads).
+The checkpoints are ``benchmarks/tiny_models.py``'s (the GPU check runs on the same ones): configs shaped like
+transformers' own model tests (hidden size 32, one layer), word-level tokenizers built offline from a small
+vocabulary (tokenizers cannot be downloaded), image processors built offline (SAM 3's needs torchvision, so its
+preprocessor_config.json is written directly, which is all the backend reads).
 """
 
-import json
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 transformers = pytest.importorskip("transformers", reason="the models extra (transformers) is not installed")
 torch = pytest.importorskip("torch")
-from tokenizers import AddedToken, Tokenizer, models, pre_tokenizers  # noqa: E402 - after importorskip
 
 from navbench.localize.backends import (  # noqa: E402
     MODELS_EXTRA_HINT,
@@ -28,17 +27,8 @@ from navbench.localize.backends import (  # noqa: E402
     Siglip2Encoder,
 )
 
-WORDS = ["yes", "[PAD]", "[UNK]", "no", "is", "a", "red", "chair", "bed", "visible", "in", "this", "image", "?",
-         "reply", "only", ":", "/", "<", ">", "-", "visibility", "user", "assistant", "system", "you", "are",
-         "helpful", "."] + [str(i) for i in range(11)]
-
-
-def tiny_tokenizer(special=()):
-    tok = Tokenizer(models.WordLevel({w: i for i, w in enumerate(WORDS)}, unk_token="[UNK]"))
-    tok.pre_tokenizer = pre_tokenizers.Whitespace()
-    tok.add_special_tokens([AddedToken(s, special=True) for s in special])
-    fast = transformers.PreTrainedTokenizerFast(tokenizer_object=tok, pad_token="[PAD]", unk_token="[UNK]")
-    return fast, tok.get_vocab_size()
+sys.path.insert(0, str(Path(__file__).parents[2] / "benchmarks"))
+from tiny_models import write_qwen, write_sam3, write_siglip  # noqa: E402
 
 
 def has(name):
@@ -54,20 +44,7 @@ def images(rng):
 def siglip_dir(tmp_path_factory):
     if not (has("SiglipModel") and has("SiglipImageProcessorPil")):
         pytest.skip("this transformers has no SiglipModel/SiglipImageProcessorPil")
-    d = tmp_path_factory.mktemp("siglip")
-    tokenizer, vocab = tiny_tokenizer()
-    torch.manual_seed(0)
-    config = transformers.SiglipConfig(
-        text_config=dict(vocab_size=vocab, hidden_size=32, intermediate_size=37, num_hidden_layers=1,
-                         num_attention_heads=4, max_position_embeddings=64, pad_token_id=1, bos_token_id=None,
-                         eos_token_id=None),
-        vision_config=dict(image_size=32, patch_size=8, hidden_size=32, intermediate_size=37, num_hidden_layers=1,
-                           num_attention_heads=4))
-    transformers.SiglipModel(config).save_pretrained(d)
-    processor = transformers.SiglipProcessor(
-        image_processor=transformers.SiglipImageProcessorPil(size={"height": 32, "width": 32}), tokenizer=tokenizer)
-    processor.save_pretrained(d)
-    return d
+    return write_siglip(tmp_path_factory.mktemp("siglip"))
 
 
 def test_siglip2_encoder_matches_the_model_and_pads_text_to_64(siglip_dir):
@@ -112,32 +89,11 @@ def test_missing_model_dir_and_missing_extra(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------ Qwen2.5-VL
-QWEN_SPECIAL = ["<|im_start|>", "<|im_end|>", "<|vision_start|>", "<|vision_end|>", "<|image_pad|>", "<|video_pad|>"]
-
-
 @pytest.fixture(scope="module")
 def qwen_dir(tmp_path_factory):
     if not (has("Qwen2_5_VLForConditionalGeneration") and has("Qwen2VLImageProcessorPil")):
         pytest.skip("this transformers has no Qwen2_5_VLForConditionalGeneration/Qwen2VLImageProcessorPil")
-    d = tmp_path_factory.mktemp("qwen")
-    tokenizer, vocab = tiny_tokenizer(QWEN_SPECIAL)
-    ids = {s: tokenizer.convert_tokens_to_ids(s) for s in QWEN_SPECIAL}
-    torch.manual_seed(0)
-    config = transformers.Qwen2_5_VLConfig(
-        text_config=dict(vocab_size=vocab, hidden_size=32, intermediate_size=37, num_hidden_layers=1,
-                         num_attention_heads=4, num_key_value_heads=2, max_position_embeddings=512,
-                         rope_parameters={"rope_type": "default", "rope_theta": 10000.0, "mrope_section": [1, 1, 2]},
-                         bos_token_id=None, eos_token_id=ids["<|im_end|>"], pad_token_id=1),
-        vision_config=dict(depth=1, hidden_size=32, intermediate_size=24, num_heads=4, out_hidden_size=32,
-                           patch_size=14, spatial_merge_size=2, temporal_patch_size=2, window_size=28,
-                           fullatt_block_indexes=[0]),
-        image_token_id=ids["<|image_pad|>"], video_token_id=ids["<|video_pad|>"],
-        vision_start_token_id=ids["<|vision_start|>"], vision_end_token_id=ids["<|vision_end|>"])
-    transformers.Qwen2_5_VLForConditionalGeneration(config).save_pretrained(d)
-    tokenizer.save_pretrained(d)
-    transformers.Qwen2VLImageProcessorPil(min_pixels=56 * 56, max_pixels=84 * 84, patch_size=14, merge_size=2,
-                                          temporal_patch_size=2).save_pretrained(d)
-    return d
+    return write_qwen(tmp_path_factory.mktemp("qwen"))
 
 
 def test_qwen_vl_reranker_generates_and_parses(qwen_dir):
@@ -166,30 +122,7 @@ def test_qwen_vl_reranker_generates_and_parses(qwen_dir):
 def sam3_dir(tmp_path_factory):
     if not has("Sam3Model"):
         pytest.skip("this transformers has no Sam3Model")
-    d = tmp_path_factory.mktemp("sam3")
-    tokenizer, vocab = tiny_tokenizer()
-    torch.manual_seed(0)
-    config = transformers.Sam3Config(
-        vision_config=dict(backbone_config=dict(model_type="sam3_vit_model", hidden_size=32, intermediate_size=64,
-                                                num_hidden_layers=1, num_attention_heads=4, image_size=56,
-                                                patch_size=14, window_size=2, global_attn_indexes=[0],
-                                                pretrain_image_size=56),
-                           fpn_hidden_size=32, backbone_feature_sizes=[[16, 16], [8, 8], [4, 4]]),
-        text_config=dict(vocab_size=vocab, hidden_size=32, intermediate_size=64, num_hidden_layers=1,
-                         num_attention_heads=4, max_position_embeddings=32, projection_dim=32, pad_token_id=1,
-                         bos_token_id=3, eos_token_id=4),
-        geometry_encoder_config=dict(hidden_size=32, num_layers=1, num_attention_heads=4, intermediate_size=64),
-        detr_encoder_config=dict(hidden_size=32, num_layers=1, num_attention_heads=4, intermediate_size=64),
-        detr_decoder_config=dict(hidden_size=32, num_layers=1, num_queries=8, num_attention_heads=4,
-                                 intermediate_size=64),
-        mask_decoder_config=dict(hidden_size=32, num_upsampling_stages=2, num_attention_heads=4))
-    transformers.Sam3Model(config).save_pretrained(d)
-    tokenizer.save_pretrained(d)
-    (d / "preprocessor_config.json").write_text(json.dumps({
-        "image_processor_type": "Sam3ImageProcessor", "size": {"height": 56, "width": 56}, "resample": 2,
-        "do_rescale": True, "rescale_factor": 1 / 255, "do_normalize": True,
-        "image_mean": [0.5, 0.5, 0.5], "image_std": [0.5, 0.5, 0.5]}))
-    return d
+    return write_sam3(tmp_path_factory.mktemp("sam3"))
 
 
 def test_sam3_segmenter_real_model_path(sam3_dir):
