@@ -41,7 +41,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from navbench.scene.asset import SceneError
-from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points, grid_cells, storey_levels
+from navbench.scene.navigability import _HORIZONTAL_NY, NavGridConfig, _points, grid_cells, storey_floors
 from navbench.scene.pose import vector_length
 
 # Unit lattice steps (row, col): the four orthogonal ones first, then the diagonals.
@@ -499,14 +499,10 @@ class LayeredNav:
 
     def storeys(self) -> np.ndarray:
         """Floor heights of the storeys, bottom-up: the navigable spans' heights grouped into levels by the
-        grid's rule (:func:`~navbench.scene.navigability.storey_levels`), the levels holding at least 5% of the
+        grid's rule (:func:`~navbench.scene.navigability.storey_floors`), the levels holding at least 5% of the
         largest one's spans, each level's median. Treads, landings, a ramp's slope and furniture tops hold too
         few spans to be a storey."""
-        levels = storey_levels(self.height[self.navigable], self.config)
-        if not levels:
-            return np.zeros(0)
-        counts = np.array([len(lv) for lv in levels])
-        return np.array([float(np.median(lv)) for lv, c in zip(levels, counts) if c >= 0.05 * counts.max()])
+        return storey_floors(self.height[self.navigable], self.config)
 
     def storey_spans(self) -> np.ndarray:
         """Navigable spans standing on a storey's floor (within half ``max_climb`` of one of :meth:`storeys`)."""

@@ -92,6 +92,16 @@ def storey_levels(heights: np.ndarray, config: NavGridConfig) -> list[np.ndarray
     return [lv for lv in out if len(lv)]
 
 
+
+def storey_floors(heights: np.ndarray, config: NavGridConfig) -> np.ndarray:
+    """Median heights, bottom-up, of the :func:`storey_levels` holding at least 5% of the largest one's samples:
+    the floors (and large walkable tops) a treads', landings' or ramp's few samples never make."""
+    levels = storey_levels(heights, config)
+    if not levels:
+        return np.zeros(0)
+    counts = np.array([len(lv) for lv in levels])
+    return np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
+
 def _points(p, name: str) -> np.ndarray:
     """Float (3,) or (N, 3) array of finite xyz coordinates, or ValueError naming the value."""
     a = np.asarray(p, dtype=float)
@@ -364,9 +374,7 @@ class NavGrid:
         heights = np.sort(ys[(np.abs(normals_y[tris]) >= _HORIZONTAL_NY) & (above - ys >= config.agent_height)])
         if len(heights) == 0:
             raise SceneError(f"mesh has no walkable floor: no horizontal surface with {config.agent_height} m headroom")
-        levels = storey_levels(heights, config)
-        counts = np.array([len(lv) for lv in levels])
-        return np.array([float(np.median(lv)) for lv in levels])[counts >= 0.05 * counts.max()]
+        return storey_floors(heights, config)
 
     @staticmethod
     def _navmesh_topology(free: np.ndarray, config: NavGridConfig) -> np.ndarray:
