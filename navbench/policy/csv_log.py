@@ -23,3 +23,28 @@ def log_row(path: Path, row: dict, digits: int = 4) -> str:
             w.writeheader()
         w.writerow({k: (round(v, digits + 1) if isinstance(v, float) else v) for k, v in row.items()})
     return " ".join(f"{k}={v:.{digits}g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items())
+
+
+def keep_rows_through(path: Path, column: str, last: int) -> None:
+    """Rewrite the CSV at ``path`` to the rows whose ``column`` is at most ``last``, one per value (the later
+    wins), in order: a run resumed from step ``last`` logs the steps after it again, so the rows an interrupted
+    run wrote past its saved state go."""
+    if not path.is_file():
+        return
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        fields, rows = reader.fieldnames, list(reader)
+    if not fields:
+        return
+    kept: dict[int, dict] = {}
+    for row in rows:
+        try:
+            step = int(float(row[column]))
+        except (KeyError, TypeError, ValueError):
+            continue
+        if step <= last:
+            kept[step] = row
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=fields)
+        w.writeheader()
+        w.writerows(kept[k] for k in sorted(kept))

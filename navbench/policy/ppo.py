@@ -36,7 +36,7 @@ from navbench.loop_progress import progress
 from navbench.policy import distributed as ddp
 from navbench.policy.checkpoint import load_checkpoint, load_train_state, save_checkpoint
 from navbench.policy.config import PPOConfig
-from navbench.policy.csv_log import log_row
+from navbench.policy.csv_log import keep_rows_through, log_row
 from navbench.policy.net import PointNavResNetPolicy, PolicyNetConfig, prepare_depth
 from navbench.policy.rollout import Collection, EnvSlots, make_envs
 
@@ -279,6 +279,8 @@ def train_ppo(cfg: PPOConfig, out: Path, init: Path | None, resume: bool = False
     if resume and state_path.is_file():
         start, frames, wall0 = load_train_state(state_path, policy, opt, "update")
         log_every(f"resumed at update {start} ({frames} frames, {wall0:.0f} s)")
+        if dist.is_main:
+            keep_rows_through(log_path, "update", start)
     elif init is None:
         raise ValueError(f"no resumable state in {state_dir}; --init PATH names the policy to fine-tune")
     else:

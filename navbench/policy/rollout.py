@@ -23,7 +23,7 @@ from navbench.env.config import SUCCESS_DISTANCE, EnvConfig
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.io import load_dataset
 from navbench.paths import split_file
-from navbench.policy.workers import WorkerPool
+from navbench.policy.workers import WorkerError, WorkerPool
 from navbench.scene.follower import GreedyFollower
 from navbench.scene.pose import quat_from_yaw
 
@@ -233,7 +233,10 @@ class Collection:
 
     def close(self) -> None:
         if self.pool is not None:
-            self.pool.call("close")
+            try:
+                self.pool.call("close")
+            except (WorkerError, OSError):  # a worker already gone (killed): the pool still ends the others
+                pass
             self.pool.close()
         else:
             for env in self.local.envs:

@@ -49,7 +49,7 @@ from navbench.policy.checkpoint import (
     save_train_state,
 )
 from navbench.policy.config import TrainConfig
-from navbench.policy.csv_log import log_row
+from navbench.policy.csv_log import keep_rows_through, log_row
 from navbench.policy.net import InferenceConfig, PointNavAgentPolicy, PointNavResNetPolicy, PolicyNetConfig
 from navbench.policy.rollout import Collection, EnvSlots, make_envs
 
@@ -355,6 +355,8 @@ def train(cfg: TrainConfig, out: Path, resume: bool = False, state_dir: Path = P
         start_it, frames_total, wall0 = load_train_state(state_path, policy, opt, "iteration")
         rng = np.random.default_rng(ddp.rank_seeds([cfg.seed, start_it]))
         log_every(f"resumed at iteration {start_it} ({frames_total} frames, {wall0:.0f} s)")
+        if dist.is_main:
+            keep_rows_through(log_path, "iteration", start_it)
     else:
         if init is not None:  # warm start: weights only, fresh optimizer
             policy.load_state_dict(load_checkpoint(init).state_dict())

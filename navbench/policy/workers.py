@@ -50,8 +50,10 @@ def share_cores(threads: int) -> None:
 
 
 def _serve(conn, factory: Callable[..., Any], args: tuple, threads: int) -> None:
-    # SLURM's time-limit warning may reach every process of the job: the trainer saves and then closes its workers
-    signal.signal(signal.SIGUSR1, signal.SIG_IGN)
+    # SLURM's scancel and time-limit warning, and `kill -- -PGID`, reach every process of the job: the trainer
+    # notes them, finishes its update, saves, and then closes its workers, which must still answer until then
+    for s in (signal.SIGTERM, signal.SIGUSR1):
+        signal.signal(s, signal.SIG_IGN)
     share_cores(threads)
     try:
         obj = factory(*args)
@@ -140,7 +142,8 @@ class WorkerPool:
         for proc in self._procs:
             proc.join(timeout=10)
             if proc.is_alive():
-                proc.terminate()
+                proc.kill()  # a worker ignores SIGTERM
+                proc.join(timeout=5)
         for conn in self._conns:
             conn.close()
         self._conns, self._procs = [], []

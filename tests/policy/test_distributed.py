@@ -5,6 +5,7 @@
 - a rank killed under ``torchrun --max-restarts 1`` comes back and the run continues from its resume state.
 """
 
+import csv
 import multiprocessing
 import os
 import signal
@@ -182,8 +183,13 @@ def test_a_run_cut_and_resumed_ends_with_the_weights_of_the_uncut_run(trainer, t
     init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {})
     uncut = _run(trainer, tmp_path / "uncut", init, 3)
     _run(trainer, tmp_path / "cut", init, 1)
+    step = "update" if trainer == "ppo" else "iteration"
+    log = tmp_path / "cut" / "o.log.csv"
+    with open(log, "a") as f:  # a row written after the saved state, by a run killed before its next save
+        f.write("2" + "," * (log.read_text().splitlines()[0].count(",")) + "\n")
     resumed = _run(trainer, tmp_path / "cut", init, 3, resume=True)
     assert all(torch.equal(uncut[k], resumed[k]) for k in uncut)
+    assert [r[step] for r in csv.DictReader(open(log))] == ["1", "2", "3"]  # each step once, the resumed run's
     if trainer == "dagger":  # the buffer's shards on disk are only those the buffer still holds
         names = sorted(p.name for p in (tmp_path / "cut" / "s" / "buffer").iterdir())
         assert names[-1] == "iteration_000003.pt" and "iteration_000001.pt" not in names

@@ -41,6 +41,34 @@ def test_a_worker_that_dies_fails_the_pool_by_name():
             pool.call("run", [(3,), (4,)])
 
 
+def test_workers_outlive_a_sigterm_to_the_process_group_and_close_still_ends_them():
+    # scancel or `kill -- -PGID` signals every process: the trainer saves after its update, so its workers
+    # must still answer then; close() ends them all the same
+    import signal
+
+    pool = WorkerPool(dict, [({"k": 1},), ({"k": 2},)])
+    procs = list(pool._procs)
+    try:
+        for p in procs:
+            os.kill(p.pid, signal.SIGTERM)
+            os.kill(p.pid, signal.SIGUSR1)
+        assert pool.call("get", [("k",)] * 2) == [1, 2]
+    finally:
+        pool.close()
+    assert not any(p.is_alive() for p in procs)
+
+
+def test_a_collection_whose_worker_was_killed_still_closes():
+    import signal
+
+    source = Collection(pool=WorkerPool(dict, [({},), ({},)]))
+    procs = list(source.pool._procs)
+    os.kill(procs[0].pid, signal.SIGKILL)
+    procs[0].join(timeout=10)
+    source.close()
+    assert not any(p.is_alive() for p in procs)
+
+
 def test_worker_shares_split_the_envs_evenly_in_order():
     assert worker_shares(8, 1) == [(0, 8)]
     assert worker_shares(8, 2) == [(0, 4), (4, 4)]
