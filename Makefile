@@ -30,12 +30,10 @@ test-slow: setup  # slow end-to-end checks, e.g. the committed reference runs re
 	$(BIN)/python -m pytest -m slow
 wheel-check: setup  # sdist + wheel (dist/), then the wheel alone in a fresh venv: both tasks from an empty dir
 	bash tests/wheel_check.sh $(BIN)/python $(PY)
-bench: setup
-	$(NB) bench
+bench: setup ; $(NB) bench
 lint: setup  # ruff, pyright on the public modules (pyproject.toml), the import order of docs/layout.md
 	$(BIN)/ruff check . && $(BIN)/pyright && $(BIN)/python -m pytest -q tests/test_layout.py
-clean:
-	rm -rf $(VENV) .pytest_cache dist build
+clean: ; rm -rf $(VENV) .pytest_cache dist build
 # Reference tables in results/ (results/README.md); runs land in results/runs/<task>/<split>/<label>/; LIMIT=N: first N each.
 results-oracle: setup
 	for s in $(OBJNAV_SPLITS); do $(RUN) --split $$s --agent oracle $(LIMIT_ARG) || exit 1; done
@@ -48,12 +46,13 @@ results-localize: setup
 	  $(NB) localize --split goat_val --noise $$n --no-fusion --out results/localize/oracle_$${n}_single || exit 1; \
 	done
 	$(BIN)/python -m navbench.localize.report results/localize > results/localization_sr5.md
-results-pointnav: setup
+results-pointnav: setup  # the default file, then policies/pointnav_v2.pth
 	$(RUN) --task pointnav --split val --agent optimistic $(LIMIT_ARG)
-	for s in val select; do $(RUN) --task pointnav --split $$s $(LIMIT_ARG) || exit 1; done
-	$(RUN) --task pointnav --split val --decoding argmax $(LIMIT_ARG)
-	$(NB) table --long $(addprefix $(RUNS)/pointnav/val/,oracle optimistic pointnav pointnav-argmax) \
-	  $(RUNS)/pointnav/select/pointnav > results/pointnav.md
+	for c in "" "--checkpoint policies/pointnav_v2.pth"; do for o in "val" "select" "val --decoding argmax"; do \
+	  $(RUN) --task pointnav --split $$o $$c $(LIMIT_ARG) || exit 1; done; done
+	$(NB) table --long $(addprefix $(RUNS)/pointnav/val/,oracle optimistic pointnav pointnav-argmax pointnav-pointnav_v2 \
+	  pointnav-pointnav_v2-argmax) \
+	  $(RUNS)/pointnav/select/pointnav $(RUNS)/pointnav/select/pointnav-pointnav_v2 > results/pointnav.md
 results-pointnav-2h: setup
 	$(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --decoding argmax $(LIMIT_ARG)
 	for s in 0 1 2 3 4; do $(RUN) --task pointnav --split val --checkpoint policies/pointnav_2h.pth --seed $$s $(LIMIT_ARG) || exit 1; done
@@ -63,14 +62,15 @@ results-objectnav: setup
 	for s in $(OBJNAV_SPLITS); do \
 	  for a in "memory" "memory --rerank none" "frontier"; do $(RUN) --split $$s --agent $$a $(LIMIT_ARG) || exit 1; done; \
 	done
-	$(RUN) --split val_unseen --agent memory --noise default $(LIMIT_ARG)
+	for o in "--noise default" "--checkpoint policies/pointnav_v2.pth"; do \
+	  $(RUN) --split val_unseen --agent memory $$o $(LIMIT_ARG) || exit 1; done
 	$(MAKE) tables-objectnav
 tables-objectnav: setup
 	{ echo "## All agents, SR / SPL (%)"; echo; \
 	  $(NB) table $(foreach a,frontier memory-norerank memory oracle,$(foreach s,$(OBJNAV_SPLITS),$(RUNS)/objectnav/$(s)/$(a))); \
 	  echo; echo "## Memory agent and oracle, with SoftSPL and distance to goal"; echo; \
 	  $(NB) table --long $(foreach a,memory oracle,$(foreach s,$(OBJNAV_SPLITS),$(RUNS)/objectnav/$(s)/$(a))) \
-	    $(RUNS)/objectnav/val_unseen/memory-noise_default; } > results/objectnav.md
+	    $(RUNS)/objectnav/val_unseen/memory-noise_default $(RUNS)/objectnav/val_unseen/memory-pointnav_v2; } > results/objectnav.md
 	$(BIN)/python -m navbench.eval.failures $(foreach a,frontier memory-norerank memory,$(foreach s,$(OBJNAV_SPLITS),\
 	  $(RUNS)/objectnav/$(s)/$(a))) $(RUNS)/objectnav/val_unseen/memory-noise_default > results/objectnav_failures.md
 results-objectnav-least-tried: setup

@@ -3,7 +3,7 @@
 # resume it, stop it again after the next one. Prints the log rows and the resume lines.
 #
 #     benchmarks/recipe_smoke.sh pointnav/v2 dagger_own_states policies/pointnav_navbench.pth [OUT_DIR]
-#     PREV_STAGE=dagger_own_states benchmarks/recipe_smoke.sh pointnav/v2 ppo_spl policies/pointnav_navbench.pth
+#     PREV_STAGE=dagger_quarter_lr benchmarks/recipe_smoke.sh full ppo_bc policies/pointnav_navbench.pth
 #
 # A later stage starts from the previous stage's output: PREV_STAGE names it, and INIT is copied there.
 set -euo pipefail

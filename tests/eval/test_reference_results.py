@@ -70,7 +70,8 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["pointnav/val/pointnav", "pointnav/val/pointnav-argmax",
-                                  "pointnav/val/pointnav-pointnav_2h", "pointnav/val/optimistic",
+                                  "pointnav/val/pointnav-pointnav_2h", "pointnav/val/pointnav-pointnav_v2",
+                                  "pointnav/val/optimistic", "objectnav/val_unseen/memory-pointnav_v2",
                                   "objectnav/val_unseen/oracle", "objectnav/val_unseen/memory",
                                   "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier"])
 def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):

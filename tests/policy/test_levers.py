@@ -1,4 +1,5 @@
-"""The retraining levers of configs/pointnav/v2.toml, each a config field that does what its help says."""
+"""The retraining levers (configs/pointnav/v2.toml uses the DAgger ones), each a config field that does what its help
+says."""
 
 import dataclasses
 
@@ -62,19 +63,10 @@ def test_dagger_with_beta_zero_drives_on_its_own_states_labelled_by_the_expert(m
     assert (eps[0]["label"] != 2).any()  # what was learned: the expert's actions from those states
 
 
-def test_the_v2_recipe_uses_the_levers_in_stages_of_at_most_two_hours():
+def test_the_v2_recipe_is_dagger_on_own_states_in_a_stage_of_at_most_two_hours():
     recipe = load_recipe("pointnav/v2")
-    by_name = {s.name: s for s in recipe.stages}
-    assert all(s.trainer in ("dagger", "ppo") for s in recipe.stages)  # starts from a trained policy (--init)
-    dagger = [s.config for s in recipe.stages if s.trainer == "dagger"]
-    ppo = [s.config for s in recipe.stages if s.trainer == "ppo"]
-    assert all(c.beta0 == 0.0 and c.beta_min == 0.0 and c.lr_schedule == "linear" for c in dagger)
-    assert all(c.terminal_reward == "spl" and c.lr_schedule == "linear" for c in ppo)
-    assert all(c.train_split == "train_large" for c in dagger + ppo)
-    # stage budgets from the model card's measured rates on 2 cores: ~150 s per 8,000-frame DAgger iteration,
-    # ~11.4 s per PPO update of 8 envs x 128 steps
-    for s in by_name.values():
-        c = s.config
-        seconds = (c.iterations * c.frames_per_iteration / 8000 * 150 if s.trainer == "dagger"
-                   else c.updates * c.num_envs * c.rollout_steps / 1024 * 11.4)
-        assert seconds <= 2 * 3600, s.name
+    assert [s.trainer for s in recipe.stages] == ["dagger"]  # starts from a trained policy (--init)
+    c = recipe.stages[0].config
+    assert c.beta0 == 0.0 and c.beta_min == 0.0 and c.lr_schedule == "linear" and c.train_split == "train_large"
+    # ~150 s per 8,000-frame iteration on the slowest 2-core machine the model card lists (50 s on Sapphire Rapids)
+    assert c.iterations * c.frames_per_iteration / 8000 * 150 <= 2 * 3600
