@@ -1,6 +1,7 @@
 """Rollout workers: pinned processes that keep their envs between calls, for DAgger and PPO collection."""
 
 import os
+import signal
 from functools import partial
 from types import SimpleNamespace
 
@@ -44,8 +45,6 @@ def test_a_worker_that_dies_fails_the_pool_by_name():
 def test_workers_outlive_a_sigterm_to_the_process_group_and_close_still_ends_them():
     # scancel or `kill -- -PGID` signals every process: the trainer saves after its update, so its workers
     # must still answer then; close() ends them all the same
-    import signal
-
     pool = WorkerPool(dict, [({"k": 1},), ({"k": 2},)])
     procs = list(pool._procs)
     try:
@@ -59,8 +58,6 @@ def test_workers_outlive_a_sigterm_to_the_process_group_and_close_still_ends_the
 
 
 def test_a_collection_whose_worker_was_killed_still_closes():
-    import signal
-
     source = Collection(pool=WorkerPool(dict, [({},), ({},)]))
     procs = list(source.pool._procs)
     os.kill(procs[0].pid, signal.SIGKILL)
