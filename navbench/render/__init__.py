@@ -6,7 +6,7 @@ patches pyrender's shader cache; it creates no GL context (a :class:`Renderer` d
 Modules: :mod:`.camera` (camera model, poses, backprojection; plain numpy), :mod:`.renderer` (the
 :class:`Renderer`), :mod:`.chunk_meshes` (the scene as chunked pyrender meshes), :mod:`.culling`
 (frustum and occlusion culling), :mod:`.gl_direct` (the per-frame draw path on OSMesa),
-:mod:`.frame` (a frame and its id encoding), :mod:`.gl_platform` and :mod:`.pyrender_fixes`.
+:mod:`.frame` (a frame and its id encoding), :mod:`.gl_platform`, :mod:`.osmesa_local` and :mod:`.pyrender_fixes`.
 """
 
 from navbench.render.camera import CameraConfig, RenderError, backproject_image, camera_pose, intrinsics

@@ -3,15 +3,20 @@
 Importing this module sets ``PYOPENGL_PLATFORM`` unless it is already set: ``egl`` when a GPU EGL can
 render on is present (:func:`egl_device_present`), else ``osmesa`` (a CPU-only machine renders on
 OSMesa, as the reference records were). Set it before the first import to choose. It also sets
-``LP_NUM_THREADS`` to 0 unless set (fork safety, below). Every module of :mod:`navbench.render` that
-imports PyOpenGL or pyrender imports this one first; ``gl_platform="auto"`` means the bound platform.
+``LP_NUM_THREADS`` to 0 unless set (fork safety, below), and points PyOpenGL's OSMesa at :mod:`.osmesa_local`,
+which keeps Mesa's LLVM out of the global symbols (triton carries another). Every module of
+:mod:`navbench.render` that imports PyOpenGL or pyrender imports this one first; ``gl_platform="auto"`` means
+the bound platform.
 """
 
 from __future__ import annotations
 
 import ctypes.util
 import glob
+import importlib.util
 import os
+import sys
+import warnings
 
 
 def egl_device_present() -> bool:
@@ -43,7 +48,21 @@ if not os.environ.get("PYOPENGL_PLATFORM"):
 # llvmpipe state, made with the parent's first context, before anyone knows a fork will follow.
 os.environ.setdefault("LP_NUM_THREADS", "0")
 
+import OpenGL.plugins  # noqa: E402 (registers PyOpenGL's platform plug-ins; binds none)
+
+# PyOpenGL binds its platform when OpenGL.platform is first imported: before that, its osmesa plug-in is
+# pointed at the platform that keeps Mesa's LLVM out of the global symbols (see osmesa_local).
+if "OpenGL.platform" not in sys.modules:
+    _plugin = OpenGL.plugins.PlatformPlugin.by_name("osmesa")
+    if _plugin is not None:
+        _plugin.import_path = "navbench.render.osmesa_local.LocalOSMesaPlatform"
+
 import OpenGL.platform  # noqa: E402
+
+if type(OpenGL.platform.PLATFORM).__module__ == "OpenGL.platform.osmesa" and importlib.util.find_spec("triton"):
+    warnings.warn("PyOpenGL loaded OSMesa (and Mesa's LLVM) globally before navbench was imported: importing "
+                  "triton (torch.optim does) will now crash the process; import navbench before pyrender or "
+                  "OpenGL", RuntimeWarning, stacklevel=2)
 
 PLATFORMS = ("osmesa", "egl")
 AUTO = "auto"  # the platform PyOpenGL is bound to (EnvConfig.gl_platform's default)
@@ -51,4 +70,7 @@ AUTO = "auto"  # the platform PyOpenGL is bound to (EnvConfig.gl_platform's defa
 
 def bound_platform() -> str:
     """The platform PyOpenGL bound itself to on first import: "osmesa", "egl", or another module name."""
-    return type(OpenGL.platform.PLATFORM).__module__.rsplit(".", 1)[-1]
+    # the first of PyOpenGL's own platform classes in the MRO (LocalOSMesaPlatform is an OSMesaPlatform)
+    module = next((c.__module__ for c in type(OpenGL.platform.PLATFORM).__mro__
+                   if c.__module__.startswith("OpenGL.platform.")), type(OpenGL.platform.PLATFORM).__module__)
+    return module.rsplit(".", 1)[-1]
