@@ -26,6 +26,7 @@ This module sits below :mod:`navbench.localize`: it takes any encoder object wit
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -230,10 +231,14 @@ def _other_storeys(asset: SceneAsset, grid: NavGrid, config: PrescanConfig, firs
         return None
     nav = layers_for(asset, grid.config)
     s = nav.span_of(first)
+    base = dataclasses.replace(grid.config, floor_height=None)  # a storey's grid pins its floor: free it
     groups: dict[float, tuple[NavGrid, list[tuple[str, np.ndarray]], bool]] = {}
     for room in others:
+        floor = NavGrid.floor_within(asset.mesh, float(room.aabb_min[1]), float(room.aabb_max[1]), base)
+        if floor is None:
+            continue  # no walkable level inside the room's height range
         try:
-            g = navgrid_for(asset, grid.config, floor_hint=float(room.aabb_min[1]))
+            g = navgrid_for(asset, base, floor_hint=floor)
         except SceneError:
             continue  # no walkable floor with headroom at that height
         if abs(g.floor_height - grid.floor_height) <= grid.config.max_climb or g.floor_height in groups:
@@ -470,8 +475,8 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
 
 
 # Which storeys the scan covers and how it reaches them; a change that moves any scan pose bumps it.
-# 2: every storey with rooms, the ones nothing joins by a cut.
-SCAN_VERSION = 2
+# 2: every storey with rooms, the ones nothing joins by a cut. 3: a storey's floor found within its rooms' height range.
+SCAN_VERSION = 3
 
 
 def memory_key(digest: str, config: PrescanConfig, encoder_name_: str | None) -> str:

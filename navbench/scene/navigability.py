@@ -345,6 +345,19 @@ class NavGrid:
         return float(below.max()) if len(below) else float(medians[np.argmin(np.abs(medians - y))])
 
     @classmethod
+    def floor_within(cls, mesh: trimesh.Trimesh, lo: float, hi: float, config: NavGridConfig = NavGridConfig()
+                     ) -> float | None:
+        """Height of the lowest walkable level (as :meth:`floor_for` groups them) between ``lo - max_climb``
+        and ``hi``: the floor of a room whose box spans ``[lo, hi]``. A box built from a room's faces (an MP3D
+        region, an HM3D room) starts at the underside of its floor slab, below the floor, so ``lo`` itself is
+        no floor hint. None when no level lies in the range, or the mesh is too small to tell."""
+        medians = cls._levels(mesh, config)
+        if medians is None:
+            return None
+        inside = medians[(medians >= lo - config.max_climb) & (medians <= hi)]
+        return float(inside.min()) if len(inside) else None
+
+    @classmethod
     def storey_top_for(cls, mesh: trimesh.Trimesh, floor: float, config: NavGridConfig = NavGridConfig()) -> float:
         """Height of the lowest walkable level more than ``agent_height`` above ``floor`` (the next storey's
         floor, or a roof), ``inf`` if there is none: points from there up belong to another storey."""

@@ -20,7 +20,7 @@ from navbench.scene.asset import load_scene
 from navbench.scene.cache import navgrid_for
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
-from storeys import UPPER, furnished
+from storeys import UPPER, furnished, furnished_mp3d
 
 pytestmark = pytest.mark.slow
 CHECKPOINT = POLICIES_DIR / "pointnav_navbench.pth"
@@ -30,8 +30,9 @@ STARTS = {"ground": [1.0, 0.0, 1.0], "upper": [2.0, UPPER, 0.8]}
 EPISODES = [("bed", "ground"), ("sofa", "upper"), ("chair", "ground"), ("chair", "upper"), ("plant", "upper")]
 
 
-def _episodes(root: Path, join: str | None, episodes=EPISODES) -> Path:
-    path = furnished(join, root)
+def _episodes(root: Path, join: str | None, episodes=EPISODES, path: Path | None = None) -> Path:
+    """The episodes in ``path`` (default: the furnished house with ``join``), written under ``root``."""
+    path = path or furnished(join, root)
     asset = load_scene(path)
     finders = [ViewPointFinder(asset, navgrid_for(asset, floor_hint=y)) for y in (0.0, UPPER)]
     eps = []
@@ -42,9 +43,10 @@ def _episodes(root: Path, join: str | None, episodes=EPISODES) -> Path:
             goals.append({"object_id": o.id, "object_category": cat, "position": o.center.tolist(),
                           "view_points": [{"agent_state": {"position": p.tolist(), "rotation": q.tolist()},
                                            "iou": float(f)} for p, q, f in zip(pos, rot, frac)]})
-        eps.append({"episode_id": f"{cat}-{start}", "scene_id": path.name, "start_position": STARTS[start],
+        eps.append({"episode_id": f"{cat}-{start}", "scene_id": path.relative_to(root).as_posix(),
+                    "start_position": STARTS[start],
                     "start_rotation": [0.0, 0.0, 0.0, 1.0], "object_category": cat, "goals": goals, "info": {}})
-    out = root / f"{join or 'none'}.json"
+    out = root / f"{path.stem}.json"
     out.write_text(json.dumps({"episodes": eps}))
     return out
 
@@ -148,3 +150,32 @@ def test_no_candidate_on_the_start_storey_explores_it_instead_of_stopping(unjoin
     events = [e["event"] for e in r["log"]["events"]]
     assert r["success"] == 0.0 and r["log"]["candidates"] == [] and "unjoined_candidates" in events
     assert "explore" in events and r["num_steps"] == 500 and r["y"] == pytest.approx(0.0)
+
+
+# Two storeys nothing joins whose room boxes start at the underside of a 0.3 m slab (a room's box built from its
+# faces, as MP3D's regions and HM3D's rooms are): the goals only upstairs (bed, plant) and the chair, from a start
+# upstairs, with the rooms in a sidecar and as a Matterport scan's .house and semantic PLY.
+SLAB_EPISODES = [("bed", "upper"), ("plant", "upper"), ("chair", "upper")]
+
+
+@pytest.fixture(scope="module", params=["sidecar", "mp3d"])
+def slab_run(request, tmp_path_factory):
+    if not CHECKPOINT.is_file():
+        pytest.skip("no shipped PointNav checkpoint")
+    root = tmp_path_factory.mktemp(request.param)
+    path = (furnished(None, root, slab=0.3, rooms_from_slab=True) if request.param == "sidecar"
+            else furnished_mp3d(root, slab=0.3))
+    return root, _run(root, _episodes(root, None, SLAB_EPISODES, path))
+
+
+def test_memory_agent_finds_upper_storey_goals_when_room_boxes_start_below_the_floor(slab_run):
+    root, results = slab_run
+    (directory,) = (root / "memory").iterdir()
+    memory = Memory.open(directory)
+    floors = memory.store.positions()[:, 1] - memory.config.camera_height
+    assert (np.abs(floors - UPPER) < 0.01).sum() > 50  # keyframes upstairs
+    upper_only = [results[k]["success"] == 1.0 for k in ("bed-upper", "plant-upper")]
+    assert sum(upper_only) >= len(upper_only) / 2, results
+    for r in results.values():  # sought upstairs, never on the ground floor under it
+        assert r["y"] == pytest.approx(UPPER)
+        assert all(c[1] > UPPER - 0.5 for c in r["log"]["candidates"]), r["log"]["candidates"]

@@ -2,6 +2,8 @@
 
 import json
 import shutil
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +19,12 @@ from navbench.memory.prescan import (
     plan_trajectory,
 )
 from navbench.paths import SCENES_DIR
-from navbench.scene.cache import load_scene_and_navgrid
+from navbench.scene.asset import load_scene
+from navbench.scene.cache import load_scene_and_navgrid, navgrid_for
 from navbench.scene.pose import yaw_from_quat
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
+from storeys import UPPER, furnished, furnished_mp3d  # noqa: E402
 
 SCENE = SCENES_DIR / "houses" / "val" / "house_011.glb"
 # Small and fast: a 64 x 48 camera, every frame rendered would still be cheap.
@@ -133,3 +139,23 @@ def test_errors_name_the_problem(tmp_path):
         Memory.open(tmp_path)
     with pytest.raises(PrescanError, match="store_resolution"):
         PrescanConfig(store_resolution=(0, 10))
+
+
+# Two storeys nothing joins, whose room boxes start at the underside of a 0.3 m floor slab (deeper than the
+# 0.2 m climb), as boxes built from a room's faces do: the upper storey's floor is found within its rooms'
+# height range, so the scan covers it, never a surface on the ground floor under the upper rooms' box bottoms.
+@pytest.mark.parametrize("annotations", ["sidecar", "mp3d"])
+def test_scan_covers_a_storey_whose_room_boxes_start_below_its_floor(tmp_path, annotations):
+    path = (furnished(None, tmp_path, slab=0.3, rooms_from_slab=True) if annotations == "sidecar"
+            else furnished_mp3d(tmp_path, slab=0.3))
+    asset = load_scene(path)
+    assert all(r.aabb_min[1] < f - 0.25 for r, f in zip(sorted(asset.rooms, key=lambda r: r.aabb_min[1]),
+                                                         (0.0, UPPER)))
+    for start in (0.0, UPPER):
+        grid = navgrid_for(asset, floor_hint=start, use_cache=False)
+        assert grid.floor_height == pytest.approx(start, abs=0.01)
+        config = PrescanConfig()
+        floors = plan_trajectory(asset, grid, config).positions[:, 1] - config.camera_height
+        on = {y: int((np.abs(floors - y) < 0.01).sum()) for y in (0.0, UPPER)}
+        assert on[0.0] > 20 and on[UPPER] > 20, on
+        assert np.all((np.abs(floors) < 0.01) | (np.abs(floors - UPPER) < 0.01))  # never on a table top

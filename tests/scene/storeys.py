@@ -23,18 +23,24 @@ def box(lo, hi) -> trimesh.Trimesh:
     return b
 
 
-def house(join: str | None) -> trimesh.Trimesh:
-    """10 x 6 m ground floor at y = 0 and upper floor at y = 2.8 with a stairwell over x in [3, 7.5],
-    z in [2, 3.2]; ``join`` = "stairs", "ramp" or None (nothing between the storeys)."""
-    parts = [box((0, -0.1, 0), (10, 0, 6)),
-             box((0, UPPER - 0.1, 0), (10, UPPER, Z0)), box((0, UPPER - 0.1, Z1), (10, UPPER, 6)),
-             box((0, UPPER - 0.1, Z0), (X0, UPPER, Z1)), box((X1, UPPER - 0.1, Z0), (10, UPPER, Z1))]
+def house(join: str | None, slab: float = 0.1) -> trimesh.Trimesh:
+    """10 x 6 m ground floor at y = 0 and upper floor at y = 2.8 (slabs ``slab`` thick) with a stairwell over
+    x in [3, 7.5], z in [2, 3.2]; ``join`` = "stairs", "ramp" or None (nothing between the storeys)."""
+    return trimesh.util.concatenate(_house_parts(join, slab))
+
+
+def _house_parts(join: str | None, slab: float = 0.1) -> list[trimesh.Trimesh]:
+    """:func:`house`'s boxes: the ground slab, the upper slab's four boxes round the stairwell, then the join."""
+    lo = UPPER - slab
+    parts = [box((0, -slab, 0), (10, 0, 6)),
+             box((0, lo, 0), (10, UPPER, Z0)), box((0, lo, Z1), (10, UPPER, 6)),
+             box((0, lo, Z0), (X0, UPPER, Z1)), box((X1, lo, Z0), (10, UPPER, Z1))]
     if join == "stairs":
         parts += [box((X0 + TREAD * k, 0, Z0), (X0 + TREAD * (k + 1), RISE * (k + 1), Z1)) for k in range(STEPS)]
     elif join == "ramp":
         pts = [(x, y, z) for z in (Z0, Z1) for x, y in ((X0, 0.0), (X1, 0.0), (X1, UPPER))]
         parts.append(trimesh.convex.convex_hull(np.array(pts)))
-    return trimesh.util.concatenate(parts)
+    return parts
 
 
 # Objects for the annotated house: (id, category, aabb min, aabb max); one chair on each storey, the upper one
@@ -75,12 +81,14 @@ COLOURS = {"chair": (200, 40, 40), "sofa": (40, 160, 60), "table": (150, 100, 40
            "plant": (30, 200, 120)}
 
 
-def furnished(join: str | None, directory) -> Path:
+def furnished(join: str | None, directory, slab: float = 0.1, rooms_from_slab: bool = False) -> Path:
     """:func:`house` with :data:`FURNITURE` as annotated objects (``obj_{id}`` nodes) and a room per storey,
-    written to ``directory/{join}.glb`` with its ``.semantic.json``; returns the glb's path."""
+    written to ``directory/{join}.glb`` with its ``.semantic.json``; returns the glb's path. With
+    ``rooms_from_slab`` each room's box starts at the underside of its floor slab, as a box built from a room's
+    faces does (MP3D regions, HM3D rooms), not at the floor's top."""
     directory = Path(directory)
     name = join or "none"
-    structure = house(join)
+    structure = house(join, slab)
     structure.visual.vertex_colors = (170, 170, 170, 255)
     scene = trimesh.Scene()
     scene.add_geometry(structure, node_name="structure", geom_name="structure")
@@ -93,13 +101,61 @@ def furnished(join: str | None, directory) -> Path:
         scene.add_geometry(b, node_name=f"obj_{oid}", geom_name=f"obj_{oid}")
         objects.append({"id": oid, "category": cat, "room": ("ground", "upper")[storey], "colour": "",
                         "colour_rgb": list(COLOURS[cat]), "aabb": {"min": lo.tolist(), "max": hi.tolist()}})
-    rooms = [{"name": "ground", "aabb": {"min": [0.0, 0.0, 0.0], "max": [10.0, UPPER - 0.1, 6.0]}},
-             {"name": "upper", "aabb": {"min": [0.0, UPPER, 0.0], "max": [10.0, UPPER + 2.7, 6.0]}}]
+    below = slab if rooms_from_slab else 0.0
+    rooms = [{"name": "ground", "aabb": {"min": [0.0, -below, 0.0], "max": [10.0, UPPER - slab, 6.0]}},
+             {"name": "upper", "aabb": {"min": [0.0, UPPER - below, 0.0], "max": [10.0, UPPER + 2.7, 6.0]}}]
     path = directory / f"{name}.glb"
     scene.export(path)
     (directory / f"{name}.semantic.json").write_text(json.dumps({"scene_id": name, "rooms": rooms,
                                                                 "objects": objects}))
     return path
+
+
+MP3D_CATEGORIES = {"floor": 2, "chair": 3, "table": 5, "sofa": 10, "bed": 11, "plant": 14}  # mpcat40 indices
+
+
+def furnished_mp3d(directory, slab: float = 0.3, scan: str = "twoStorey") -> Path:
+    """The furnished house without a join as Matterport3D ships a scan (z-up frame): ``{scan}/{scan}.glb``, the
+    semantic PLY with a per-face ``object_id`` (each storey's slab a ``floor`` object of its region, each piece of
+    :data:`FURNITURE` an object) and the ``.house`` file's ``C``/``R``/``O`` records, under ``directory`` with
+    ``mp3d.scene_dataset_config.json``. The rooms' boxes come from their faces, so each starts at the underside of
+    its slab, ``slab`` below its floor. Returns the mesh's path."""
+    parts = _house_parts(None, slab)
+    objects = [0, 1, 1, 1, 1]  # .house object index per part: the ground slab, the upper slab's four boxes
+    records = [(0, 0, "floor"), (1, 1, "floor")]  # (object index, region, category)
+    for oid, cat, storey, lo, hi in FURNITURE:
+        lift = np.array([0.0, UPPER * storey, 0.0])
+        parts.append(box(np.asarray(lo) + lift, np.asarray(hi) + lift))
+        objects.append(oid + 1)
+        records.append((oid + 1, storey, cat))
+    v = np.concatenate([p.vertices for p in parts])
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    f = np.concatenate([p.faces + o for p, o in zip(parts, offsets)])
+    face_obj = np.concatenate([np.full(len(p.faces), k, np.int32) for p, k in zip(parts, objects)])
+    v_mp = np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1)  # (x, y, z)_habitat = (x, z, -y)_matterport
+    d = Path(directory) / scan
+    d.mkdir(parents=True, exist_ok=True)
+    mesh = trimesh.Trimesh(v_mp, f, process=False)
+    mesh.visual.vertex_colors = (170, 170, 170, 255)
+    mesh.export(d / f"{scan}.glb")
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(v_mp)}\nproperty float x\n"
+            f"property float y\nproperty float z\nelement face {len(f)}\nproperty list uchar int vertex_indices\n"
+            "property int object_id\nend_header\n").encode()
+    rec = np.zeros(len(f), dtype=[("n", "u1"), ("idx", "<i4", (3,)), ("obj", "<i4")])
+    rec["n"], rec["idx"], rec["obj"] = 3, f, face_obj
+    (d / f"{scan}_semantic.ply").write_bytes(head + v_mp.astype("<f4").tobytes() + rec.tobytes())
+    cats = sorted(MP3D_CATEGORIES)
+    lines = ["ASCII 1.1", "H twoStorey unknown 0 0 0 0 0 2 2 2 0 1  0 0 0 0 0  0 -6 -0.3 10 0 5.5  0 0 0 0 0"]
+    lines += [f"R {r} {r} 0 0 {label} 5 -3 {y} 0 -6 {y - slab} 10 0 {y + 2.7}  2.7 0 0 0 0"
+              for r, label, y in ((0, "l", 0.0), (1, "b", UPPER))]
+    lines += [f"C {i} {MP3D_CATEGORIES[c]} {c} {MP3D_CATEGORIES[c]} {c} 0 0 0 0 0" for i, c in enumerate(cats)]
+    lines += [f"O {o} {r} {cats.index(c)}  0 0 0  1 0 0  0 1 0  0.5 0.5 0.5 0 0 0 0 0 0 0 0" for o, r, c in records]
+    (d / f"{scan}.house").write_text("\n".join(lines) + "\n")
+    (Path(directory) / "mp3d.scene_dataset_config.json").write_text(json.dumps({
+        "stages": {"default_attributes": {"up": [0, 0, 1], "front": [0, 1, 0], "origin": [0, 0, 0],
+                                          "semantic_asset": "%%CONFIG_NAME_AS_ASSET_FILENAME%%_semantic.ply"},
+                   "paths": {".glb": ["*/*.glb"]}}}))
+    return d / f"{scan}.glb"
 
 
 def drive(env, agent, obs) -> dict:
