@@ -59,10 +59,31 @@ if "OpenGL.platform" not in sys.modules:
 
 import OpenGL.platform  # noqa: E402
 
+
+def _preload_triton_deepbind() -> bool:
+    """Load triton's native library (if installed) with ``RTLD_DEEPBIND``, so it binds its own LLVM symbols
+    before Mesa's already global ones; ``import triton`` later finds it loaded. False when there is none."""
+    spec = importlib.util.find_spec("triton")  # finds the package without importing it
+    roots = list(spec.submodule_search_locations or []) if spec is not None else []
+    libs = sorted(glob.glob(os.path.join(roots[0], "_C", "libtriton*.so"))) if roots else []
+    if not libs:
+        return False
+    ctypes.CDLL(libs[0], mode=os.RTLD_NOW | os.RTLD_LOCAL | os.RTLD_DEEPBIND)
+    return True
+
+
+# PyOpenGL was imported before navbench and loaded libOSMesa (and Mesa's LLVM) globally: a later
+# `import triton` (torch.optim does it) would bind triton's LLVM to Mesa's and crash, unless triton's
+# library binds itself first.
 if type(OpenGL.platform.PLATFORM).__module__ == "OpenGL.platform.osmesa" and importlib.util.find_spec("triton"):
-    warnings.warn("PyOpenGL loaded OSMesa (and Mesa's LLVM) globally before navbench was imported: importing "
-                  "triton (torch.optim does) will now crash the process; import navbench before pyrender or "
-                  "OpenGL", RuntimeWarning, stacklevel=2)
+    try:
+        if not _preload_triton_deepbind():
+            raise OSError("no triton/_C/libtriton*.so")
+    except OSError as exc:
+        warnings.warn(f"PyOpenGL loaded OSMesa (and Mesa's LLVM) globally before navbench was imported, and "
+                      f"triton's library could not be loaded first ({exc}): `import triton` (torch.optim does "
+                      f"it) may crash the process; import navbench before pyrender or OpenGL",
+                      RuntimeWarning, stacklevel=2)
 
 PLATFORMS = ("osmesa", "egl")
 AUTO = "auto"  # the platform PyOpenGL is bound to (EnvConfig.gl_platform's default)

@@ -103,3 +103,13 @@ def test_ppo_training_runs_and_resumes_with_triton_installed(tmp_path):
                              capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert '"update": 3' in resumed.stdout
+
+
+@pytest.mark.slow
+@osmesa_only
+@needs_triton
+def test_triton_loads_after_pyopengl_bound_osmesa_before_navbench():
+    # pyrender first loads libOSMesa RTLD_GLOBAL: navbench then has triton's library bind its own LLVM first
+    r = _python("import warnings\nwarnings.simplefilter('error')\nimport pyrender\n" + textwrap.dedent(ENV_THEN),
+                "optimizer")
+    assert r.returncode == 0, f"exit {r.returncode}: {r.stderr[-2000:]}"
