@@ -408,7 +408,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "then episodes within each drawn scene; 2,000 resamples, seed 0), P(other better) (the "
                        "share of resamples whose difference favours OTHER, ties half; lower is better for DTG) "
                        "and the smallest difference this episode set could detect: 2.8 x the bootstrap "
-                       "standard error of the difference (80% power, two-sided alpha 0.05). Runs under "
+                       "standard error of the difference (80% power, two-sided alpha 0.05). It names what "
+                       "differs, each with both values: protocol fields, episode file or subset, agent, "
+                       "checkpoint, decoding, seed, navbench version, torch build, device. Runs under "
                        "different protocols or on different episode files are refused.")
     c.add_argument("base")
     c.add_argument("others", nargs="+", metavar="other")

@@ -48,9 +48,11 @@ from typing import Any
 from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, CONDITIONS, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
+from navbench.safeio import printable, read_input
 from navbench.scene import MULTI_STOREY_NAVIGABILITY_VERSION, NAVIGABILITY_VERSION
 
 PROVENANCE = "provenance.json"
+RUN_FILE_CAP = 16 << 20  # the most a run directory's config.json or provenance.json is read of
 PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
 # EnvConfig fields that do not change a score: which images are rendered (each agent's own) and the GL platform.
 _NOT_PROTOCOL = ("rgb", "depth", "semantic", "gl_platform")
@@ -157,7 +159,7 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
     path = run_dir / PROVENANCE
     if path.is_file():
         try:
-            doc = json.loads(path.read_bytes())
+            doc = json.loads(read_input(path, RUN_FILE_CAP, gunzip=False))
             proto = doc["protocol"]
             if not isinstance(proto, dict) or not isinstance(proto.get("task"), str):
                 raise TypeError
@@ -166,7 +168,7 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
         return proto
     path = run_dir / "config.json"
     try:
-        cfg = json.loads(path.read_bytes())
+        cfg = json.loads(read_input(path, RUN_FILE_CAP, gunzip=False))
         if not isinstance(cfg, dict):
             raise TypeError
     except FileNotFoundError:
@@ -184,10 +186,15 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
         raise ProtocolError(f"{path}: corrupt config ({exc})") from None
 
 
+def protocol_differences(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[str, Any, Any]]:
+    """``(field, a's value, b's value)`` for each protocol field that differs (``derived`` aside)."""
+    keys = sorted((set(a) | set(b)) - {"derived"})
+    return [(k, a.get(k), b.get(k)) for k in keys if a.get(k) != b.get(k)]
+
+
 def protocol_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     """``key a vs b`` for each protocol field that differs (``derived`` aside)."""
-    keys = sorted((set(a) | set(b)) - {"derived"})
-    return [f"{k} {a.get(k)!r} vs {b.get(k)!r}" for k in keys if a.get(k) != b.get(k)]
+    return [f"{k} {x!r} vs {y!r}" for k, x, y in protocol_differences(a, b)]
 
 
 MIX_HINT = "; --mix-protocols to show them together anyway"
@@ -199,7 +206,8 @@ def check_same_protocol(run_dirs: list[str | Path], allow_mixed: bool = False, h
     for d, p in zip(run_dirs[1:], protos[1:]):
         diff = protocol_diff(protos[0], p)
         if diff and not allow_mixed:
-            raise ProtocolError(f"{d}: scored under another protocol than {run_dirs[0]} ({'; '.join(diff[:3])}){hint}")
+            raise ProtocolError(printable(f"{d}: scored under another protocol than {run_dirs[0]} ({'; '.join(diff)})",
+                                          1000) + hint)
     return [protocol_id(p) for p in protos]
 
 
