@@ -10,6 +10,7 @@
     navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
     navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
+    navbench protocol RUN_DIR [--format markdown|latex|json]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
@@ -178,6 +179,12 @@ def cmd_compare(args) -> int:
         print(json.dumps(results[0] if len(results) == 1 else results, indent=1))
     else:
         print("\n\n".join(format_comparison(r) for r in results))
+    return 0
+
+
+def cmd_protocol(args) -> int:
+    from navbench.eval.methods import protocol_text
+    print(protocol_text(args.run_dir, args.format))
     return 0
 
 
@@ -421,6 +428,15 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--mix-protocols", action="store_true", help="compare runs under different protocols anyway "
                                                                 "(the output says so)")
     c.set_defaults(func=cmd_compare)
+
+    pr = sub.add_parser("protocol", help="a run's protocol as a paragraph for a paper's methods section",
+                        description="Writes the task, the episodes (file, count, sha256), the success rule, the "
+                        "step limit, the actions, the agent and its sensors, the noise, the navigability rules, "
+                        "navbench's version and the protocol id of RUN_DIR, from its provenance.json and "
+                        "config.json.")
+    pr.add_argument("run_dir")
+    pr.add_argument("--format", default="markdown", choices=("markdown", "latex", "json"))
+    pr.set_defaults(func=cmd_protocol)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
                                         "extra training houses and episodes (policy-train) or its houses and "

@@ -201,7 +201,7 @@ def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:
     return {(e.scene_id, e.episode_id) for e in select_episodes(load_dataset(path), None, per_scene=k)}
 
 
-def _run_doc(run_dir: Path, name: str) -> dict[str, Any]:
+def read_run_doc(run_dir: Path, name: str) -> dict[str, Any]:
     """A run directory's JSON file as an object, read up to RUN_FILE_CAP; {} when absent or unreadable (what
     it would have said is then unknown, and nothing is claimed about it)."""
     import json
@@ -216,7 +216,8 @@ def _run_doc(run_dir: Path, name: str) -> dict[str, Any]:
     return doc if isinstance(doc, dict) else {}
 
 
-def _at(doc: Any, *keys: str) -> Any:
+def doc_get(doc: Any, *keys: str) -> Any:
+    """``doc[k1][k2]...``, None where a level is missing or not an object."""
     for k in keys:
         doc = doc.get(k) if isinstance(doc, dict) else None
     return doc
@@ -230,8 +231,8 @@ def _shown(v: Any) -> str:
 
 def _file_named(entry: Any, fallback: Any) -> str | None:
     """``path (sha256 0123456789ab)`` of a provenance ``files`` entry, else the path config.json gives."""
-    path = _at(entry, "path") or fallback
-    sha = _at(entry, "sha256")
+    path = doc_get(entry, "path") or fallback
+    sha = doc_get(entry, "sha256")
     if path is None and sha is None:
         return None
     return f"{_shown(path)}" + (f" (sha256 {_shown(sha)[:12]})" if isinstance(sha, str) else "")
@@ -251,15 +252,15 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
 
     out = [_difference(k, a, b, f"{k} {a!r} vs {b!r}", True)
            for k, a, b in protocol_differences(run_protocol(base), run_protocol(other))]
-    cfg = {d: _run_doc(d, "config.json") for d in (base, other)}
-    prov = {d: _run_doc(d, "provenance.json") for d in (base, other)}
+    cfg = {d: read_run_doc(d, "config.json") for d in (base, other)}
+    prov = {d: read_run_doc(d, "provenance.json") for d in (base, other)}
 
     def add(field: str, a: Any, b: Any, line: str | None = None) -> None:
         if a != b:
             out.append(_difference(field, a, b, line or f"{field} {_shown(a)} vs {_shown(b)}"))
 
     sets = {d: _episode_set(d) for d in (base, other)}
-    names = {d: _file_named(_at(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
+    names = {d: _file_named(doc_get(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
              for d in (base, other)}
     if sets[base] != sets[other]:
         add("episodes", sets[base], sets[other], f"episode file {names[base]} vs {names[other]}")
@@ -272,24 +273,24 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
             add("episode_subset", len(keys[0]), len(keys[1]),
                 f"the same episodes file, {len(keys[0])} vs {len(keys[1])} of its episodes: {how}")
     add("agent", cfg[base].get("label") or cfg[base].get("agent"), cfg[other].get("label") or cfg[other].get("agent"))
-    ckpt = {d: _file_named(_at(prov[d], "files", "checkpoint"), _at(cfg[d], "agent_options", "checkpoint"))
+    ckpt = {d: _file_named(doc_get(prov[d], "files", "checkpoint"), doc_get(cfg[d], "agent_options", "checkpoint"))
             for d in (base, other)}
-    if _at(prov[base], "files", "checkpoint", "sha256") != _at(prov[other], "files", "checkpoint", "sha256") \
+    if doc_get(prov[base], "files", "checkpoint", "sha256") != doc_get(prov[other], "files", "checkpoint", "sha256") \
             or ckpt[base] != ckpt[other]:
         add("checkpoint", ckpt[base], ckpt[other], f"checkpoint {_shown(ckpt[base])} vs {_shown(ckpt[other])}")
     for k in ("decoding", "temperature"):
-        add(k, _at(cfg[base], "agent_options", k), _at(cfg[other], "agent_options", k))
+        add(k, doc_get(cfg[base], "agent_options", k), doc_get(cfg[other], "agent_options", k))
     add("seed", cfg[base].get("seed"), cfg[other].get("seed"))
 
     def origin(doc: dict[str, Any]) -> str | None:
-        n = _at(doc, "navbench")
+        n = doc_get(doc, "navbench")
         if not isinstance(n, dict) or n.get("version") is None:
             return None
         commit = n.get("git_commit")
         return f"{n['version']}" + (f" (git {str(commit)[:10]}{', dirty' if n.get('git_dirty') else ''})"
                                     if commit else "")
     add("navbench", origin(prov[base]), origin(prov[other]))
-    add("torch", _at(prov[base], "versions", "torch"), _at(prov[other], "versions", "torch"))
+    add("torch", doc_get(prov[base], "versions", "torch"), doc_get(prov[other], "versions", "torch"))
     on = {d: recorded_run_on(d) for d in (base, other)}
     if on[base] != on[other]:
         a, b = (f"{on[d]['device']} {on[d]['precision']}" for d in (base, other))
