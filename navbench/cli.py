@@ -135,12 +135,13 @@ def cmd_agents(args) -> int:
 
 def cmd_serve_agent(args) -> int:
     from navbench.agents.remote import AgentServer
-    agent = resolve_agent(args.agent, parse_options(args.agent_opt))
+    agent = resolve_agent(args.agent, parse_options(args.agent_opt), device=args.device)
     if agent.spec.startswith(("http://", "https://")):
         raise ValueError(f"serve-agent serves a local agent, not {agent.spec!r}")
     server = AgentServer(agent.factory, agent.spec, (args.host, args.port), options=agent.options,
-                         scene_dir=args.scene_dir, task=args.task)
-    print(f"serving {agent.spec} at {server.url} (sensors: {', '.join(server.sensors) or 'none'})", flush=True)
+                         scene_dir=args.scene_dir, task=args.task, device=agent.device, precision=args.precision)
+    print(f"serving {agent.spec} at {server.url} on {agent.device} (sensors: {', '.join(server.sensors) or 'none'})",
+          flush=True)
     try:
         server.serve_forever()
     finally:
@@ -497,6 +498,7 @@ def build_parser() -> argparse.ArgumentParser:
     sa.add_argument("--task", default="pointnav", choices=("pointnav", "objectnav"),
                     help="task of the agent built at start to answer /info (each client's run says its own)")
     sa.add_argument("--scene-dir", help="where this machine keeps the scenes, if not where the client does")
+    add_device_flags(sa, precision=True)  # where the served agents run: this machine's, whatever the client's
     sa.set_defaults(func=cmd_serve_agent)
 
     ca = sub.add_parser("check-agent", help="exercise a remote agent server against the protocol "
