@@ -98,6 +98,16 @@ def _load_models(models: ModelDirs) -> tuple[Any, Any, Any]:
             Sam3Segmenter(models.sam3, **run_on))
 
 
+def _run_on(perception: str, models: ModelDirs) -> dict[str, Any]:
+    """Where the localisation's models ran: the device (and its name) and precision of the real models; the
+    oracle's stack runs no model, on the CPU (``precision`` None)."""
+    from navbench.device import device_name
+
+    if PERCEPTION.get(perception) is not model_perception:
+        return {"device": "cpu", "device_name": "cpu", "precision": None}
+    return {"device": models.device, "device_name": device_name(models.device), "precision": models.precision}
+
+
 PERCEPTION: dict[str, Callable[[SceneAsset, NoiseProfile, ModelDirs], Perception]] = {
     "oracle": oracle_perception,
     "siglip2+qwen2.5-vl+sam3": model_perception,
@@ -221,6 +231,7 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
         "query_cpu_ms": 1000.0 * float(np.mean(cpu_times)) if cpu_times else 0.0,
         "perception": perception, "noise": noise, "fusion": fusion, "rerank": rerank,
         "prescan": prescan.to_json(),
+        "run_on": _run_on(perception, models),
     }
     if out is not None:
         out = Path(out)
