@@ -246,9 +246,8 @@ def _run_on(args) -> dict[str, str]:
 
 
 def cmd_localize(args) -> int:
-    from navbench.localize.benchmark import ModelDirs, run_localize
-    models = ModelDirs(**{k: Path(v) for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
-                                                  ("sam3", args.sam3)) if v}, **_run_on(args))
+    from navbench.localize.benchmark import model_dirs, run_localize
+    models = model_dirs({"siglip2": args.siglip2, "qwen_vl": args.qwen_vl, "sam3": args.sam3}, **_run_on(args))
     on_query = None
     if args.viz:  # pictures per query, under OUT/viz
         from navbench.viz.localize import QueryViews
@@ -480,7 +479,8 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("--viz", action="store_true", help="save a picture per query in OUT/viz: the re-ranked keyframes "
                     "with scores and masks, the fused points, top-K centres and ground truth on the top-down map")
     lo.add_argument("--siglip2")
-    lo.add_argument("--qwen-vl")
+    lo.add_argument("--qwen-vl", help="local Qwen2.5-VL directory, or http://HOST:PORT/v1[#MODEL]: an "
+                                      "OpenAI-compatible server (vLLM...) all workers share")
     lo.add_argument("--sam3")
     add_device_flags(lo, precision=True)
     lo.set_defaults(func=cmd_localize)
