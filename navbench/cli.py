@@ -53,6 +53,16 @@ def cmd_run(args) -> int:
     from navbench.eval.run_progress import Progress
     from navbench.eval.table import summary_markdown
 
+    habitat = None
+    if args.habitat_config:
+        from navbench.eval.habitat_config import read_habitat_config, run_arguments
+        if args.env_config:
+            raise ValueError("--habitat-config and --env-config: choose one")
+        habitat = read_habitat_config(args.habitat_config)
+        args.task, args.episodes, args.scene_dir, args.success_distance = run_arguments(
+            habitat, args.task, args.split, args.episodes, args.scene_dir, args.success_distance)
+        if habitat.ignored:
+            print(habitat.ignored_line(), file=sys.stderr)
     episodes = resolve_episodes(args.task, args.split, args.episodes)  # evaluate() takes it, not again
     task, split = episodes[:2]
     args.agent = args.agent or default_agent(task)
@@ -73,7 +83,7 @@ def cmd_run(args) -> int:
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, env_config=args.env_config,
             progress=None if args.quiet else Progress(),
             video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
-            _episodes=episodes)
+            habitat_config=habitat, _episodes=episodes)
     out = where[0]
     print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
@@ -366,6 +376,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fail-fast", action="store_true", help="stop at the first failed episode (exit 2) instead of "
                                                            "recording it and going on")
     r.add_argument("--success-distance", type=_positive)
+    r.add_argument("--habitat-config", metavar="FILE", help="a resolved habitat-lab configuration (yaml) or a "
+                   "habitat-baselines checkpoint holding one: task, limits, actions, agent, sensors, noise and, "
+                   "where they exist, the dataset's files; a key navbench cannot honour is refused "
+                   "(docs/habitat_configs.md)")
     r.add_argument("--env-config", metavar="NAME|FILE",
                    help="the conditions: a named configuration (habitat-challenge-pointnav-2020, "
                         "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, navbench, ...: "
