@@ -162,25 +162,22 @@ def compare_records(base: Iterable[Mapping[str, Any]], other: Iterable[Mapping[s
 def _episode_set(run_dir: Path) -> str:
     """What names a run's episode file: its sha256 from provenance.json; for a run written before
     provenance.json, the sha256 of the file its config.json names (a bundled split as this checkout
-    keeps it), else its split or file name."""
-    import json
-
+    keeps it; only a regular file is read), else its split or file name."""
     from navbench.eval.provenance import sha256
     from navbench.paths import split_file
 
-    try:
-        return json.loads((run_dir / "provenance.json").read_text())["files"]["episodes"]["sha256"]
-    except (OSError, ValueError, KeyError, TypeError):
-        pass
-    try:
-        cfg = json.loads((run_dir / "config.json").read_text())
-        name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
-        if isinstance(cfg.get("benchmark"), dict) and cfg["benchmark"].get("episodes_sha256"):
-            return str(cfg["benchmark"]["episodes_sha256"])  # a generated benchmark's file, named relative to it
-    except (OSError, ValueError, AttributeError):
+    sha = doc_get(read_run_doc(run_dir, "provenance.json"), "files", "episodes", "sha256")
+    if isinstance(sha, str):
+        return sha
+    cfg = read_run_doc(run_dir, "config.json")
+    if not cfg:
         return "?"
+    name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
+    if isinstance(cfg.get("benchmark"), dict) and cfg["benchmark"].get("episodes_sha256"):
+        return str(cfg["benchmark"]["episodes_sha256"])  # a generated benchmark's file, named relative to it
     try:
-        return sha256(split_file(cfg["task"], cfg["split"]) if cfg.get("split") else Path(str(cfg["episodes"])))
+        path = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else Path(str(cfg["episodes"]))
+        return sha256(path) if path.is_file() else name
     except (OSError, ValueError, KeyError, TypeError):
         return name
 

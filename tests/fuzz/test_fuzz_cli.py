@@ -18,7 +18,8 @@ COUNTS = [(["run", "--split", "val_unseen"], "--limit"), (["run", "--split", "va
 POSITIVE = [(["run", "--split", "val_unseen"], "--success-distance"), (["bench"], "--seconds")]
 SEEDS = [(["run", "--split", "val_unseen"], "--seed"), (["generate", "episodes"], "--seed")]
 CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
-           ["table", "x", "--format"], ["table", "x", "--by"], ["protocol", "x", "--format"], ["compare", "x", "y", "--metric"], ["generate"],
+           ["table", "x", "--format"], ["table", "x", "--by"], ["protocol", "x", "--format"],
+           ["compare", "x", "y", "--metric"], ["generate"],
            ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
            ["localize", "--rerank"]]
 
