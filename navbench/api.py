@@ -10,6 +10,7 @@ and returns the summary. See examples/evaluate_agent.py.
 from __future__ import annotations
 
 import itertools
+import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -87,6 +88,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
              step_timeout: float | None = None, fail_fast: bool = False, env_config: Any = None,
              progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
              on_run_dir: Callable[[Path], None] | None = None, device: str = "cpu", precision: str = "fp32",
+             habitat_config: Any = None,
              _episodes: tuple[str, str | None, Path, float] | None = None) -> RunSummary:
     """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary; what
     ``navbench run`` does, flag for flag.
@@ -138,6 +140,10 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
             ``"auto"`` (CUDA when torch sees a GPU); a device that is not there is a one-line ValueError.
             Records on CUDA agree with the CPU's up to the last bits (docs/gpu.md).
         precision: ``"fp32"`` (default), ``"bf16"`` or ``"fp16"``: the real perception models' weights.
+        habitat_config: a Habitat configuration (a resolved habitat-lab yaml, or a habitat-baselines checkpoint
+            holding one; or what :func:`navbench.eval.habitat_config.read_habitat_config` read from it) that
+            sets the task, the env, the success distance and, where its files exist, the episodes and scenes;
+            the other arguments override it. Not with ``env_config``.
 
     Returns:
         The summary, as ``summary.json`` holds it.
@@ -158,9 +164,20 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     if video not in VIDEOS:
         raise ValueError(f"--video {video!r}: choose from {', '.join(VIDEOS)}")
     check_precision(precision)
+    habitat = None
+    if habitat_config is not None:
+        from navbench.eval.habitat_config import HabitatSettings, read_habitat_config, run_arguments
+        if env_config is not None:
+            raise ValueError("--habitat-config and --env-config: choose one")
+        habitat = habitat_config if isinstance(habitat_config, HabitatSettings) else \
+            read_habitat_config(habitat_config)
+        if _episodes is None:
+            task, episodes, scene_dir, success_distance = run_arguments(habitat, task, split, episodes, scene_dir,
+                                                                        success_distance)
     # `navbench run` resolved the episodes already (for the task's default agent): a user's file is read once
     task, split, episodes_path, default_sd = _episodes or resolve_episodes(task, split, episodes)
-    env, env_name = _env_config(env_config)
+    env, env_name = _env_config(env_config) if habitat is None else \
+        (habitat.env, "habitat-" + re.sub(r"[^\w.=+-]+", "_", habitat.path.name.split(".")[0])[:60])
     resolved = resolve_agent(default_agent(task) if agent is None else agent, options, seed,
                              envs_per_worker=envs_per_worker, device=device, task=task, env=env)
     if success_distance is None and env is not None:
@@ -170,7 +187,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                     success_distance=success_distance if success_distance is not None else default_sd,
                     seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=resolved.envs_per_worker,
                     agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision,
-                    env={} if env is None else env.overrides(), env_config_name=env_name)
+                    env={} if env is None else env.overrides(), env_config_name=env_name,
+                    habitat_config=None if habitat is None else habitat.record())
     cfg.label = label or (resolved.label + (f"-{env_name}" if env_name else ""))
     parsed_shard = parse_shard(shard)
     if out is None:

@@ -10,6 +10,7 @@
     navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
     navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
+    navbench protocol RUN_DIR [--format markdown|latex|json]
     navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
     navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
@@ -52,6 +53,16 @@ def cmd_run(args) -> int:
     from navbench.eval.run_progress import Progress
     from navbench.eval.table import summary_markdown
 
+    habitat = None
+    if args.habitat_config:
+        from navbench.eval.habitat_config import read_habitat_config, run_arguments
+        if args.env_config:
+            raise ValueError("--habitat-config and --env-config: choose one")
+        habitat = read_habitat_config(args.habitat_config)
+        args.task, args.episodes, args.scene_dir, args.success_distance = run_arguments(
+            habitat, args.task, args.split, args.episodes, args.scene_dir, args.success_distance)
+        if habitat.ignored:
+            print(habitat.ignored_line(), file=sys.stderr)
     episodes = resolve_episodes(args.task, args.split, args.episodes)  # evaluate() takes it, not again
     task, split = episodes[:2]
     args.agent = args.agent or default_agent(task)
@@ -72,7 +83,7 @@ def cmd_run(args) -> int:
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, env_config=args.env_config,
             progress=None if args.quiet else Progress(),
             video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
-            _episodes=episodes)
+            habitat_config=habitat, _episodes=episodes)
     out = where[0]
     print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
@@ -134,12 +145,13 @@ def cmd_agents(args) -> int:
 
 def cmd_serve_agent(args) -> int:
     from navbench.agents.remote import AgentServer
-    agent = resolve_agent(args.agent, parse_options(args.agent_opt))
+    agent = resolve_agent(args.agent, parse_options(args.agent_opt), device=args.device)
     if agent.spec.startswith(("http://", "https://")):
         raise ValueError(f"serve-agent serves a local agent, not {agent.spec!r}")
     server = AgentServer(agent.factory, agent.spec, (args.host, args.port), options=agent.options,
-                         scene_dir=args.scene_dir, task=args.task)
-    print(f"serving {agent.spec} at {server.url} (sensors: {', '.join(server.sensors) or 'none'})", flush=True)
+                         scene_dir=args.scene_dir, task=args.task, device=agent.device, precision=args.precision)
+    print(f"serving {agent.spec} at {server.url} on {agent.device} (sensors: {', '.join(server.sensors) or 'none'})",
+          flush=True)
     try:
         server.serve_forever()
     finally:
@@ -178,6 +190,12 @@ def cmd_compare(args) -> int:
         print(json.dumps(results[0] if len(results) == 1 else results, indent=1))
     else:
         print("\n\n".join(format_comparison(r) for r in results))
+    return 0
+
+
+def cmd_protocol(args) -> int:
+    from navbench.eval.methods import protocol_text
+    print(protocol_text(args.run_dir, args.format))
     return 0
 
 
@@ -238,9 +256,8 @@ def _run_on(args) -> dict[str, str]:
 
 
 def cmd_localize(args) -> int:
-    from navbench.localize.benchmark import ModelDirs, run_localize
-    models = ModelDirs(**{k: Path(v) for k, v in (("siglip2", args.siglip2), ("qwen_vl", args.qwen_vl),
-                                                  ("sam3", args.sam3)) if v}, **_run_on(args))
+    from navbench.localize.benchmark import model_dirs, run_localize
+    models = model_dirs({"siglip2": args.siglip2, "qwen_vl": args.qwen_vl, "sam3": args.sam3}, **_run_on(args))
     on_query = None
     if args.viz:  # pictures per query, under OUT/viz
         from navbench.viz.localize import QueryViews
@@ -359,6 +376,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fail-fast", action="store_true", help="stop at the first failed episode (exit 2) instead of "
                                                            "recording it and going on")
     r.add_argument("--success-distance", type=_positive)
+    r.add_argument("--habitat-config", metavar="FILE", help="a resolved habitat-lab configuration (yaml) or a "
+                   "habitat-baselines checkpoint holding one: task, limits, actions, agent, sensors, noise and, "
+                   "where they exist, the dataset's files; a key navbench cannot honour is refused "
+                   "(docs/habitat_configs.md)")
     r.add_argument("--env-config", metavar="NAME|FILE",
                    help="the conditions: a named configuration (habitat-challenge-pointnav-2020, "
                         "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, navbench, ...: "
@@ -408,7 +429,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "then episodes within each drawn scene; 2,000 resamples, seed 0), P(other better) (the "
                        "share of resamples whose difference favours OTHER, ties half; lower is better for DTG) "
                        "and the smallest difference this episode set could detect: 2.8 x the bootstrap "
-                       "standard error of the difference (80% power, two-sided alpha 0.05). Runs under "
+                       "standard error of the difference (80% power, two-sided alpha 0.05). It names what "
+                       "differs, each with both values: protocol fields, episode file or subset, agent, "
+                       "checkpoint, decoding, seed, navbench version, torch build, device. Runs under "
                        "different protocols or on different episode files are refused.")
     c.add_argument("base")
     c.add_argument("others", nargs="+", metavar="other")
@@ -419,6 +442,15 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--mix-protocols", action="store_true", help="compare runs under different protocols anyway "
                                                                 "(the output says so)")
     c.set_defaults(func=cmd_compare)
+
+    pr = sub.add_parser("protocol", help="a run's protocol as a paragraph for a paper's methods section",
+                        description="Writes the task, the episodes (file, count, sha256), the success rule, the "
+                        "step limit, the actions, the agent and its sensors, the noise, the navigability rules, "
+                        "navbench's version and the protocol id of RUN_DIR, from its provenance.json and "
+                        "config.json.")
+    pr.add_argument("run_dir")
+    pr.add_argument("--format", default="markdown", choices=("markdown", "latex", "json"))
+    pr.set_defaults(func=cmd_protocol)
 
     g = sub.add_parser("generate", help="regenerate the bundled scenes or episodes, or the PointNav policy's "
                                         "extra training houses and episodes (policy-train) or its houses and "
@@ -461,7 +493,8 @@ def build_parser() -> argparse.ArgumentParser:
     lo.add_argument("--viz", action="store_true", help="save a picture per query in OUT/viz: the re-ranked keyframes "
                     "with scores and masks, the fused points, top-K centres and ground truth on the top-down map")
     lo.add_argument("--siglip2")
-    lo.add_argument("--qwen-vl")
+    lo.add_argument("--qwen-vl", help="local Qwen2.5-VL directory, or http://HOST:PORT/v1[#MODEL]: an "
+                                      "OpenAI-compatible server (vLLM...) all workers share")
     lo.add_argument("--sam3")
     add_device_flags(lo, precision=True)
     lo.set_defaults(func=cmd_localize)
@@ -479,6 +512,7 @@ def build_parser() -> argparse.ArgumentParser:
     sa.add_argument("--task", default="pointnav", choices=("pointnav", "objectnav"),
                     help="task of the agent built at start to answer /info (each client's run says its own)")
     sa.add_argument("--scene-dir", help="where this machine keeps the scenes, if not where the client does")
+    add_device_flags(sa, precision=True)  # where the served agents run: this machine's, whatever the client's
     sa.set_defaults(func=cmd_serve_agent)
 
     ca = sub.add_parser("check-agent", help="exercise a remote agent server against the protocol "

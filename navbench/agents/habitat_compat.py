@@ -8,6 +8,8 @@ plug-in agent so both forms work: ``reset`` gets the episode only if it takes an
 answer becomes the id. :func:`check_agent` refuses, before a run, an agent whose methods cannot be
 called that way. habitat-baselines' agents take ``success_distance`` and ``goal_sensor_uuid`` in their
 constructor; :func:`run_arguments` fills them from the run config when the options do not give them.
+:class:`AgentTarget` does all three for a plug-in's class, factory or instance: checked once where it is
+loaded, each agent it builds adapted.
 """
 
 from __future__ import annotations
@@ -166,3 +168,25 @@ def adapt(agent: Any) -> Any:
             or not callable(getattr(agent, "act", None)) or not callable(getattr(agent, "reset", None)):
         return agent
     return HabitatAgent(agent)
+
+
+class AgentTarget:
+    """A plug-in agent as it was loaded (a class, a factory function or an agent instance), checked once
+    here (:func:`check_agent`); :meth:`build` gives an agent speaking navbench's protocol: a class built as
+    ``Class(**options)``, a factory called as ``f(cfg, **options)`` (habitat-baselines' constructor
+    arguments and the run's device filled in: :func:`run_arguments`), the result adapted (:func:`adapt`);
+    an instance is adapted here, once, and handed out as it is."""
+
+    def __init__(self, spec: str, target: Any):
+        check_agent(spec, target)
+        self.spec, self.target = spec, target
+        is_instance = not inspect.isclass(target) and (callable(getattr(target, "act", None))
+                                                       or callable(getattr(target, "act_batch", None)))
+        self.instance = adapt(target) if is_instance else None
+
+    def build(self, cfg: Any, options: dict[str, Any]) -> Any:
+        if self.instance is not None:
+            return self.instance
+        options = {**run_arguments(self.target, cfg, options), **options}
+        agent = self.target(**options) if inspect.isclass(self.target) else self.target(cfg, **options)
+        return adapt(agent)

@@ -186,7 +186,8 @@ class PerceptionOptions(PolicyOptions):
     perception: str = _opt("oracle", "oracle | siglip2+qwen2.5-vl+sam3")
     noise: str = _opt("none", "oracle noise profile: none | default | heavy")
     siglip2: str | None = _opt(None, "local SigLIP2 model directory")
-    qwen_vl: str | None = _opt(None, "local Qwen2.5-VL model directory")
+    qwen_vl: str | None = _opt(None, "local Qwen2.5-VL model directory, or http://HOST:PORT/v1[#MODEL]: an "
+                                     "OpenAI-compatible server (vLLM...) that every worker shares")
     sam3: str | None = _opt(None, "local SAM 3 model directory")
 
     def models(self) -> dict[str, str]:

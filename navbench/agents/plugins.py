@@ -73,23 +73,25 @@ def import_object(path: str) -> Any:
     return obj
 
 
-def load_target(spec: str) -> Any:
-    """The class or factory an entry point name or import path names."""
+def load_target(spec: str) -> habitat_compat.AgentTarget:
+    """The class or factory an entry point name or import path names, checked and adapted to navbench's
+    protocol where it is loaded (:class:`habitat_compat.AgentTarget`)."""
     eps = entry_points()
     if spec in eps:
         try:
-            return eps[spec].load()
+            target = eps[spec].load()
         except Exception as exc:  # a broken plug-in names itself and its package
             raise ValueError(f"agent {spec!r} (entry point {eps[spec].value}): {type(exc).__name__}: {exc}") from None
-    if is_import_path(spec):
-        return import_object(spec)
-    raise ValueError(f"unknown agent {spec!r}")
+    elif is_import_path(spec):
+        target = import_object(spec)
+    else:
+        raise ValueError(f"unknown agent {spec!r}")
+    return habitat_compat.AgentTarget(spec, target)
 
 
 def check_options(spec: str, target: Any, options: dict[str, Any]) -> None:
-    """Refuse options ``target`` does not take, in one line naming the agent and what it takes, and an
-    agent whose ``reset``/``act`` cannot be called (:func:`habitat_compat.check_agent`)."""
-    habitat_compat.check_agent(spec, target)
+    """Refuse options ``target`` (a class or factory) does not take, in one line naming the agent and what
+    it takes, and options it requires that neither they nor the run config give."""
     try:
         sig = inspect.signature(target)
     except (TypeError, ValueError):  # builtins/extension types: let the call itself complain
@@ -112,11 +114,11 @@ def check_options(spec: str, target: Any, options: dict[str, Any]) -> None:
 
 
 def build(target: Any, cfg: Any, options: dict[str, Any]) -> Any:
-    """An agent from a plug-in class (``Name(**options)``) or factory (``f(cfg, **options)``), speaking
-    navbench's protocol whether it was written for navbench's or Habitat's (:mod:`habitat_compat`)."""
-    options = {**habitat_compat.run_arguments(target, cfg, options), **options}
-    agent = target(**options) if inspect.isclass(target) else target(cfg, **options)
-    return habitat_compat.adapt(agent)
+    """An agent from a plug-in class (``Name(**options)``) or factory (``f(cfg, **options)``), loaded or
+    not, speaking navbench's protocol whether it was written for navbench's or Habitat's (:mod:`habitat_compat`)."""
+    if not isinstance(target, habitat_compat.AgentTarget):
+        target = habitat_compat.AgentTarget(spec_of(target), target)
+    return target.build(cfg, options)
 
 
 @dataclass
@@ -129,7 +131,7 @@ class PluginFactory:
         if is_remote(self.spec):
             from navbench.agents.remote import RemoteAgent
             return RemoteAgent(self.spec, cfg, **self.options)
-        return build(load_target(self.spec), cfg, self.options)
+        return load_target(self.spec).build(cfg, self.options)
 
 
 # -------------------------------------------------------------------------------------------- options
@@ -218,24 +220,15 @@ def spec_of(obj: Any) -> str:
     return f"{module}:{obj.__qualname__}"
 
 
-class Instance:
-    """A factory that hands out one already-built agent (pickled into each worker when workers > 1)."""
-
-    def __init__(self, agent: Any):
-        self.agent = agent
-
-    def __call__(self, cfg: Any) -> Any:
-        return habitat_compat.adapt(self.agent)
-
-
 class Bound:
-    """A class or factory with its options, for one defined where workers cannot import it by name."""
+    """A loaded class or factory with its options, for one defined where workers cannot import it by name,
+    or an agent instance (adapted once, pickled into each worker when workers > 1)."""
 
-    def __init__(self, target: Any, options: dict[str, Any]):
+    def __init__(self, target: habitat_compat.AgentTarget, options: dict[str, Any]):
         self.target, self.options = target, options
 
     def __call__(self, cfg: Any) -> Any:
-        return build(self.target, cfg, self.options)
+        return self.target.build(cfg, self.options)
 
 
 def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int = 0, *,
@@ -266,17 +259,18 @@ def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int =
         resolved = _resolve_spec(agent, options, seed)
     elif inspect.isclass(agent) or inspect.isfunction(agent):
         spec = spec_of(agent)
+        target = habitat_compat.AgentTarget(spec, agent)
         check_options(spec, agent, options)
         importable = not spec.startswith("__main__:") and "<locals>" not in agent.__qualname__
-        factory: Any = PluginFactory(spec, options) if importable else Bound(agent, options)  # workers import it
+        factory: Any = PluginFactory(spec, options) if importable else Bound(target, options)  # workers import it
         resolved = ResolvedAgent(spec, factory, options, plugin_label(spec, options, seed), batches=can_batch(agent),
                                  envs_per_worker=_num_envs(agent))
     elif callable(getattr(agent, "act", None)) or callable(getattr(agent, "act_batch", None)):
         if options:
             raise ValueError("options apply to an agent class or factory, not to an agent instance")
         spec = spec_of(type(agent))
-        habitat_compat.check_agent(spec, agent)
-        resolved = ResolvedAgent(spec, Instance(agent), {}, plugin_label(spec, {}, seed),
+        resolved = ResolvedAgent(spec, Bound(habitat_compat.AgentTarget(spec, agent), {}), {},
+                                 plugin_label(spec, {}, seed),
                                  envs_per_worker=_num_envs(agent),
                                  batches=callable(getattr(agent, "act_batch", None)))
     else:
@@ -315,8 +309,8 @@ def _resolve_spec(spec: str, options: dict[str, Any], seed: int) -> ResolvedAgen
         batches = can_batch(RemoteAgent)
     elif spec in entry_points() or is_import_path(spec):
         target = load_target(spec)
-        check_options(spec, target, options)
-        batches = can_batch(target)
+        check_options(spec, target.target, options)
+        batches = can_batch(target.target)
     else:
         raise ValueError(f"unknown agent {spec!r}: choose from {', '.join(registry.AGENTS)}, an installed "
                          f"plug-in (`navbench agents` lists them), package.module:Name or http://HOST:PORT")

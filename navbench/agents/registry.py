@@ -96,11 +96,10 @@ def _perception_config(cfg):
     """Perception of the memory and frontier agents (the frontier agent's options keep the memory
     agent's ablations at their defaults)."""
     from navbench.agents.perceive import PerceptionConfig
-    from navbench.localize.benchmark import ModelDirs
+    from navbench.localize.benchmark import model_dirs
 
     o = _options(cfg, MemoryOptions)
-    models = ModelDirs(**{k: Path(v) for k, v in o.models().items()}, device=_device(cfg),
-                       precision=getattr(cfg, "precision", "fp32"))
+    models = model_dirs(o.models(), _device(cfg), getattr(cfg, "precision", "fp32"))
     return PerceptionConfig(perception=o.perception, noise=o.noise, fusion=o.fusion, rerank=o.rerank,
                             prescan=scan_config(o.keyframe_res, o.all_frames), memory_root=o.memory_root,
                             models=models)

@@ -316,6 +316,8 @@ class ServedConfig:
     agent_options: dict[str, Any] = dataclasses.field(default_factory=dict)
     envs_per_worker: int = 1
     label: str = ""
+    device: str = "cpu"  # the server's (serve-agent --device), never the client's: its agents run here
+    precision: str = "fp32"
 
     def env_config(self, sensors: tuple[str, ...]):
         from navbench.env.config import EnvConfig
@@ -357,8 +359,9 @@ class AgentServer(ThreadingHTTPServer):
                  options: dict[str, Any] | None = None, scene_dir: str | None = None, task: str = "pointnav",
                  max_sessions: int = 64, max_body: int = MAX_BODY, max_buffered: int = MAX_BUFFERED,
                  max_requests: int = MAX_REQUESTS, idle_timeout: float = IDLE_TIMEOUT,
-                 request_timeout: float = REQUEST_TIMEOUT):
+                 request_timeout: float = REQUEST_TIMEOUT, device: str = "cpu", precision: str = "fp32"):
         self.make_agent, self.name, self.options = make_agent, name, dict(options or {})
+        self.device, self.precision = device, precision
         self.scene_dir, self.max_sessions = scene_dir, max_sessions
         self.max_body, self.max_buffered = max_body, max_buffered
         self.idle_timeout, self.request_timeout = idle_timeout, request_timeout
@@ -369,7 +372,7 @@ class AgentServer(ThreadingHTTPServer):
         self.connections: set[socket.socket] = set()
         # One agent built up front answers /info (its sensors) and fails a bad spec before serving.
         probe_agent = make_agent(ServedConfig(task=task, agent=name, agent_options=self.options,
-                                              scene_dir=scene_dir or ""))
+                                              scene_dir=scene_dir or "", device=device, precision=precision))
         self.sensors = tuple(getattr(probe_agent, "sensors", ("rgb", "depth")))
         self.has_log = callable(getattr(probe_agent, "episode_log", None))
         super().__init__(address, _Handler)
@@ -389,6 +392,7 @@ class AgentServer(ThreadingHTTPServer):
         known = {f.name for f in dataclasses.fields(ServedConfig)}
         cfg = ServedConfig(**{k: v for k, v in config.items() if k in known})
         cfg.agent, cfg.agent_options = self.name, dict(self.options)
+        cfg.device, cfg.precision = self.device, self.precision
         if self.scene_dir:
             cfg.scene_dir = self.scene_dir
         s = _Session(self.make_agent(cfg))

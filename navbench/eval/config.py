@@ -57,6 +57,9 @@ class RunConfig:
     # The named environment configuration (configs/env/NAME.toml, or a file's stem) ``env`` came from; None:
     # navbench's defaults with the ``env`` overrides.
     env_config_name: str | None = None
+    # A Habitat configuration the run's settings were read from (--habitat-config): its file, sha256, each
+    # value used by its full key and the keys ignored (navbench.eval.habitat_config); None: none.
+    habitat_config: dict[str, Any] | None = None
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)

@@ -4,13 +4,17 @@
 
 - ``protocol``: the task, success distance, step limit, action set and step sizes, sensor size, HFOV and
   depth range, the agent's body (height, radius, climb), the start snapping, the navigability grid's
-  cell size and the version of its rules (``navigability``), and the realistic conditions that are on
+  cell size and the version of its rules (``navigability``: the grid's for an episode file whose scenes
+  each stand the agent on one storey, the storeys' and their joined surfaces' when some scene's starts and
+  goals lie on more than one: :func:`spans_storeys`), and the realistic conditions that are on
   (actuation, depth and RGB noise, camera pitch, ``gps_compass: false``; docs/realistic.md): every rule
   that changes a score given the same agent. ``protocol_id`` is the first 12 hex
   digits of the sha256 of its canonical JSON. The policy's decoding is the agent's choice, not the
   protocol's: it is recorded in config.json's ``agent_options`` and shown by ``navbench table``.
 - ``navbench``: version, and the git commit with a dirty flag when run from a checkout;
-  ``versions`` of Python, torch, numpy, gymnasium, pyrender and trimesh; ``opengl_renderer``; ``cpu``
+  ``versions`` of Python, torch (its build as torch reports it: ``2.13.0+cpu``), numpy, gymnasium, pyrender
+  and trimesh; ``datasets``: the dataset releases the files can be told to come from
+  (:func:`dataset_versions`: ``objectnav/hm3d/v2`` episodes, ``hm3d/v0.2`` scenes); ``opengl_renderer``; ``cpu``
   (model and flags); ``run_on``: the torch device, the real models' precision and the GL platform (none of
   them part of the protocol: docs/comparing.md); it is rewritten when a run is resumed (the records may then
   come from two machines);
@@ -33,6 +37,7 @@ import hashlib
 import importlib
 import json
 import platform
+import re
 import subprocess
 import sys
 from functools import lru_cache
@@ -43,9 +48,11 @@ from typing import Any
 from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, CONDITIONS, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
-from navbench.scene import NAVIGABILITY_VERSION
+from navbench.safeio import printable, read_input
+from navbench.scene import MULTI_STOREY_NAVIGABILITY_VERSION, NAVIGABILITY_VERSION
 
 PROVENANCE = "provenance.json"
+RUN_FILE_CAP = 16 << 20  # the most a run directory's config.json or provenance.json is read of
 PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
 # EnvConfig fields that do not change a score: which images are rendered (each agent's own) and the GL platform.
 _NOT_PROTOCOL = ("rgb", "depth", "semantic", "gl_platform")
@@ -55,8 +62,11 @@ class ProtocolError(ValueError):
     """Runs under different protocols, or a protocol that cannot be read; the message says which."""
 
 
-def protocol(task: str, success_distance: float | None, env: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The protocol of a run of ``task`` with ``success_distance`` and these EnvConfig overrides."""
+def protocol(task: str, success_distance: float | None, env: dict[str, Any] | None = None,
+             multi_storey: bool = False) -> dict[str, Any]:
+    """The protocol of a run of ``task`` with ``success_distance`` and these EnvConfig overrides, on an episode
+    file whose scenes have one storey each (the grid's rules, ``NAVIGABILITY_VERSION``) or, ``multi_storey``,
+    not (the storeys' rules, ``MULTI_STOREY_NAVIGABILITY_VERSION``)."""
     if not isinstance(env or {}, dict):
         raise ProtocolError(f"'env' must be an object, got {env!r}"[:200])
     try:
@@ -67,9 +77,66 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
     # realistic conditions (noise, camera pitch, no GPS+compass) only when on: a noiseless run's protocol is
     # what it was before they existed, and a noisy one never matches it
     fields = {k: v for k, v in fields.items() if k not in CONDITIONS or v != CONDITIONS[k]}
+    _action_space(cfg, fields)
     fields["success_distance"] = success_distance if success_distance is not None else SUCCESS_DISTANCE.get(task)
-    fields["navigability"] = NAVIGABILITY_VERSION
-    return {"task": task, "actions": list(ACTION_NAMES), **dict(sorted(fields.items()))}
+    fields["navigability"] = MULTI_STOREY_NAVIGABILITY_VERSION if multi_storey else NAVIGABILITY_VERSION
+    return {"task": task, **dict(sorted(fields.items()))}
+
+
+def _plain(v: Any) -> Any:
+    """A configuration value as JSON holds it (dataclasses as objects, tuples as lists)."""
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
+        return {k: _plain(x) for k, x in dataclasses.asdict(v).items()}
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    return getattr(v, "name", v) if not isinstance(v, (str, int, float, bool, type(None))) else v
+
+
+def _action_space(cfg: EnvConfig, fields: dict[str, Any]) -> None:
+    """Put the actions an agent may take into ``fields`` as the configuration has them (``actions``, else
+    navbench's four), and the tilt angle only when an action tilts the camera (step size and turn angle are
+    EnvConfig fields): a run of the four actions keeps the protocol it had before others existed."""
+    actions = getattr(cfg, "actions", None)
+    fields["actions"] = _plain(actions) if actions is not None else list(ACTION_NAMES)
+    tilt = getattr(cfg, "tilt_angle_deg", None)
+    if tilt is not None and any("LOOK" in str(a).upper() for a in fields["actions"]):
+        fields["tilt_angle_deg"] = tilt
+    else:
+        fields.pop("tilt_angle_deg", None)
+
+
+def _storey_rise(env: dict[str, Any] | None) -> float:
+    return float((env or {}).get("agent_height", EnvConfig.agent_height))
+
+
+@lru_cache(maxsize=16)
+def _spans_storeys(path: str, mtime_ns: int, size: int, rise: float) -> bool:
+    from navbench.episodes.io import load_dataset
+    from navbench.episodes.types import NavigationGoal, ObjectGoal
+
+    heights: dict[str, list[float]] = {}
+    for e in load_dataset(path).episodes:
+        ys = heights.setdefault(e.scene_id, [])
+        ys.append(float(e.start_position[1]))
+        for g in e.goals:  # navigable points only: an object's own height says nothing about the storey
+            if isinstance(g, ObjectGoal):
+                ys.extend(float(y) for y in g.view_point_positions()[:, 1])
+            elif isinstance(g, NavigationGoal):
+                ys.append(float(g.position[1]))
+    return any(max(ys) - min(ys) > rise for ys in heights.values() if ys)
+
+
+def spans_storeys(episodes: str | Path, rise: float = EnvConfig.agent_height) -> bool:
+    """Whether the episode file stands the agent on more than one storey of a scene: in some scene, two of
+    its starts and goal positions (PointNav's, ObjectNav's view points) are more than ``rise`` (the agent's
+    height) apart in height. False for a file that cannot be read (the run reports it)."""
+    try:
+        st = Path(episodes).stat()
+        return _spans_storeys(str(Path(episodes).resolve()), st.st_mtime_ns, st.st_size, rise)
+    except (OSError, ValueError):
+        return False
 
 
 def protocol_id(proto: dict[str, Any]) -> str:
@@ -82,7 +149,8 @@ def protocol_id(proto: dict[str, Any]) -> str:
 
 def config_protocol(cfg: Any) -> dict[str, Any]:
     """The protocol of a RunConfig."""
-    return protocol(cfg.task, cfg.success_distance, cfg.env)
+    return protocol(cfg.task, cfg.success_distance, cfg.env,
+                    spans_storeys(cfg.episodes, _storey_rise(cfg.env)) if getattr(cfg, "episodes", None) else False)
 
 
 def run_protocol(run_dir: str | Path) -> dict[str, Any]:
@@ -91,7 +159,7 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
     path = run_dir / PROVENANCE
     if path.is_file():
         try:
-            doc = json.loads(path.read_bytes())
+            doc = json.loads(read_input(path, RUN_FILE_CAP, gunzip=False))
             proto = doc["protocol"]
             if not isinstance(proto, dict) or not isinstance(proto.get("task"), str):
                 raise TypeError
@@ -100,7 +168,7 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
         return proto
     path = run_dir / "config.json"
     try:
-        cfg = json.loads(path.read_bytes())
+        cfg = json.loads(read_input(path, RUN_FILE_CAP, gunzip=False))
         if not isinstance(cfg, dict):
             raise TypeError
     except FileNotFoundError:
@@ -118,10 +186,15 @@ def run_protocol(run_dir: str | Path) -> dict[str, Any]:
         raise ProtocolError(f"{path}: corrupt config ({exc})") from None
 
 
+def protocol_differences(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[str, Any, Any]]:
+    """``(field, a's value, b's value)`` for each protocol field that differs (``derived`` aside)."""
+    keys = sorted((set(a) | set(b)) - {"derived"})
+    return [(k, a.get(k), b.get(k)) for k in keys if a.get(k) != b.get(k)]
+
+
 def protocol_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     """``key a vs b`` for each protocol field that differs (``derived`` aside)."""
-    keys = sorted((set(a) | set(b)) - {"derived"})
-    return [f"{k} {a.get(k)!r} vs {b.get(k)!r}" for k in keys if a.get(k) != b.get(k)]
+    return [f"{k} {x!r} vs {y!r}" for k, x, y in protocol_differences(a, b)]
 
 
 MIX_HINT = "; --mix-protocols to show them together anyway"
@@ -133,7 +206,8 @@ def check_same_protocol(run_dirs: list[str | Path], allow_mixed: bool = False, h
     for d, p in zip(run_dirs[1:], protos[1:]):
         diff = protocol_diff(protos[0], p)
         if diff and not allow_mixed:
-            raise ProtocolError(f"{d}: scored under another protocol than {run_dirs[0]} ({'; '.join(diff[:3])}){hint}")
+            raise ProtocolError(printable(f"{d}: scored under another protocol than {run_dirs[0]} ({'; '.join(diff)})",
+                                          1000) + hint)
     return [protocol_id(p) for p in protos]
 
 
@@ -203,8 +277,16 @@ def navbench_origin() -> dict[str, Any]:
 
 
 def versions() -> dict[str, str]:
+    """Python's and each of ``PACKAGES``' version; torch's as torch reports its build (``2.13.0+cpu``,
+    ``2.14.1+cu130``), which its distribution's version does not tell apart."""
     out = {"python": platform.python_version()}
     for name in PACKAGES:
+        if name == "torch":
+            try:
+                out[name] = str(importlib.import_module("torch").__version__)
+                continue
+            except Exception:
+                pass
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:  # a fork installed under another name (pyrender-maintained)
@@ -212,6 +294,45 @@ def versions() -> dict[str, str]:
                 out[name] = str(importlib.import_module(name).__version__)
             except Exception:
                 out[name] = "not installed"
+    return out
+
+
+_TASKS = r"(objectnav|pointnav|instance_imagenav|imagenav|ovon|goat_bench|goat|vln_r2r|eqa)"
+_SCANS = r"(hm3d|mp3d|hssd|gibson|procthor)"
+_VERSION = r"(v\d+(?:\.\d+)*)"
+# habitat-lab's layout (data/datasets/objectnav/hm3d/v2/val/val.json.gz) and its download names
+# (objectnav_hm3d_v2, hm3d-val-habitat-v0.2, hm3d_v0.2)
+_EPISODES_VERSION = (re.compile(rf"(?i)(?:^|/){_TASKS}/{_SCANS}/{_VERSION}(?:/|$)"),
+                     re.compile(rf"(?i)(?:^|/){_TASKS}[_-]{_SCANS}[_-]{_VERSION}(?:[/_.-]|$)"))
+_SCENES_VERSION = re.compile(rf"(?i)(?:^|/){_SCANS}(?:[_-][a-z]+)*[_-]{_VERSION}(?:[/_.-]|$)")
+
+
+def dataset_versions(episodes: str | Path, scenes: list[Path]) -> dict[str, str]:
+    """The dataset releases a run's files can be told to come from: ``episodes`` (``objectnav/hm3d/v2``) from
+    the episode file's path as habitat-lab lays its datasets out; ``scenes`` (``hm3d/v0.2``) from the scene
+    files' paths, else ``hm3d/v0.2`` for HM3D scenes whose dataset config declares ``has_semantic_textures``
+    (the v0.2 semantics; v0.1 painted vertex colours). A release the paths do not name is left out."""
+    from navbench.scene.datasets import stage_attributes
+
+    out: dict[str, str] = {}
+    text = Path(episodes).resolve().as_posix()
+    for pattern in _EPISODES_VERSION:
+        if m := pattern.search(text):
+            out["episodes"] = "/".join(g.lower() for g in m.groups())
+            break
+    found = set()
+    for path in scenes:
+        if m := _SCENES_VERSION.search(path.resolve().as_posix()):
+            found.add(f"{m.group(1).lower()}/{m.group(2).lower()}")
+            continue
+        try:
+            stage = stage_attributes(path)
+        except (OSError, ValueError):
+            continue
+        if stage.get("has_semantic_textures") and "hm3d" in str(stage.get("__config__", "")).lower():
+            found.add("hm3d/v0.2")
+    if found:
+        out["scenes"] = ", ".join(sorted(found))
     return out
 
 
@@ -278,12 +399,14 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
                              "scenes": {}}
     if (sums := benchmark_sums(cfg.episodes)) is not None:
         files["benchmark"] = {"sha256sums": sha256(sums)}
+    scene_paths = []
     for scene_id in sorted({e.scene_id for e in episodes or []}):
         try:
             path = resolve_scene(scene_id, Path(cfg.scene_dir))
         except (OSError, ValueError):  # a missing scene fails its episodes, as the env reports it
             files["scenes"][scene_id] = {"sha256": None}
             continue
+        scene_paths.append(path)
         entry: dict[str, Any] = {"sha256": sha256(path)}
         stem = path.name.split(".")[0]
         # its annotations beside it (navbench's NAME.semantic.json, HM3D's NAME.semantic.glb / .txt)
@@ -294,9 +417,12 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
     ckpt = _checkpoint(cfg)
     if ckpt is not None and Path(ckpt).is_file():
         files["checkpoint"] = file_entry(ckpt)
-    return {"protocol": proto, "protocol_id": protocol_id(proto), "navbench": navbench_origin(),
-            "versions": versions(), "opengl_renderer": opengl_renderer(), "cpu": cpu(), "run_on": run_on(cfg),
-            "files": files}
+    doc = {"protocol": proto, "protocol_id": protocol_id(proto), "navbench": navbench_origin(),
+           "versions": versions(), "opengl_renderer": opengl_renderer(), "cpu": cpu(), "run_on": run_on(cfg),
+           "files": files}
+    if datasets := dataset_versions(cfg.episodes, scene_paths):
+        doc["datasets"] = datasets
+    return doc
 
 
 def run_on(cfg: Any) -> dict[str, Any]:

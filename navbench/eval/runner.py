@@ -61,7 +61,8 @@ __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "r
 # beyond float rounding, docs/comparing.md).
 _RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device", "benchmark_dir")
 # RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
-_DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32"}
+_DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32",
+                    "habitat_config": None}
 
 
 # -------------------------------------------------------------------------------------------- files

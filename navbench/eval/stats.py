@@ -162,25 +162,22 @@ def compare_records(base: Iterable[Mapping[str, Any]], other: Iterable[Mapping[s
 def _episode_set(run_dir: Path) -> str:
     """What names a run's episode file: its sha256 from provenance.json; for a run written before
     provenance.json, the sha256 of the file its config.json names (a bundled split as this checkout
-    keeps it), else its split or file name."""
-    import json
-
+    keeps it; only a regular file is read), else its split or file name."""
     from navbench.eval.provenance import sha256
     from navbench.paths import split_file
 
-    try:
-        return json.loads((run_dir / "provenance.json").read_text())["files"]["episodes"]["sha256"]
-    except (OSError, ValueError, KeyError, TypeError):
-        pass
-    try:
-        cfg = json.loads((run_dir / "config.json").read_text())
-        name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
-        if isinstance(cfg.get("benchmark"), dict) and cfg["benchmark"].get("episodes_sha256"):
-            return str(cfg["benchmark"]["episodes_sha256"])  # a generated benchmark's file, named relative to it
-    except (OSError, ValueError, AttributeError):
+    sha = doc_get(read_run_doc(run_dir, "provenance.json"), "files", "episodes", "sha256")
+    if isinstance(sha, str):
+        return sha
+    cfg = read_run_doc(run_dir, "config.json")
+    if not cfg:
         return "?"
+    name = str(cfg.get("split") or Path(str(cfg.get("episodes"))).name)
+    if isinstance(cfg.get("benchmark"), dict) and cfg["benchmark"].get("episodes_sha256"):
+        return str(cfg["benchmark"]["episodes_sha256"])  # a generated benchmark's file, named relative to it
     try:
-        return sha256(split_file(cfg["task"], cfg["split"]) if cfg.get("split") else Path(str(cfg["episodes"])))
+        path = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else Path(str(cfg["episodes"]))
+        return sha256(path) if path.is_file() else name
     except (OSError, ValueError, KeyError, TypeError):
         return name
 
@@ -201,12 +198,113 @@ def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:
     return {(e.scene_id, e.episode_id) for e in select_episodes(load_dataset(path), None, per_scene=k)}
 
 
+def read_run_doc(run_dir: Path, name: str) -> dict[str, Any]:
+    """A run directory's JSON file as an object, read up to RUN_FILE_CAP; {} when absent or unreadable (what
+    it would have said is then unknown, and nothing is claimed about it)."""
+    import json
+
+    from navbench.eval.provenance import RUN_FILE_CAP
+    from navbench.safeio import read_input
+
+    try:
+        doc = json.loads(read_input(run_dir / name, RUN_FILE_CAP, gunzip=False))
+    except (OSError, ValueError, RecursionError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def doc_get(doc: Any, *keys: str) -> Any:
+    """``doc[k1][k2]...``, None where a level is missing or not an object."""
+    for k in keys:
+        doc = doc.get(k) if isinstance(doc, dict) else None
+    return doc
+
+
+def _shown(v: Any) -> str:
+    from navbench.safeio import printable
+
+    return printable("-" if v is None else str(v), 120)
+
+
+def _file_named(entry: Any, fallback: Any) -> str | None:
+    """``path (sha256 0123456789ab)`` of a provenance ``files`` entry, else the path config.json gives."""
+    path = doc_get(entry, "path") or fallback
+    sha = doc_get(entry, "sha256")
+    if path is None and sha is None:
+        return None
+    return f"{_shown(path)}" + (f" (sha256 {_shown(sha)[:12]})" if isinstance(sha, str) else "")
+
+
+def _difference(field: str, base: Any, other: Any, line: str, in_protocol: bool = False) -> dict[str, Any]:
+    return {"field": field, "in_protocol": in_protocol, "base": base, "other": other, "line": line}
+
+
+def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str, Any]] | None = None,
+                    other_records: Sequence[Mapping[str, Any]] | None = None) -> list[dict[str, Any]]:
+    """What differs between two runs that can explain a gap in their numbers, each with both values and a
+    ``line`` saying it: the protocol's fields (``in_protocol``), then the episode file by checksum, the
+    subset of one file each ran (from their records), the agent, checkpoint, decoding and seed, and navbench's
+    version, torch's build and the device. A value a run directory does not record shows as ``-``."""
+    from navbench.eval.provenance import protocol_differences, recorded_run_on, run_protocol
+
+    out = [_difference(k, a, b, f"{k} {a!r} vs {b!r}", True)
+           for k, a, b in protocol_differences(run_protocol(base), run_protocol(other))]
+    cfg = {d: read_run_doc(d, "config.json") for d in (base, other)}
+    prov = {d: read_run_doc(d, "provenance.json") for d in (base, other)}
+
+    def add(field: str, a: Any, b: Any, line: str | None = None) -> None:
+        if a != b:
+            out.append(_difference(field, a, b, line or f"{field} {_shown(a)} vs {_shown(b)}"))
+
+    sets = {d: _episode_set(d) for d in (base, other)}
+    names = {d: _file_named(doc_get(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
+             for d in (base, other)}
+    if sets[base] != sets[other]:
+        add("episodes", sets[base], sets[other], f"episode file {names[base]} vs {names[other]}")
+    elif base_records is not None and other_records is not None:
+        keys = [{_key(r) for r in recs} for recs in (base_records, other_records)]
+        common = len(keys[0] & keys[1])
+        if keys[0] != keys[1]:
+            how = (f"paired on the {common} both ran" if keys[0] <= keys[1] or keys[1] <= keys[0]
+                   else f"{common} in common, paired on those")
+            add("episode_subset", len(keys[0]), len(keys[1]),
+                f"the same episodes file, {len(keys[0])} vs {len(keys[1])} of its episodes: {how}")
+    add("agent", cfg[base].get("label") or cfg[base].get("agent"), cfg[other].get("label") or cfg[other].get("agent"))
+    ckpt = {d: _file_named(doc_get(prov[d], "files", "checkpoint"), doc_get(cfg[d], "agent_options", "checkpoint"))
+            for d in (base, other)}
+    if doc_get(prov[base], "files", "checkpoint", "sha256") != doc_get(prov[other], "files", "checkpoint", "sha256") \
+            or ckpt[base] != ckpt[other]:
+        add("checkpoint", ckpt[base], ckpt[other], f"checkpoint {_shown(ckpt[base])} vs {_shown(ckpt[other])}")
+    for k in ("decoding", "temperature"):
+        add(k, doc_get(cfg[base], "agent_options", k), doc_get(cfg[other], "agent_options", k))
+    add("seed", cfg[base].get("seed"), cfg[other].get("seed"))
+
+    def origin(doc: dict[str, Any]) -> str | None:
+        n = doc_get(doc, "navbench")
+        if not isinstance(n, dict) or n.get("version") is None:
+            return None
+        commit = n.get("git_commit")
+        return f"{n['version']}" + (f" (git {str(commit)[:10]}{', dirty' if n.get('git_dirty') else ''})"
+                                    if commit else "")
+    add("navbench", origin(prov[base]), origin(prov[other]))
+    add("torch", doc_get(prov[base], "versions", "torch"), doc_get(prov[other], "versions", "torch"))
+    on = {d: recorded_run_on(d) for d in (base, other)}
+    if on[base] != on[other]:
+        a, b = (f"{on[d]['device']} {on[d]['precision']}" for d in (base, other))
+        same = not any(x["in_protocol"] for x in out)
+        noise = ": the same protocol; records differ in float rounding, so a difference includes that noise " \
+                "(docs/comparing.md)"
+        add("device", a, b, f"run on {a} vs {b}" + (noise if same else ""))
+    return out
+
+
 def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequence[str] = METRICS,
                  mix_protocols: bool = False, per_scene: int | None = None) -> list[dict[str, Any]]:
     """:func:`compare_records` of ``base`` with each of ``others`` (run directories), refusing runs under
     another protocol (unless ``mix_protocols``) or on another episode file; with ``per_scene``, on the
-    first ``per_scene`` episodes of each scene only. The device and precision each run used are not part
-    of the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports both."""
+    first ``per_scene`` episodes of each scene only. Each result's ``differences`` (:func:`run_differences`)
+    say what differs, in and outside the protocol. The device and precision each run used are not part of
+    the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports both."""
     from navbench.eval.provenance import check_same_protocol, recorded_run_on
     from navbench.eval.rundir import read_records
 
@@ -226,16 +324,18 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
                    for d, recs in records.items()}
     out = []
     for d, pid in zip(others, ids[1:]):
+        diffs = run_differences(base, d, records[base], records[d])
         if _episode_set(d) != _episode_set(base):
-            raise StatsError(f"{d}: scored on another episode file than {base} ({_episode_set(d)[:16]} vs "
-                             f"{_episode_set(base)[:16]}): nothing to pair")
+            why = "; ".join(x["line"] for x in diffs if x["field"] == "episodes")
+            raise StatsError(f"{d}: scored on another episode file than {base} ({why}): nothing to pair"[:1000])
         try:
             res = compare_records(records[base], records[d], metrics)
         except StatsError as exc:
             raise StatsError(f"{d} vs {base}: {exc}") from None
         out.append({"base_run": str(base), "other_run": str(d), "protocol_id": ids[0],
                     **({"other_protocol_id": pid} if pid != ids[0] else {}),
-                    "run_on": {"base": recorded_run_on(base), "other": recorded_run_on(d)}, **res})
+                    "run_on": {"base": recorded_run_on(base), "other": recorded_run_on(d)},
+                    "differences": diffs, **res})
     return out
 
 
@@ -248,11 +348,8 @@ def format_comparison(res: dict[str, Any]) -> str:
     lines = [f"BASE  {res['base_run']}", f"OTHER {res['other_run']}"]
     if "other_protocol_id" in res:
         lines.append(f"MIXED PROTOCOLS: {res['protocol_id']} vs {res['other_protocol_id']} (not comparable)")
-    on = res.get("run_on") or {}
-    if on and on["base"] != on["other"]:  # not the protocol: compared, and said
-        b, o = on["base"], on["other"]
-        lines.append(f"run on {b['device']} {b['precision']} vs {o['device']} {o['precision']}: the same protocol; "
-                     f"records differ in float rounding, so a difference includes that noise (docs/comparing.md)")
+    for x in res.get("differences", ()):
+        lines.append(f"{'protocol' if x['in_protocol'] else 'differs'}: {x['line']}")
     dropped = res["dropped"]
     what = "" if not dropped else ": " + ", ".join(
         f"{n} {why}" for why, n in sorted({d["reason"]: sum(x["reason"] == d["reason"] for x in dropped)

@@ -64,10 +64,22 @@ class ModelDirs:
     (resolved: ``"cpu"`` or ``"cuda:N"``) and their precision (``fp32``, ``bf16``, ``fp16``)."""
 
     siglip2: Path | None = None
-    qwen_vl: Path | None = None
+    qwen_vl: Path | str | None = None  # a directory, or an OpenAI-compatible server's URL (served_vlm)
     sam3: Path | None = None
     device: str = "cpu"
     precision: str = "fp32"
+
+
+def served_vlm(value: object) -> bool:
+    """Whether a ``qwen_vl`` value is the URL of an OpenAI-compatible server (``http://HOST:PORT/v1``)."""
+    return isinstance(value, str) and value.startswith(("http://", "https://"))
+
+
+def model_dirs(models: dict[str, str], device: str = "cpu", precision: str = "fp32") -> ModelDirs:
+    """:class:`ModelDirs` from ``--siglip2/--qwen-vl/--sam3`` values: directories as paths, a served VLM's URL
+    as it is."""
+    return ModelDirs(**{k: v if k == "qwen_vl" and served_vlm(v) else Path(v) for k, v in models.items() if v},
+                     device=device, precision=precision)
 
 
 def oracle_perception(asset: SceneAsset, noise: NoiseProfile, models: ModelDirs) -> Perception:
@@ -90,12 +102,25 @@ def model_perception(asset: SceneAsset, noise: NoiseProfile, models: ModelDirs) 
 @functools.lru_cache(maxsize=1)
 def _load_models(models: ModelDirs) -> tuple[Any, Any, Any]:
     """The three models, loaded once per process and device: every scene's stack, and every env slot of a
-    worker (its envs batched), shares them, so one worker holds one copy of each on its GPU."""
-    from navbench.localize.backends import QwenVLReranker, Sam3Segmenter, Siglip2Encoder
+    worker (its envs batched), shares them, so one worker holds one copy of each on its GPU. A served VLM
+    (``qwen_vl`` a URL) is asked over HTTP instead: every worker shares the server's one copy."""
+    from navbench.localize.backends import OpenAIReranker, QwenVLReranker, Sam3Segmenter, Siglip2Encoder
 
     run_on = dict(device=models.device, precision=models.precision)
-    return (Siglip2Encoder(models.siglip2, **run_on), QwenVLReranker(models.qwen_vl, **run_on),
-            Sam3Segmenter(models.sam3, **run_on))
+    vlm = OpenAIReranker.from_url(str(models.qwen_vl)) if served_vlm(models.qwen_vl) else \
+        QwenVLReranker(models.qwen_vl, **run_on)
+    return Siglip2Encoder(models.siglip2, **run_on), vlm, Sam3Segmenter(models.sam3, **run_on)
+
+
+def _run_on(perception: str, models: ModelDirs) -> dict[str, Any]:
+    """Where the localisation's models ran: the device (and its name) and precision of the real models; the
+    oracle's stack runs no model, on the CPU (``precision`` None)."""
+    from navbench.device import device_name
+
+    if PERCEPTION.get(perception) is not model_perception:
+        return {"device": "cpu", "device_name": "cpu", "precision": None}
+    out = {"device": models.device, "device_name": device_name(models.device), "precision": models.precision}
+    return {**out, "vlm_server": str(models.qwen_vl)} if served_vlm(models.qwen_vl) else out
 
 
 PERCEPTION: dict[str, Callable[[SceneAsset, NoiseProfile, ModelDirs], Perception]] = {
@@ -221,6 +246,7 @@ def run_localize(split: str = "goat_val", perception: str = "oracle", noise: str
         "query_cpu_ms": 1000.0 * float(np.mean(cpu_times)) if cpu_times else 0.0,
         "perception": perception, "noise": noise, "fusion": fusion, "rerank": rerank,
         "prescan": prescan.to_json(),
+        "run_on": _run_on(perception, models),
     }
     if out is not None:
         out = Path(out)

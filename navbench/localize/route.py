@@ -16,6 +16,15 @@ point projects into the keyframe's image within ``max_sight`` with nothing neare
 its supporting keyframes (:attr:`GoalCandidate.keyframe_ids`, which saw it). The route length is the
 shortest entry leg + walk + exit leg, all measured in xz.
 
+Height: a memory may span storeys. Keyframes within ``link_radius`` and lines of sight join only cameras
+at most ``max_climb`` apart in height (one surface, or a step: a camera above another on the next storey,
+or one seen across a stairwell, is not a walk away); consecutive keyframes join where the walk between them
+rises no steeper than 45 deg plus a step (the steepest the joined surfaces admit: a flight of stairs, a
+ramp), so a memory's storeys join only where the pre-scan walked between them, and a cut in the scan
+between storeys nothing joins stays a gap. A point enters only at keyframes whose floor (camera height
+less ``camera_height``) is within half ``camera_height`` of its own (the tolerance within which the env
+takes a point to stand on a grid's floor).
+
 Only stored poses and depths are used: nothing reads the simulator's navigability or the episode's
 goals. A point no keyframe saw, or a candidate in a part of the graph the point's entries do not reach,
 gets ``inf`` (callers fall back to the straight line).
@@ -42,6 +51,7 @@ class RouteConfig:
     max_step: float = 0.6  # m (xz): consecutive keyframes farther apart are a gap in the walk, not joined
     max_sight: float = 6.0  # m: a keyframe sees a point only this far along its optical axis
     depth_tolerance: float = 0.2  # m: the stored depth may be this much nearer than the point
+    max_climb: float = 0.2  # m: the most two joined cameras' heights differ by, beyond a walked slope's rise
 
 
 class KeyframeRoutes:
@@ -94,7 +104,12 @@ class KeyframeRoutes:
             # a line of sight between two cameras is a straight free segment at camera height.
             seen = [np.stack([np.full(len(js), i), js], axis=1)
                     for i in range(n) if sight and len(js := np.flatnonzero(self._visible(i, self._positions)))]
-            edges = np.sort(np.concatenate([pairs, step, *seen]).astype(np.int64), axis=1)
+            y = self._positions[:, 1]
+            level = np.concatenate([pairs, *seen]).astype(np.int64).reshape(-1, 2)
+            level = level[np.abs(y[level[:, 0]] - y[level[:, 1]]) <= cfg.max_climb]
+            rise = np.abs(y[step[:, 0]] - y[step[:, 1]])
+            step = step[rise <= np.linalg.norm(self._xz[step[:, 0]] - self._xz[step[:, 1]], axis=1) + cfg.max_climb]
+            edges = np.sort(np.concatenate([level, step]).astype(np.int64), axis=1)
             # Each pair once: a sparse matrix built from repeated (i, j) entries sums their weights.
             edges = np.unique(edges[edges[:, 0] != edges[:, 1]], axis=0)
             # Joined keyframes at one place (a look-around) get a tiny positive weight: csgraph drops
@@ -114,6 +129,7 @@ class KeyframeRoutes:
         eye = position + np.array([0.0, self.camera_height, 0.0])
         near = np.flatnonzero(np.linalg.norm(self._xz - position[[0, 2]], axis=1) <= self.config.link_radius)
         entries = np.union1d(self.sees(eye), near).astype(np.int64)
+        entries = entries[np.abs(self._positions[entries, 1] - eye[1]) <= self.camera_height / 2]
         if not len(entries):
             return None
         edges, weights = self.graph(sight)

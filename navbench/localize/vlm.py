@@ -20,6 +20,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 PROMPT_TEMPLATE = "Is a {query} visible in this image? Reply ONLY: yes/no <visibility 0-10>"
+# What a captioner asks about an image query's picture (its answer prompts the re-ranker and the segmenter).
+CAPTION_PROMPT = "Name the object in the centre of this image with its colour, in at most five words."
+CAPTION_TOKENS = 12
 MISSING_VISIBILITY_YES = 0.5
 MISSING_VISIBILITY_NO = 0.0
 

@@ -398,6 +398,22 @@ def encoder_name(encoder: KeyframeEncoder) -> str:
     return str(getattr(encoder, "name", type(encoder).__name__))
 
 
+def encoder_placement(encoder: KeyframeEncoder | None) -> str | None:
+    """Where and at what precision an encoder computes its embeddings, when that is not the CPU in float32
+    (the GPU's model, not its index: two cards of one model give the same numbers, e.g. ``NVIDIA H200
+    bfloat16``); None on the CPU in float32 and for an encoder without a torch device (the oracle's)."""
+    device = getattr(encoder, "device", None)
+    dtype = getattr(encoder, "dtype", None)
+    dev = "cpu" if device is None else str(device)
+    dt = "float32" if dtype is None else str(dtype).removeprefix("torch.")
+    if dev == "cpu" and dt == "float32":
+        return None
+    if dev.startswith("cuda"):
+        from navbench.device import device_name
+        dev = device_name(dev)
+    return f"{dev} {dt}"
+
+
 def _frames(renderer, traj: Trajectory, keep: Sequence[int], intr: Intrinsics, ids: bool):
     for i in keep:
         out = renderer.render(traj.positions[i], traj.rotations[i], rgb=True, depth=True, ids=ids)
@@ -456,6 +472,7 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
         "scene_digest": digest,
         "config": config.to_json(),
         "encoder": name,
+        **({"placement": placement} if (placement := encoder_placement(encoder)) is not None else {}),
         "viewpoints": [{"room": r, "position": [round(float(v), 4) for v in p]} for r, p in traj.viewpoints],
     }
     # Bytes include memory.json itself; its length depends on the count, so settle the fixed point.
@@ -479,10 +496,13 @@ def build_memory(scene_path: str | Path, out_dir: str | Path, config: PrescanCon
 SCAN_VERSION = 3
 
 
-def memory_key(digest: str, config: PrescanConfig, encoder_name_: str | None) -> str:
-    # the navigability rules and the scan's plan place the scan poses, so a memory built under others is not reused
+def memory_key(digest: str, config: PrescanConfig, encoder_name_: str | None, placement: str | None = None) -> str:
+    # the navigability rules and the scan's plan place the scan poses, so a memory built under others is not
+    # reused; a GPU's or another precision's embeddings differ in rounding from the CPU's float32 ones, so each
+    # placement has its own (a CPU float32 memory keeps the key it always had)
     blob = json.dumps({"digest": digest, "config": config.to_json(), "encoder": encoder_name_,
-                       "navigability": NAVIGABILITY_VERSION, "scan": SCAN_VERSION}, sort_keys=True)
+                       "navigability": NAVIGABILITY_VERSION, "scan": SCAN_VERSION,
+                       **({"placement": placement} if placement is not None else {})}, sort_keys=True)
     return hashlib.sha1(blob.encode()).hexdigest()[:12]
 
 
@@ -490,24 +510,26 @@ def load_or_build_memory(scene_path: str | Path, cache_root: str | Path | None =
                          config: PrescanConfig = PrescanConfig(), encoder: KeyframeEncoder | None = None
                          ) -> Memory:
     """The memory of ``scene_path`` for ``config`` and ``encoder``: reused from ``cache_root`` (default
-    ``cache_dir("memory")``) when its ``memory.json`` matches the scene's sha1, the config and the
-    encoder name, otherwise (re)built there; ``memory.built_now`` tells which.
+    ``cache_dir("memory")``) when its ``memory.json`` matches the scene's sha1, the config, the
+    encoder name and where it ran (:func:`encoder_placement`), otherwise (re)built there;
+    ``memory.built_now`` tells which.
 
-    The directory is ``{cache_root}/{scene stem}-{key}``, the key hashing config and encoder, so
+    The directory is ``{cache_root}/{scene stem}-{key}``, the key hashing config, encoder and placement, so
     memories of different configs coexist; a changed scene file (same path, new sha1) is rebuilt in
     place.
     """
     scene_path = Path(scene_path)
     root = cache_dir("memory") if cache_root is None else Path(cache_root)
     name = None if encoder is None else encoder_name(encoder)
-    cfg_key = memory_key("", config, name)
+    placement = encoder_placement(encoder)
+    cfg_key = memory_key("", config, name, placement)
     directory = root / f"{scene_path.name.split('.')[0]}-{cfg_key}"
     digest = scene_digest(scene_path)
     if (directory / MEMORY_FILE).is_file():
         try:
             memory = Memory.open(directory)
             if (memory.info.get("scene_digest") == digest and memory.info.get("encoder") == name
-                    and memory.info.get("config") == config.to_json()):
+                    and memory.info.get("placement") == placement and memory.info.get("config") == config.to_json()):
                 return memory
         except ValueError:
             pass  # stale or partial: rebuilt below

@@ -170,7 +170,43 @@ class _Placeholder:
         pass
 
     def __setstate__(self, state: object) -> None:
-        pass
+        self.__dict__["_placeholder_state"] = state  # data only: read back by plain_config, never called
+
+
+def plain_config(obj: Any, depth: int = 0) -> Any:
+    """A checkpoint's config as plain data: dicts, lists and scalars as they are, and an OmegaConf node read
+    through its placeholder's pickled state (a DictConfig's or ListConfig's ``_content``, a value node's
+    ``_val``); anything else None."""
+    if depth > 64:
+        return None
+    if isinstance(obj, (str, int, float, bool)) or obj is None:
+        return obj
+    if isinstance(obj, Mapping):
+        return {str(k): plain_config(v, depth + 1) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [plain_config(v, depth + 1) for v in obj]
+    state = getattr(obj, "__dict__", {}).get("_placeholder_state") if isinstance(obj, _Placeholder) else None
+    if isinstance(state, tuple) and len(state) == 2:  # (dict state, slots state)
+        state = state[0]
+    if isinstance(state, Mapping):
+        if "_content" in state:
+            return plain_config(state["_content"], depth + 1)
+        if "_val" in state:
+            return plain_config(state["_val"], depth + 1)
+    return None
+
+
+def read_checkpoint_config(path: str | Path) -> dict[str, Any]:
+    """The configuration a checkpoint holds (``ckpt["config"]``) as plain data, a habitat-baselines
+    checkpoint's OmegaConf config included (read with weights_only, its classes as inert placeholders)."""
+    given, path = path, checkpoint_path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{given}: no such checkpoint file")
+    obj, _ = _torch_load(path)
+    config = plain_config(obj.get("config")) if isinstance(obj, Mapping) else None
+    if not isinstance(config, dict):
+        raise CheckpointError(f"{path}: holds no readable 'config'")
+    return config
 
 
 def _placeholder_globals(path: Path) -> list[tuple[type, str]]:

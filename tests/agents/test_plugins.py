@@ -224,7 +224,7 @@ class _Walker:
 
 
 def test_one_function_resolves_every_form_an_agent_takes():
-    from navbench.agents.plugins import Bound, Instance, PluginFactory, ResolvedAgent
+    from navbench.agents.plugins import Bound, PluginFactory, ResolvedAgent
 
     spec = f"{_Walker.__module__}:_Walker"
     by_class = resolve_agent(_Walker, {"stop_after": 2}, device="cpu")
@@ -239,8 +239,10 @@ def test_one_function_resolves_every_form_an_agent_takes():
     assert isinstance(local.factory, Bound) and local.batches is None and local.envs_per_worker == 2
     assert local.label.endswith("seed3")
 
-    instance = resolve_agent(_Walker(), device="auto")
-    assert isinstance(instance.factory, Instance) and instance.device in ("cpu", "cuda:0")
+    walker = _Walker()
+    instance = resolve_agent(walker, device="auto")
+    assert isinstance(instance.factory, Bound) and instance.device in ("cpu", "cuda:0")
+    assert instance.factory(None) is instance.factory(None) is walker  # batched: handed out as it is
     with pytest.raises(ValueError, match="options apply to an agent class or factory"):
         resolve_agent(_Walker(), {"stop_after": 1})
 
@@ -269,3 +271,29 @@ def test_the_api_holds_no_agent_resolution():
                    and (n.module or "").startswith("navbench.agents") for a in n.names}
     assert from_agents == {("navbench.agents.plugins", "resolve_agent"), ("navbench.agents.registry", "default_agent")}
     assert not [n.name for n in ast.walk(tree) if isinstance(n, ast.ClassDef)]
+
+
+def test_a_habitat_agent_is_checked_and_adapted_once_where_it_is_loaded(monkeypatch):
+    """One place (habitat_compat.AgentTarget) checks a plug-in and adapts what it builds, for a spec, a class and
+    an instance alike; an instance is wrapped once, not on every build."""
+    from navbench.agents import habitat_compat
+
+    calls = []
+    real = habitat_compat.check_agent
+    monkeypatch.setattr(habitat_compat, "check_agent", lambda spec, target: calls.append(spec) or real(spec, target))
+
+    class Habitatish:  # habitat-lab's protocol: reset() and an action name
+        def reset(self):
+            pass
+
+        def act(self, observations):
+            return "move_forward"
+
+    for agent in (f"{_Walker.__module__}:_Walker", _Walker, Habitatish()):
+        calls.clear()
+        resolve_agent(agent)
+        assert len(calls) == 1, agent
+    hab = resolve_agent(Habitatish())
+    first = hab.factory(None)
+    assert isinstance(first, habitat_compat.HabitatAgent) and hab.factory(None) is first
+    assert first.act({}) == 1

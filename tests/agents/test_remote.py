@@ -180,3 +180,32 @@ def test_server_that_stops_mid_run_gives_failure_records_not_a_hang(agent_dir, p
     failed = [r for r in recs if r.get("failed")]
     assert len(recs) == 10 and failed and summary["num_episodes"] == 10
     assert all("127.0.0.1" in r["failure_reason"] and "\n" not in r["failure_reason"] for r in failed)
+
+
+def test_served_agents_run_on_the_servers_device_whatever_the_client_sends(capsys):
+    built = []
+
+    def factory(cfg):
+        built.append((cfg.device, cfg.precision))
+        return _Still()
+
+    server = AgentServer(factory, "still", ("127.0.0.1", 0), device="cuda:1", precision="bf16")
+    try:
+        server.session("s1", {"task": "pointnav", "device": "cpu", "precision": "fp32"})
+        assert built == [("cuda:1", "bf16"), ("cuda:1", "bf16")]  # the probe agent, then the session's
+    finally:
+        server.server_close()
+    from navbench.cli import main
+    assert main(["serve-agent", "oracle", "--device", "cuda:99", "--port", "0"]) == 2  # no such device here
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cuda:99" in err[0]
+
+
+class _Still:
+    sensors = ()
+
+    def reset(self, episode):
+        pass
+
+    def act(self, observations):
+        return 0

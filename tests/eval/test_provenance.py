@@ -148,3 +148,52 @@ def test_merge_refuses_shards_under_different_protocols(tmp_path):
     (dirs[1] / PROVENANCE).write_text(json.dumps(doc))
     with pytest.raises(ProtocolError, match="max_steps 500 vs 100"):
         merge(dirs, tmp_path / "bad")
+
+
+def _pointnav_file(path, starts):
+    from navbench.episodes.io import save_dataset
+    from navbench.episodes.types import Episode, EpisodeDataset, NavigationGoal
+    eps = [Episode(episode_id=str(i), scene_id="house_008.glb", start_position=list(s),
+                   start_rotation=[0.0, 0.0, 0.0, 1.0], goals=[NavigationGoal(position=[1.0, s[1], 1.0])])
+           for i, s in enumerate(starts)]
+    return save_dataset(EpisodeDataset(episodes=eps), path)
+
+
+def test_a_multi_storey_episode_file_runs_under_the_storeys_navigability(tmp_path):
+    from navbench.scene import MULTI_STOREY_NAVIGABILITY_VERSION, NAVIGABILITY_VERSION
+    one = _pointnav_file(tmp_path / "one.json", [(0.0, 0.0, 0.0), (2.0, 0.15, 0.0)])  # a step, one storey
+    two = _pointnav_file(tmp_path / "two.json", [(0.0, 0.0, 0.0), (2.0, 2.9, 0.0)])  # the storey above
+    p1, p2 = config_protocol(_cfg(episodes=str(one))), config_protocol(_cfg(episodes=str(two)))
+    assert p1["navigability"] == NAVIGABILITY_VERSION == 2 and p2["navigability"] == MULTI_STOREY_NAVIGABILITY_VERSION
+    assert protocol_id(p1) == protocol_id(config_protocol(_cfg()))  # one storey: the id it always had
+    # what a multi-storey run's protocol was before the layered surfaces were rebuilt: the grid's version
+    assert protocol_id(p2) != protocol_id({**p2, "navigability": 2})
+    # the agent's height decides what counts as another storey
+    assert config_protocol(_cfg(episodes=str(two), env={"agent_height": 3.0}))["navigability"] == 2
+
+
+def test_the_action_space_is_the_configurations_and_a_tilt_counts_only_with_a_look_action():
+    from navbench.env.config import EnvConfig
+    from navbench.eval.provenance import _action_space
+    fields = {"tilt_angle_deg": 30.0}
+    _action_space(EnvConfig(), fields)
+    assert fields == {"actions": ["STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT"]}
+
+    class WithLook:  # a configuration that lists its actions (as a registry of actions would)
+        actions = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN")
+        tilt_angle_deg = 15.0
+    fields = {}
+    _action_space(WithLook(), fields)
+    assert fields == {"actions": list(WithLook.actions), "tilt_angle_deg": 15.0}
+
+
+def test_provenance_names_torchs_build_and_the_dataset_releases_its_paths_tell(tmp_path):
+    import torch
+
+    from navbench.eval.provenance import dataset_versions, versions
+    assert versions()["torch"] == torch.__version__
+    ep = tmp_path / "data/datasets/objectnav/hm3d/v2/val/val.json.gz"
+    scene = tmp_path / "data/scene_datasets/hm3d_v0.2/val/00800-TEEsavR23oF/TEEsavR23oF.basis.glb"
+    assert dataset_versions(ep, [scene]) == {"episodes": "objectnav/hm3d/v2", "scenes": "hm3d/v0.2"}
+    assert dataset_versions(tmp_path / "objectnav_hm3d_v1/val/val.json.gz", []) == {"episodes": "objectnav/hm3d/v1"}
+    assert dataset_versions(VAL, [SCENES_DIR / "house_008.glb"]) == {}  # navbench's own: split_version says it

@@ -1,6 +1,7 @@
 """Intervals and paired comparisons: reproduced from records, checked against independent implementations,
 and the committed val_unseen runs compared as the README describes."""
 
+import hashlib
 import json
 import math
 import random
@@ -199,3 +200,67 @@ def test_a_run_with_provenance_pairs_with_one_written_before_it(copy_run, capsys
     (new / "provenance.json").write_text(json.dumps({**doc, "files": {"episodes": {"sha256": "0" * 64}}}))
     assert main(["compare", str(old), str(new)]) == 2
     assert "another episode file" in capsys.readouterr().err
+
+
+def _tiny_run(d, n, success_distance=0.2, env=None, checkpoint="policies/a.pth", seed=0):
+    """A run directory as `navbench run` writes one, of ``n`` PointNav episodes of one file (two scenes)."""
+    from navbench.eval.provenance import protocol, protocol_id
+    d.mkdir()
+    proto = protocol("pointnav", success_distance, env)
+    ckpt = {"path": checkpoint, "root": "navbench", "sha256": hashlib.sha256(checkpoint.encode()).hexdigest()}
+    (d / "config.json").write_text(json.dumps({
+        "task": "pointnav", "split": None, "episodes": "eps.json.gz", "agent": "pointnav", "seed": seed,
+        "success_distance": success_distance, "env": env or {}, "agent_options": {"checkpoint": checkpoint,
+                                                                                 "decoding": "sample"}}))
+    (d / "provenance.json").write_text(json.dumps({
+        "protocol": proto, "protocol_id": protocol_id(proto), "navbench": {"version": "0.1.0"},
+        "versions": {"torch": "2.13.0+cpu"}, "run_on": {"device": "cpu", "precision": "fp32"},
+        "files": {"episodes": {"path": "eps.json.gz", "root": "cwd", "sha256": "ab" * 32}, "checkpoint": ckpt}}))
+    rng = np.random.default_rng(len(checkpoint) + n)
+    rows = [{"scene_id": f"s{i % 2}", "episode_id": str(i), "success": float(s), "spl": float(s) * 0.8,
+             "soft_spl": 0.5, "distance_to_goal": 1.0} for i, s in enumerate(rng.random(n) < 0.6)]
+    (d / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return d
+
+
+def test_compare_names_each_protocol_difference_in_its_refusal_mixed_text_and_json(tmp_path, capsys):
+    a = _tiny_run(tmp_path / "a", 50)
+    b = _tiny_run(tmp_path / "b", 50, success_distance=0.36, env={"max_steps": 300})
+    assert main(["compare", str(a), str(b)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    reasons = ["max_steps 500 vs 300", "success_distance 0.2 vs 0.36"]
+    assert len(err) == 1 and all(r in err[0] for r in reasons)
+    assert main(["compare", str(a), str(b), "--mix-protocols", "--metric", "spl"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line for line in out if line.startswith("protocol: ")] == [f"protocol: {r}" for r in reasons]
+    assert main(["compare", str(a), str(b), "--mix-protocols", "--json", "--metric", "spl"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [x["line"] for x in doc["differences"]] == reasons and all(x["in_protocol"] for x in doc["differences"])
+    assert doc["differences"][0]["base"] == 500 and doc["differences"][0]["other"] == 300
+    # nothing else differs, so nothing else is said
+    assert len(doc["differences"]) == 2
+
+
+def test_compare_pairs_a_subset_on_the_common_episodes_and_names_both_checkpoints(tmp_path, capsys):
+    a = _tiny_run(tmp_path / "a", 200, checkpoint="policies/pointnav_navbench.pth")
+    b = _tiny_run(tmp_path / "b", 1000, checkpoint="policies/pointnav_v2.pth", seed=1)
+    assert main(["compare", str(a), str(b), "--metric", "spl"]) == 0
+    out = capsys.readouterr().out
+    assert "differs: the same episodes file, 200 vs 1000 of its episodes: paired on the 200 both ran" in out
+    assert "paired on 200 episodes in 2 scenes; dropped 800: 800 only in other" in out
+    line = next(x for x in out.splitlines() if x.startswith("differs: checkpoint "))
+    assert "policies/pointnav_navbench.pth (sha256 " in line and " vs policies/pointnav_v2.pth (sha256 " in line
+    assert "differs: seed 0 vs 1" in out and "protocol:" not in out
+    assert main(["compare", str(a), str(b), "--metric", "spl", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["episodes"] == 200
+    fields = {x["field"]: x for x in doc["differences"]}
+    assert set(fields) == {"episode_subset", "checkpoint", "seed"}
+    assert (fields["episode_subset"]["base"], fields["episode_subset"]["other"]) == (200, 1000)
+    # another episode file: refused, naming both files by checksum
+    doc = json.loads((b / "provenance.json").read_text())
+    doc["files"]["episodes"] = {"path": "other.json.gz", "root": "cwd", "sha256": "cd" * 32}
+    (b / "provenance.json").write_text(json.dumps(doc))
+    assert main(["compare", str(a), str(b)]) == 2
+    err = capsys.readouterr().err
+    assert "episode file eps.json.gz (sha256 abababababab) vs other.json.gz (sha256 cdcdcdcdcdcd)" in err

@@ -185,3 +185,24 @@ def test_real_models_load_once_per_process_at_the_precision_asked(siglip_dir, qw
     _load_models.cache_clear()
     assert loads_models("memory", {"perception": "siglip2+qwen2.5-vl+sam3"})
     assert not loads_models("memory", {}) and not loads_models("pointnav", {"perception": "x"})
+
+
+def test_checkpoint_parameters_reads_safetensors_headers_only(tmp_path):
+    import json
+    import struct
+
+    from navbench.localize.backends.base import checkpoint_parameters
+
+    def write(path, tensors):
+        header = json.dumps({"__metadata__": {"format": "pt"}, **{
+            k: {"dtype": "BF16", "shape": s, "data_offsets": [0, 0]} for k, s in tensors.items()}}).encode()
+        path.write_bytes(struct.pack("<Q", len(header)) + header)  # no weights: they are never read
+
+    write(tmp_path / "model-00001-of-00002.safetensors", {"a": [1000, 64], "b": [64]})
+    write(tmp_path / "model-00002-of-00002.safetensors", {"c": [3, 3, 8, 8]})
+    assert checkpoint_parameters(tmp_path) == 1000 * 64 + 64 + 576
+    (tmp_path / "model-00002-of-00002.safetensors").write_bytes(b"\xff" * 8 + b"{}")
+    with pytest.raises(BackendError, match="model-00002-of-00002.safetensors: not a safetensors file"):
+        checkpoint_parameters(tmp_path)
+    with pytest.raises(BackendError, match="no \\*.safetensors"):
+        checkpoint_parameters(tmp_path / "..")

@@ -105,6 +105,7 @@ def test_run_localize_writes_predictions_and_summary(tmp_path, memory_root, orac
     assert summary["sr"] == 1.0 and summary["sr_by_type"] == {"object": 1.0, "image": 1.0, "language": 1.0}
     assert summary["storage_bytes"] == oracle_memory.stats.bytes and summary["build_s"] > 0
     assert summary["query_ms"] > 0
+    assert summary["run_on"] == {"device": "cpu", "device_name": "cpu", "precision": None}  # the oracle runs no model
     written = json.loads((tmp_path / "out" / "summary.json").read_text())
     for key in ("k", "sr", "sr_by_type", "build_s", "storage_bytes", "query_ms", "perception", "noise", "fusion",
                 "rerank"):
@@ -122,3 +123,9 @@ def test_run_localize_writes_predictions_and_summary(tmp_path, memory_root, orac
         run_localize("small", perception="siglip2+qwen2.5-vl+sam3", split_root=tmp_path / "goat",
                      memory_root=memory_root)
     assert set(PERCEPTION) == {"oracle", "siglip2+qwen2.5-vl+sam3"}
+
+
+def test_the_summary_says_where_the_real_models_ran():
+    from navbench.localize.benchmark import ModelDirs, _run_on
+    got = _run_on("siglip2+qwen2.5-vl+sam3", ModelDirs(device="cpu", precision="bf16"))
+    assert got == {"device": "cpu", "device_name": "cpu", "precision": "bf16"}

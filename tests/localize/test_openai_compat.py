@@ -19,6 +19,7 @@ class FakeServer:
     def __init__(self):
         self.requests: list[dict] = []
         self.replies: list[tuple[int, object]] = []
+        self.models = ["Qwen/Qwen2.5-VL-7B-Instruct"]
         server = self
 
         class Handler(BaseHTTPRequestHandler):
@@ -28,6 +29,15 @@ class FakeServer:
                 status, payload = server.replies.pop(0)
                 data = payload.encode() if isinstance(payload, str) else json.dumps(payload).encode()
                 self.send_response(status)
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", str(len(data)))
+                self.end_headers()
+                self.wfile.write(data)
+
+            def do_GET(self):  # /v1/models: the served models
+                server.requests.append({"path": self.path, "headers": dict(self.headers), "body": None})
+                data = json.dumps({"object": "list", "data": [{"id": m} for m in server.models]}).encode()
+                self.send_response(200)
                 self.send_header("Content-Type", "application/json")
                 self.send_header("Content-Length", str(len(data)))
                 self.end_headers()
@@ -102,3 +112,20 @@ def test_errors_are_one_line_backend_errors(server):
         OpenAIReranker(f"http://127.0.0.1:{port}", "m", timeout=2.0).score(image, "chair")
     with pytest.raises(BackendError, match="base_url"):
         OpenAIReranker("127.0.0.1:8000", "m")
+
+
+def test_a_served_vlm_is_found_by_its_url_and_captions_image_queries(server):
+    from navbench.localize.benchmark import ModelDirs, model_dirs, served_vlm
+    rr = OpenAIReranker.from_url(server.url)
+    assert rr.model == "Qwen/Qwen2.5-VL-7B-Instruct" and server.requests[-1]["path"] == "/v1/models"
+    server.replies.append((200, completion("Red armchair.")))
+    assert rr.describe(np.zeros((8, 8, 3), np.uint8)) == "Red armchair"
+    body = server.requests[-1]["body"]
+    assert body["messages"][0]["content"][1]["text"].startswith("Name the object in the centre")
+    server.models = ["a", "b"]
+    with pytest.raises(BackendError, match="serves 2 models"):
+        OpenAIReranker.from_url(server.url)
+    assert OpenAIReranker.from_url(server.url + "#b").model == "b"
+    dirs = model_dirs({"siglip2": "models/siglip2", "qwen_vl": server.url, "sam3": "models/sam3"})
+    assert isinstance(dirs, ModelDirs) and dirs.qwen_vl == server.url and served_vlm(dirs.qwen_vl)
+    assert str(dirs.siglip2) == "models/siglip2" and not served_vlm(dirs.siglip2)

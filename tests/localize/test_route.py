@@ -142,3 +142,35 @@ def test_a_pair_joined_several_ways_counts_its_length_once():
     edges, weights = r.graph()
     assert edges.tolist() == [[0, 1]] and weights == pytest.approx([0.3])
     assert r.lengths(np.array([0.0, 0.0, 0.0]), [candidate([0.3, 0.5, -1.0], 1)]) == pytest.approx([1.3])
+
+
+def test_routes_join_storeys_only_where_the_walk_climbed_between_them():
+    """Room A's walk on the ground floor and the same walk 3 m above it (the storey over it, cameras right above
+    the ground floor's; the fake depth has no floors, so every camera sees every other): first as two walks a
+    cut in the scan separates, then joined by a flight of stairs the walk climbs (0.15 m a 0.25 m step)."""
+    up = 3.0
+
+    def at(x, y, z, yaw=math.pi):
+        return camera_pose(np.array([x, EYE + y, z]), quat_from_yaw(yaw))
+
+    zs = np.arange(0.0, 3.76, 0.25)
+    cut = [at(-1.0, 0.0, z) for z in zs] + [at(-1.0, up, z) for z in zs]
+    r = KeyframeRoutes(FakeStore(cut), camera_height=EYE)
+    upstairs = candidate([-1.0, up + 0.5, 3.75], len(cut) - 1)
+    downstairs = candidate([-1.0, 0.5, 3.75], len(zs) - 1)
+    start = np.array([-1.0, 0.0, 0.0])
+    assert r.lengths(start, [downstairs])[0] == pytest.approx(3.75)
+    assert np.isinf(r.lengths(start, [upstairs])[0])  # right above, but nothing walked there from here
+    assert len(r.path(start, upstairs)) == 0
+    # the walk: up A and back, over to x = -3, up a flight of 20 steps to z = 5, over to x = -1 and down A upstairs
+    walk2 = [at(-1.0, 0.0, z) for z in zs] + [at(-1.0, 0.0, z) for z in zs[::-1]]
+    walk2 += [at(x, 0.0, 0.0) for x in (-1.5, -2.0, -2.5, -3.0)]
+    walk2 += [at(-3.0, 0.15 * k, 0.25 * k) for k in range(1, 21)]
+    walk2 += [at(x, up, 5.0) for x in (-2.5, -2.0, -1.5)]
+    walk2 += [at(-1.0, up, z) for z in np.arange(5.0, -0.01, -0.25)]
+    r2 = KeyframeRoutes(FakeStore(walk2), camera_height=EYE)
+    above = candidate([-1.0, up + 0.5, 0.0], len(walk2) - 1)
+    # by the stairs: out to x = -3 and back (4 m) and up the flight (5 m, less a shortcut in sight at either end)
+    assert 9.0 < r2.lengths(start, [above])[0] <= 2.0 + 5.0 + 2.0 + 5.0
+    path = r2.path(start, above)
+    assert any(np.isclose(p[0], -3.0) for p in path)

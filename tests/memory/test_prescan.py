@@ -15,6 +15,7 @@ from navbench.memory.prescan import (
     PrescanConfig,
     PrescanError,
     build_memory,
+    encoder_placement,
     load_or_build_memory,
     plan_trajectory,
 )
@@ -120,6 +121,18 @@ def test_memory_cache_reuse_and_invalidation(tmp_path):
         name = "other"
 
     assert load_or_build_memory(scene, cache, SMALL, Other()).built_now
+
+    # The same encoder computing in bfloat16 (or on a GPU) is another memory: its embeddings round differently.
+    import torch
+
+    class Half(MeanColourEncoder):
+        device, dtype = torch.device("cpu"), torch.bfloat16
+
+    assert encoder_placement(enc) is None and encoder_placement(Half()) == "cpu bfloat16"
+    half = load_or_build_memory(scene, cache, SMALL, Half())
+    assert half.built_now and half.directory != first.directory and half.info["placement"] == "cpu bfloat16"
+    assert not load_or_build_memory(scene, cache, SMALL, enc).built_now  # the CPU float32 one stays
+    assert "placement" not in load_or_build_memory(scene, cache, SMALL, enc).info
 
     # Editing the scene file (same path, new sha1) rebuilds in place.
     with open(scene, "ab") as f:

@@ -73,6 +73,35 @@ def check_model_dir(model_dir: str | Path, required: Sequence[str] = ("config.js
     return path
 
 
+_MAX_HEADER = 100 << 20  # bytes of a safetensors header read at most
+
+
+def checkpoint_parameters(model_dir: str | Path) -> int:
+    """How many weights the ``*.safetensors`` files of ``model_dir`` hold, from their headers alone (each
+    file's first 8 bytes give its JSON header's length, the header each tensor's shape); nothing is
+    unpickled and no weight is read. A BackendError naming the file for one that is not safetensors."""
+    import json
+    import math
+    import struct
+
+    path = check_model_dir(model_dir, ())
+    files = sorted(path.glob("*.safetensors"))
+    if not files:
+        raise BackendError(f"{path}: no *.safetensors files")
+    total = 0
+    for f in files:
+        try:
+            with open(f, "rb") as fh:
+                (n,) = struct.unpack("<Q", fh.read(8))
+                if n > _MAX_HEADER:
+                    raise ValueError(f"a {n}-byte header")
+                header = json.loads(fh.read(n))
+            total += sum(math.prod(t["shape"]) for k, t in header.items() if k != "__metadata__")
+        except (OSError, ValueError, KeyError, TypeError, struct.error, RecursionError) as exc:
+            raise BackendError(f"{f}: not a safetensors file ({type(exc).__name__}: {exc})"[:300]) from None
+    return int(total)
+
+
 def check_image(image: np.ndarray) -> np.ndarray:
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:

@@ -1,8 +1,12 @@
-"""Re-ranker over any OpenAI-compatible chat-completions server (vLLM, llama.cpp, LM Studio, ...).
+"""Re-ranker and captioner over any OpenAI-compatible chat-completions server (vLLM, llama.cpp, LM Studio, ...).
 
 One POST to ``{base_url}/chat/completions`` per view, with the image inlined as a base64 PNG data URL
-and the reference prompt, temperature 0. Uses only the standard library (urllib): no ``openai``
-package, no network access beyond ``base_url``.
+and the reference prompt (or, captioning an image query, the caption prompt), temperature 0. Uses only the
+standard library (urllib): no ``openai`` package, no network access beyond ``base_url``.
+
+:meth:`OpenAIReranker.from_url` takes ``http://HOST:PORT/v1`` and asks the server's ``/models`` which model
+it serves (one, or the one ``#NAME`` after the URL names): what ``--qwen-vl URL`` gives the real stack, so N
+workers share one served VLM instead of loading a copy each.
 """
 
 from __future__ import annotations
@@ -16,7 +20,7 @@ import cv2
 import numpy as np
 
 from navbench.localize.backends.base import BackendError, check_image
-from navbench.localize.vlm import format_prompt, parse_reply
+from navbench.localize.vlm import CAPTION_PROMPT, CAPTION_TOKENS, format_prompt, parse_reply
 
 
 def image_data_url(image: np.ndarray) -> str:
@@ -24,6 +28,9 @@ def image_data_url(image: np.ndarray) -> str:
     if not ok:
         raise BackendError(f"could not PNG-encode an image of shape {image.shape}")
     return "data:image/png;base64," + base64.b64encode(png.tobytes()).decode("ascii")
+
+
+MAX_ANSWER = 1 << 20  # bytes of a server's answer read at most
 
 
 class OpenAIReranker:
@@ -39,36 +46,67 @@ class OpenAIReranker:
         self.timeout = timeout
         self.max_tokens = max_tokens
 
-    def request_body(self, image: np.ndarray, query: str) -> dict:
+    @classmethod
+    def from_url(cls, url: str, api_key: str | None = None, timeout: float = 60.0) -> OpenAIReranker:
+        """The reranker of the model ``url`` (``http://HOST:PORT/v1``, optionally ``#MODEL``) serves: the
+        one model the server's ``/models`` lists, else the one named; a BackendError otherwise."""
+        base, _, model = url.partition("#")
+        reranker = cls(base, model or "?", api_key=api_key, timeout=timeout)
+        if model:
+            return reranker
+        doc = reranker._call(base.rstrip("/") + "/models", None)
+        try:
+            served = [str(m["id"]) for m in doc["data"]]
+        except (KeyError, TypeError):
+            raise BackendError(f"{base}/models returned no data[].id: {str(doc)[:200]}") from None
+        if len(served) != 1:
+            raise BackendError(f"{base} serves {len(served)} models ({', '.join(served)[:200]}): name one as "
+                               f"{base}#MODEL")
+        reranker.model = served[0]
+        return reranker
+
+    def request_body(self, image: np.ndarray, query: str, prompt: str | None = None,
+                     max_tokens: int | None = None) -> dict:
         return {
             "model": self.model,
             "messages": [{
                 "role": "user",
                 "content": [
                     {"type": "image_url", "image_url": {"url": image_data_url(image)}},
-                    {"type": "text", "text": format_prompt(query)},
+                    {"type": "text", "text": prompt if prompt is not None else format_prompt(query)},
                 ],
             }],
-            "max_tokens": self.max_tokens,
+            "max_tokens": max_tokens or self.max_tokens,
             "temperature": 0.0,
         }
 
     def reply(self, image: np.ndarray, query: str) -> str:
         """The server's raw answer to the reference prompt about ``query`` in ``image``."""
+        return self._content(self._call(self.url, self.request_body(image, query)))
+
+    def describe(self, image: np.ndarray) -> str:
+        """Captioner for image queries: a short name of the object in the centre of ``image``."""
+        body = self.request_body(image, "", CAPTION_PROMPT, CAPTION_TOKENS)
+        return self._content(self._call(self.url, body)).strip().rstrip(".")
+
+    def _call(self, url: str, body: dict | None) -> dict:
+        """The JSON answer to a POST of ``body`` (a GET without one) to ``url``."""
         headers = {"Content-Type": "application/json"}
         if self.api_key:
             headers["Authorization"] = f"Bearer {self.api_key}"
-        request = urllib.request.Request(self.url, data=json.dumps(self.request_body(image, query)).encode(),
-                                         headers=headers, method="POST")
+        request = urllib.request.Request(url, data=None if body is None else json.dumps(body).encode(),
+                                         headers=headers, method="GET" if body is None else "POST")
         try:
             with urllib.request.urlopen(request, timeout=self.timeout) as response:
-                doc = json.loads(response.read())
+                return json.loads(response.read(MAX_ANSWER))
         except urllib.error.HTTPError as e:
-            raise BackendError(f"{self.url} answered HTTP {e.code}: {e.read()[:200]!r}") from None
+            raise BackendError(f"{url} answered HTTP {e.code}: {e.read()[:200]!r}") from None
         except (urllib.error.URLError, TimeoutError, OSError) as e:
-            raise BackendError(f"cannot reach {self.url}: {e}") from None
-        except json.JSONDecodeError:
-            raise BackendError(f"{self.url} did not return JSON") from None
+            raise BackendError(f"cannot reach {url}: {e}") from None
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
+            raise BackendError(f"{url} did not return JSON") from None
+
+    def _content(self, doc: dict) -> str:
         try:
             content = doc["choices"][0]["message"]["content"]
         except (KeyError, IndexError, TypeError):

@@ -16,11 +16,10 @@ import numpy as np
 
 from navbench.device import torch_dtype
 from navbench.localize.backends.base import BackendError, check_image, check_model_dir, import_transformers
-from navbench.localize.vlm import format_prompt, parse_reply
+from navbench.localize.vlm import CAPTION_PROMPT, CAPTION_TOKENS, format_prompt, parse_reply
 
 IMAGE_TOKEN = "<|image_pad|>"
 # Image queries: the re-ranker and segmenter are prompted with text, so the goal image is captioned first.
-CAPTION_PROMPT = "Name the object in the centre of this image with its colour, in at most five words."
 CHAT_TEMPLATE = (
     "<|im_start|>system\nYou are a helpful assistant.<|im_end|>\n"
     "<|im_start|>user\n<|vision_start|>{image}<|vision_end|>{prompt}<|im_end|>\n"
@@ -35,7 +34,7 @@ class QwenVLReranker:
     modality = "rgb"
 
     def __init__(self, model_dir: str | Path, device: str = "cpu", max_new_tokens: int = 8,
-                 caption_tokens: int = 12, precision: str = "fp32") -> None:
+                 caption_tokens: int = CAPTION_TOKENS, precision: str = "fp32") -> None:
         transformers = import_transformers()
         import torch
 
