@@ -10,7 +10,6 @@ RUN := $(NB) run --runs-dir $(RUNS) --overwrite -q
 OBJNAV_SPLITS := val_seen val_seen_synonyms val_unseen
 LIMIT_ARG = $(if $(LIMIT),--limit $(LIMIT),)
 BENCH ?= runs/benchmark_h36
-TRITON := 3.8.0  # test-slow: the triton torch 2.14's CUDA build brings (its own LLVM beside Mesa's)
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
 	figures wheel-check lint results-benchmark results-realistic
@@ -27,9 +26,8 @@ run: setup  # the memory agent on ObjectNav val_unseen: the README's headline Ob
 	$(NB) run --split val_unseen
 test: setup
 	$(BIN)/python -m pytest
-test-slow: setup  # slow end-to-end checks, e.g. the committed reference runs reproduce (outcomes and actions exactly, floats per CPU class)
-	$(BIN)/pip install -q -c constraints/ci.txt triton==$(TRITON) "stable-baselines3>=2.9"  # as a CUDA torch brings them
-	$(BIN)/python -m pytest -m slow
+test-slow: setup  # slow end-to-end checks (reference runs reproduce); first triton and SB3, as a CUDA torch from pip brings
+	$(BIN)/pip install -q -c constraints/ci.txt triton==3.8.0 "stable-baselines3>=2.9" && $(BIN)/python -m pytest -m slow
 wheel-check: setup  # sdist + wheel (dist/), then the wheel alone in a fresh venv: both tasks from an empty dir
 	bash tests/wheel_check.sh $(BIN)/python $(PY)
 bench: setup ; $(NB) bench
