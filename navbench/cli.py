@@ -388,7 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--success-distance", type=_positive)
     r.add_argument("--env-config", metavar="NAME|FILE",
                    help="the conditions: a named configuration (habitat-challenge-pointnav-2020, "
-                        "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, navbench, ...: "
+                        "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, habitat-objectnav-hm3d, "
+                        "navbench, ...: "
                         "configs/env/) or a TOML file of EnvConfig fields (sensors, noise; docs/realistic.md)")
     flags = r.add_argument_group("agent options (in brackets: the agents that read each; another agent's flag "
                                  "is an error)")

@@ -143,8 +143,8 @@ class EnvConfig:
         """The fields that differ from ``EnvConfig()``, as a run's config.json records them (``env``); which
         images are rendered and the success distance are the run's, not the configuration's."""
         base = EnvConfig()
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                if f.name not in ("rgb", "depth", "semantic", "success_distance")
+        return {f.name: list(v) if isinstance(v := getattr(self, f.name), tuple) else v  # as JSON holds it
+                for f in dataclasses.fields(self) if f.name not in ("rgb", "depth", "semantic", "success_distance")
                 and getattr(self, f.name) != getattr(base, f.name)}
 
     @classmethod

@@ -21,7 +21,9 @@ class ObjectNavEnv(NavEnv):
     """Object-goal navigation (Habitat ObjectNav-v1 semantics).
 
     ## Action space
-    As :class:`navbench.env.pointnav.PointNavEnv`: ``Discrete(4)`` STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT.
+    As :class:`navbench.env.pointnav.PointNavEnv`: ``Discrete(4)`` STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT;
+    under a configuration with Habitat's HM3D ObjectNav actions (``EnvConfig.load("habitat-objectnav-hm3d")``)
+    ``Discrete(6)``, adding 4 LOOK_UP and 5 LOOK_DOWN (the camera tilts by ``tilt_angle_deg`` = 30).
 
     ## Observation space (``Dict``)
     ``rgb``, ``depth``, optional ``semantic``, ``gps``, ``compass`` as in PointNav, plus

@@ -24,7 +24,9 @@ class PointNavEnv(NavEnv):
     ``Discrete(4)``: 0 STOP (ends the episode), 1 MOVE_FORWARD (``forward_step`` = 0.25 m; motion is
     checked against the navigability grid: without sliding the agent stops where the segment leaves
     the navigable area and a collision is counted), 2 TURN_LEFT and 3 TURN_RIGHT (``turn_angle_deg`` = 30,
-    left = counter-clockwise seen from above).
+    left = counter-clockwise seen from above). An ``EnvConfig`` may list Habitat's six actions
+    (``actions``): 4 LOOK_UP and 5 LOOK_DOWN then tilt the camera by ``tilt_angle_deg`` about its x axis,
+    without limit, as habitat-lab does; the images are rendered at that pitch and nothing moves.
 
     ## Observation space (``Dict``)
     - ``rgb``: ``Box(0, 255, (H, W, 3), uint8)`` pinhole camera, HFOV 79 deg, 0.88 m above the floor.
