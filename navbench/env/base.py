@@ -468,7 +468,7 @@ class NavEnv(gym.Env):
         d = self.distance_to_goal()
         m = episode_metrics(self._stop_called, d, self._d0, self._path_length, self.success_distance)
         assert self.episode is not None  # set by reset()
-        return {
+        info = {
             "episode_id": self.episode.episode_id,
             "scene_id": self.episode.scene_id,
             "distance_to_goal": d,
@@ -481,3 +481,6 @@ class NavEnv(gym.Env):
             "stop_called": self._stop_called,
             "geodesic_distance": self._d0,
         }
+        if self.task_def.extra_info is not None:
+            info.update(self.task_def.extra_info(self, info))
+        return info

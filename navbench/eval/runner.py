@@ -51,7 +51,7 @@ from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.stats import add_intervals
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
-from navbench.metrics import aggregate
+from navbench.metrics import METRIC_KEYS, aggregate
 from navbench.safeio import read_input
 from navbench.tasks import get_task
 
@@ -82,8 +82,9 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> RunSummary:
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the
     failed episodes with their reasons."""
-    by = get_task(cfg.task).group_by
-    summary = aggregate(records, by=by)
+    task = get_task(cfg.task)
+    by = task.group_by
+    summary = aggregate(records, by=by, keys=METRIC_KEYS + task.extra_measures)
     add_intervals(summary, records, by)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
     failed = sorted((r for r in records if r.get("failed")), key=lambda r: (str(r["scene_id"]), str(r["episode_id"])))
     summary.update(task=cfg.task, split=cfg.split, agent=cfg.label or cfg.agent, success_distance=cfg.success_distance,

@@ -34,7 +34,7 @@ from navbench.eval.rundir import RunError
 from navbench.eval.trace import Trace
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
-from navbench.tasks import get_task
+from navbench.tasks import TASKS, get_task
 
 Key = tuple[str, str]  # (scene_id, episode_id)
 AgentFactory = Callable[[RunConfig], Any]
@@ -161,7 +161,14 @@ def failed_record(record: dict[str, Any], reason: str, d0: float, distance: floa
         stop_called=bool(info.get("stop_called", False)), collisions=int(info.get("collisions", 0)),
         elapsed_s=round(elapsed, 4), failed=True, failure_reason=reason,
     )
+    record.update({m: 0.0 for m in _extra_measures(record)})
     return record
+
+
+def _extra_measures(record: dict[str, Any]) -> tuple[str, ...]:
+    """The measures of the record's task beyond Habitat's four (none for a task no longer registered)."""
+    task = TASKS.get(str(record.get("task")))
+    return task.extra_measures if task is not None else ()
 
 
 def _begin(env: NavEnv, episode: Episode, cfg: RunConfig, tracker: Tracker = _NO_TRACKER,
@@ -201,6 +208,7 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
         path_length=info["path_length"], num_steps=info["num_steps"], stop_called=info["stop_called"],
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
+    record.update({m: info[m] for m in _extra_measures(record)})
     if log:
         record["log"] = log
     if trace is not None:

@@ -70,8 +70,16 @@ def _distance_space(dataset, config) -> spaces.Box:
     return spaces.Box(0, np.inf, (1,), np.float32)
 
 
+def _straight_line(ctx, info) -> dict:
+    """A measure of the toy's own: the straight-line distance left, and whether STOP came within 1 m of it."""
+    left = float(_distance(ctx)[0])
+    return {"straight_line": left, "near_stop": float(info["stop_called"] and left < 1.0)}
+
+
 TOY = Task(name="toydistance", gym_id="navbench/ToyDistance-v0", title="a toy", reference="none",
            goal_sensors=(GoalSensor("goal_distance", _distance_space, _distance),),
+           measures=("distance_to_goal", "success", "spl", "soft_spl", "straight_line", "near_stop"),
+           extra_info=_straight_line,
            success_distance=0.3, max_steps=40, splits=("val",), default_split="val", default_agent="oracle")
 
 
@@ -92,6 +100,11 @@ def test_a_registered_task_runs_through_env_worker_and_runner_unchanged(toy_task
     assert summary["task"] == cfg["task"] == "toydistance" and cfg["success_distance"] == 0.3
     assert cfg["env"] == {"max_steps": 40}  # the task's step limit, recorded
     assert summary["success"] == 1.0 and summary["num_episodes"] > 0
+    # the task's own measures: in every record (from the last info) and averaged in the summary
+    records = [json.loads(line) for line in (tmp_path / "run" / "episodes.jsonl").read_text().splitlines()]
+    assert all(r["near_stop"] == 1.0 and 0 <= r["straight_line"] < 0.3 for r in records)
+    assert summary["near_stop"] == 1.0
+    assert summary["straight_line"] == pytest.approx(sum(r["straight_line"] for r in records) / len(records))
 
 
 def test_env_takes_its_action_list_and_limit_from_the_task(pointnav_file):
