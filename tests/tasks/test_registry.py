@@ -111,3 +111,20 @@ def test_env_takes_its_action_list_and_limit_from_the_task(pointnav_file):
     env = task_env("pointnav", pointnav_file)
     assert env.actions == ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT") and env.action_space.n == 4
     env.close()
+
+
+@pytest.mark.parametrize("agent, task, fits", [("memory", "imagenav", "objectnav"),
+                                               ("frontier", "pointnav", "objectnav"),
+                                               ("pointnav", "objectnav", "pointnav")])
+def test_a_builtin_agent_is_refused_a_task_whose_goal_it_cannot_read(agent, task, fits, capsys):
+    assert main(["run", "--task", task, "--agent", agent, "--limit", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"task '{task}' gives" in err[0] and f"--task {fits}" in err[0]
+
+
+def test_the_oracle_and_the_random_agent_run_any_task():
+    from navbench.agents.registry import check_task
+    from navbench.env.config import EnvConfig
+    for name in TASKS:
+        for agent in ("oracle", "random"):
+            check_task(agent, name, EnvConfig())
