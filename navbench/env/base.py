@@ -461,8 +461,10 @@ class NavEnv(gym.Env):
         return obs
 
     def _goal_observation(self) -> dict[str, np.ndarray]:
-        """The task's goal observations: per-episode ones as computed at reset, the others now."""
-        return {s.uuid: self._episode_goals[s.uuid] if s.per_episode else s.observe(self) for s in self.goal_sensors}
+        """The task's goal observations: per-episode ones as computed at reset (a copy: what a caller is given is
+        its own), the others now."""
+        return {s.uuid: self._episode_goals[s.uuid].copy() if s.per_episode else s.observe(self)
+                for s in self.goal_sensors}
 
     def _info(self) -> dict[str, Any]:
         d = self.distance_to_goal()
