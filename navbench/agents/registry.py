@@ -251,8 +251,11 @@ def check_conditions(agent: str | None, task: str, env: Any) -> None:
     if spec is None:
         return
     if not env.gps_compass and not spec.gps_free:
+        given = {s.uuid for s in TASKS[task].sensors(env)} if task in TASKS else set()
+        free = [n for n, s in AGENTS.items() if s.gps_free and (not s.goals or set(s.goals) & given or not given)]
         raise ValueError(f"agent {agent!r} knows its pose from GPS+compass, which this configuration does not "
-                         f"give (gps_compass = false); run it under one that does, or use --agent pointnav")
+                         f"give (gps_compass = false); run it under one that does, or use --agent "
+                         f"{' or '.join(free)}")
     if env.camera_pitch_deg != 0.0 and spec.level_camera:
         raise ValueError(f"agent {agent!r} maps depth with a level camera: it cannot run with camera_pitch_deg "
                          f"{env.camera_pitch_deg:g}")
