@@ -238,7 +238,6 @@ class NavEnv(gym.Env):
         self._done = False
         self._tilt = 0.0
         # per-episode goal observations (goal images) are computed once, here, at the start pose
-        self._episode_goals = {}
         self._episode_goals = {s.uuid: s.observe(self) for s in self.goal_sensors if s.per_episode}
         return self._observe(), self._info()
 
