@@ -130,3 +130,26 @@ def test_the_oracle_reaches_every_goal_of_the_bundled_split(tmp_path):
 def test_the_oracle_reaches_every_goal_of_the_whole_bundled_split(tmp_path):
     summary = navbench.evaluate("oracle", task="imagenav", out=tmp_path / "run")
     assert summary["num_episodes"] == 400 and summary["success"] == 1.0
+
+
+def test_a_habitat_pointnav_v1_file_with_content_runs_unchanged(tmp_path, pointnav_file):
+    """A PointNav-v1 split as habitat-lab's datasets/pointnav/pointnav_dataset.py reads it (an empty top-level
+    file, the episodes in content/{scene}.json.gz; written here from the schema, not by navbench): the oracle
+    reaches every goal with d0 within 3% of the file's geodesic distance."""
+    src = json.loads(gzip.decompress(pointnav_file.read_bytes()))["episodes"]
+    episodes = [{"episode_id": str(e["episode_id"]), "scene_id": e["scene_id"],
+                 "start_position": e["start_position"], "start_rotation": e["start_rotation"],
+                 "info": {"geodesic_distance": e["info"]["geodesic_distance"]},
+                 "goals": [{"position": e["goals"][0]["position"], "radius": None}],
+                 "shortest_paths": None, "start_room": None} for e in src]
+    split = tmp_path / "val"
+    (split / "content").mkdir(parents=True)
+    (split / "val.json.gz").write_bytes(gzip.compress(json.dumps({"episodes": []}).encode()))
+    scene = episodes[0]["scene_id"].rsplit("/", 1)[-1].split(".")[0]
+    (split / "content" / f"{scene}.json.gz").write_bytes(gzip.compress(json.dumps({"episodes": episodes}).encode()))
+    summary = navbench.evaluate("oracle", task="imagenav", episodes=split / "val.json.gz", out=tmp_path / "run")
+    assert summary["num_episodes"] == len(episodes) and summary["success"] == 1.0
+    records = [json.loads(line) for line in (tmp_path / "run" / "episodes.jsonl").read_text().splitlines()]
+    file_d0 = {e["episode_id"]: e["info"]["geodesic_distance"] for e in episodes}
+    assert all(abs(r["geodesic_distance"] - file_d0[r["episode_id"]]) <= 0.03 * file_d0[r["episode_id"]]
+               for r in records)
