@@ -68,8 +68,10 @@ def episode_metrics(stop_called: bool, distance_to_goal: float, d0: float, path_
 METRIC_KEYS = ("success", "spl", "soft_spl", "distance_to_goal")
 
 
-def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None) -> dict[str, Any]:
-    """Mean of each metric over scored records (skipped episodes excluded, and counted).
+def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None,
+              keys: tuple[str, ...] = METRIC_KEYS) -> dict[str, Any]:
+    """Mean of each metric (``keys``: Habitat's four, and a task's own) over scored records (skipped episodes
+    excluded, and counted).
 
     With ``by`` (e.g. ``"object_category"``) also returns ``{"by_<by>": {value: {...means...}}}``.
     Records are sorted by episode id first so floating-point sums do not depend on finishing order.
@@ -77,13 +79,13 @@ def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None) -> di
     rows = sorted(records, key=lambda r: (str(r.get("scene_id", "")), str(r.get("episode_id", ""))))
     scored = [r for r in rows if not r.get("skipped")]
     out: dict[str, Any] = {"num_episodes": len(scored), "num_skipped": len(rows) - len(scored)}
-    for k in METRIC_KEYS:
+    for k in keys:
         vals = [float(r[k]) for r in scored]
         out[k] = math.fsum(vals) / len(vals) if vals else float("nan")
     if by is not None:
         groups: dict[str, list[Mapping[str, Any]]] = {}
         for r in scored:
             groups.setdefault(str(r.get(by)), []).append(r)
-        out[f"by_{by}"] = {g: {k: v for k, v in aggregate(rs).items() if k != "num_skipped"}
+        out[f"by_{by}"] = {g: {k: v for k, v in aggregate(rs, keys=keys).items() if k != "num_skipped"}
                            for g, rs in sorted(groups.items())}
     return out

@@ -97,30 +97,33 @@ class _Client:
             self.conn = None
 
 
-SPLITS = {"pointnav": "val", "objectnav": "val_seen"}  # the bundled split whose first episode is sent
+SPLITS = {"objectnav": "val_seen"}  # the bundled split whose first episode is sent, when not the task's default
+
+
+def check_split(task: str) -> str:
+    """The bundled split of ``task`` whose first episode the check sends."""
+    from navbench.tasks import get_task
+    return SPLITS.get(task, get_task(task).default_split)
 
 
 def run_config(task: str) -> dict[str, Any]:
     """The ``config`` of ``/reset`` as navbench's client sends it for the task's bundled split."""
-    from navbench.env.config import SUCCESS_DISTANCE
-    from navbench.paths import SCENES_DIR, split_file
-    success_distance = SUCCESS_DISTANCE["ovon" if task == "objectnav" else task]  # navbench's bundled splits
-    return {"task": task, "split": SPLITS[task], "episodes": str(split_file(task, SPLITS[task])),
-            "scene_dir": str(SCENES_DIR), "success_distance": success_distance, "seed": 0, "env": {}}
+    from navbench.paths import SCENES_DIR
+    from navbench.tasks import get_task
+    t, split = get_task(task), check_split(task)
+    return {"task": task, "split": split, "episodes": str(t.split_file(split)),
+            "scene_dir": str(SCENES_DIR), "success_distance": t.success_distance_for(split), "seed": 0, "env": {}}
 
 
 def sample_observation(task: str, sensors: tuple[str, ...]) -> tuple[dict[str, np.ndarray], Any]:
     """One observation as the task's env gives it to an agent reading ``sensors`` (the first episode of the
     bundled validation split, rendered), and that episode."""
     from navbench.env.config import EnvConfig
-    from navbench.paths import split_file
-    cfg = EnvConfig(rgb="rgb" in sensors, depth="depth" in sensors, semantic="semantic" in sensors)
-    if task == "objectnav":
-        from navbench.env.objectnav import ObjectNavEnv
-        env: Any = ObjectNavEnv(split_file(task, SPLITS[task]), config=cfg)
-    else:
-        from navbench.env.pointnav import PointNavEnv
-        env = PointNavEnv(split_file(task, SPLITS[task]), config=cfg)
+    from navbench.env.make import task_env
+    from navbench.tasks import get_task
+    cfg = EnvConfig(rgb="rgb" in sensors, depth="depth" in sensors, semantic="semantic" in sensors,
+                    max_steps=get_task(task).max_steps)
+    env = task_env(task, get_task(task).split_file(check_split(task)), config=cfg)
     try:
         episode = env.dataset.episodes[0]
         obs, _ = env.reset(seed=0, options={"episode": episode})
@@ -162,6 +165,8 @@ def check_server(url: str, task: str = "pointnav", steps: int = 200, timeout: fl
                  log=print) -> list[Check]:
     """Run every check against the server at ``url``, calling ``log`` with each result's line as it is
     known; the results. ValueError (one line) when the server cannot be reached at all."""
+    from navbench.tasks import get_task
+    actions = get_task(task).actions  # the action space of the task's bundled split (navbench's EnvConfig)
     client = _Client(url, timeout)
     checks: list[Check] = []
 
@@ -224,8 +229,9 @@ def check_server(url: str, task: str = "pointnav", steps: int = 200, timeout: fl
         problem = _answer_problem(a, "action")
         if not problem:
             action = a.body["action"]
-            if not isinstance(action, int) or isinstance(action, bool) or not 0 <= action <= 3:
-                problem = f"action {action!r}: expected an integer 0-3 (0 STOP, 1 FORWARD, 2 LEFT, 3 RIGHT)"
+            if not isinstance(action, int) or isinstance(action, bool) or not 0 <= action < len(actions):
+                problem = (f"action {action!r}: expected an integer 0-{len(actions) - 1} "
+                           f"({', '.join(f'{i} {a}' for i, a in enumerate(actions))})")
         return a, problem
 
     first, problem = act(sa)

@@ -50,12 +50,16 @@ from navbench.env.config import ACTION_NAMES, CONDITIONS, SUCCESS_DISTANCE, EnvC
 from navbench.paths import ROOT
 from navbench.safeio import printable, read_input
 from navbench.scene import MULTI_STOREY_NAVIGABILITY_VERSION, NAVIGABILITY_VERSION
+from navbench.tasks import TASKS
 
 PROVENANCE = "provenance.json"
 RUN_FILE_CAP = 16 << 20  # the most a run directory's config.json or provenance.json is read of
 PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
 # EnvConfig fields that do not change a score: which images are rendered (each agent's own) and the GL platform.
 _NOT_PROTOCOL = ("rgb", "depth", "semantic", "gl_platform")
+# EnvConfig fields a protocol lists only when set: the action list (its names are the protocol's `actions`)
+# and the tilt of LOOK_UP / LOOK_DOWN.
+_WHEN_SET = {"actions": None, "tilt_angle_deg": EnvConfig().tilt_angle_deg}
 
 
 class ProtocolError(ValueError):
@@ -77,34 +81,12 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
     # realistic conditions (noise, camera pitch, no GPS+compass) only when on: a noiseless run's protocol is
     # what it was before they existed, and a noisy one never matches it
     fields = {k: v for k, v in fields.items() if k not in CONDITIONS or v != CONDITIONS[k]}
-    _action_space(cfg, fields)
+    fields = {k: v for k, v in fields.items() if k not in _WHEN_SET or (v != _WHEN_SET[k] and k != "actions")}
     fields["success_distance"] = success_distance if success_distance is not None else SUCCESS_DISTANCE.get(task)
     fields["navigability"] = MULTI_STOREY_NAVIGABILITY_VERSION if multi_storey else NAVIGABILITY_VERSION
-    return {"task": task, **dict(sorted(fields.items()))}
-
-
-def _plain(v: Any) -> Any:
-    """A configuration value as JSON holds it (dataclasses as objects, tuples as lists)."""
-    if dataclasses.is_dataclass(v) and not isinstance(v, type):
-        return {k: _plain(x) for k, x in dataclasses.asdict(v).items()}
-    if isinstance(v, dict):
-        return {str(k): _plain(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_plain(x) for x in v]
-    return getattr(v, "name", v) if not isinstance(v, (str, int, float, bool, type(None))) else v
-
-
-def _action_space(cfg: EnvConfig, fields: dict[str, Any]) -> None:
-    """Put the actions an agent may take into ``fields`` as the configuration has them (``actions``, else
-    navbench's four), and the tilt angle only when an action tilts the camera (step size and turn angle are
-    EnvConfig fields): a run of the four actions keeps the protocol it had before others existed."""
-    actions = getattr(cfg, "actions", None)
-    fields["actions"] = _plain(actions) if actions is not None else list(ACTION_NAMES)
-    tilt = getattr(cfg, "tilt_angle_deg", None)
-    if tilt is not None and any("LOOK" in str(a).upper() for a in fields["actions"]):
-        fields["tilt_angle_deg"] = tilt
-    else:
-        fields.pop("tilt_angle_deg", None)
+    known = TASKS.get(task)
+    actions = cfg.actions or (known.actions if known is not None else ACTION_NAMES)
+    return {"task": task, "actions": list(actions), **dict(sorted(fields.items()))}
 
 
 def _storey_rise(env: dict[str, Any] | None) -> float:
