@@ -58,7 +58,7 @@ PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
 # EnvConfig fields that do not change a score: which images are rendered (each agent's own) and the GL platform.
 _NOT_PROTOCOL = ("rgb", "depth", "semantic", "gl_platform")
 # EnvConfig fields a protocol lists only when set: the action list (its names are the protocol's `actions`)
-# and the tilt of LOOK_UP / LOOK_DOWN.
+# and the tilt of LOOK_UP / LOOK_DOWN (only when an action looks).
 _WHEN_SET = {"actions": None, "tilt_angle_deg": EnvConfig().tilt_angle_deg}
 
 
@@ -86,6 +86,8 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
     fields["navigability"] = MULTI_STOREY_NAVIGABILITY_VERSION if multi_storey else NAVIGABILITY_VERSION
     known = TASKS.get(task)
     actions = cfg.actions or (known.actions if known is not None else ACTION_NAMES)
+    if not any(a.startswith("LOOK_") for a in actions):
+        fields.pop("tilt_angle_deg", None)  # nothing tilts the camera: its angle changes no score
     return {"task": task, "actions": list(actions), **dict(sorted(fields.items()))}
 
 

@@ -94,8 +94,16 @@ def test_a_resolved_objectnav_config_runs_and_config_json_shows_each_value_it_se
     assert "habitat.dataset.data_path" in s.ignored and "habitat.dataset.data_path" not in s.used
 
 
+def test_habitat_objectnav_six_actions_set_the_action_list_and_the_tilt(tmp_path):
+    six = {"stop": {"type": "StopAction"}, "move_forward": {"type": "MoveForwardAction"},
+           "turn_left": {"type": "TurnLeftAction"}, "turn_right": {"type": "TurnRightAction"},
+           "look_up": {"type": "LookUpAction"}, "look_down": {"type": "LookDownAction"}}
+    s = read_habitat_config(write(tmp_path, objectnav_config(**{"habitat.task.actions": six})))
+    assert s.env.actions == ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN")
+    assert s.env.tilt_angle_deg == 30
+
+
 @pytest.mark.parametrize("changes, key", [
-    ({"habitat.task.actions.look_up": {"type": "LookUpAction"}}, "habitat.task.actions.look_up"),
     ({"habitat.simulator.agents.main_agent.sim_sensors.rgb_sensor.position": [0.0, 1.25, 0.0]},
      "habitat.simulator.agents.main_agent.sim_sensors.rgb_sensor.position"),
     ({"habitat.simulator.agents.main_agent.sim_sensors.depth_sensor.hfov": 90},

@@ -18,6 +18,7 @@ from navbench.eval.provenance import (
     ProtocolError,
     check_same_protocol,
     config_protocol,
+    protocol,
     protocol_id,
     provenance,
     run_protocol,
@@ -173,18 +174,14 @@ def test_a_multi_storey_episode_file_runs_under_the_storeys_navigability(tmp_pat
 
 
 def test_the_action_space_is_the_configurations_and_a_tilt_counts_only_with_a_look_action():
-    from navbench.env.config import EnvConfig
-    from navbench.eval.provenance import _action_space
-    fields = {"tilt_angle_deg": 30.0}
-    _action_space(EnvConfig(), fields)
-    assert fields == {"actions": ["STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT"]}
-
-    class WithLook:  # a configuration that lists its actions (as a registry of actions would)
-        actions = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN")
-        tilt_angle_deg = 15.0
-    fields = {}
-    _action_space(WithLook(), fields)
-    assert fields == {"actions": list(WithLook.actions), "tilt_angle_deg": 15.0}
+    four = ["STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT"]
+    assert protocol("objectnav", None)["actions"] == four and "tilt_angle_deg" not in protocol("objectnav", None)
+    assert "tilt_angle_deg" not in protocol("objectnav", None, {"tilt_angle_deg": 30.0})  # nothing looks
+    six = [*four, "LOOK_UP", "LOOK_DOWN"]
+    looks = protocol("objectnav", None, {"actions": six, "tilt_angle_deg": 30.0})
+    assert looks["actions"] == six and looks["tilt_angle_deg"] == 30.0
+    assert protocol_id(looks) != protocol_id(protocol("objectnav", None, {"actions": six}))
+    assert protocol_id(protocol("objectnav", None, {"actions": six})) != protocol_id(protocol("objectnav", None))
 
 
 def test_provenance_names_torchs_build_and_the_dataset_releases_its_paths_tell(tmp_path):
