@@ -34,22 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goal
 from navbench.localize.goat import GoatSplitError
 from navbench.localize.pipeline import Query
 
 MAX_DESCRIPTION_WORDS = 55  # goat_dataset.py's from_json keeps descriptions of at most 55 words
 TYPES = {"object": "object", "description": "language", "image": "image"}  # GOAT-Bench -> navbench query type
-
-
-@dataclass(frozen=True)
-class ImageGoal:
-    """One ``InstanceImageParameters`` entry: camera position (world), rotation [x, y, z, w], hfov, (H, W)."""
-
-    position: tuple[float, float, float]
-    rotation: tuple[float, float, float, float]
-    hfov_deg: float
-    height: int
-    width: int
 
 
 @dataclass(frozen=True)
@@ -67,11 +57,11 @@ class GoatBenchSubtask:
         """The localiser's :class:`Query`; an image query is rendered from the scene ``asset``."""
         if self.type != "image":
             return Query(self.type, text=self.query)
-        from navbench.render.camera import CameraConfig
+        from navbench.env.goal_images import image_goal_camera
         from navbench.render.renderer import Renderer
 
         g = self.image_goal
-        with Renderer(asset, CameraConfig(width=g.width, height=g.height, hfov_deg=g.hfov_deg)) as r:
+        with Renderer(asset, image_goal_camera(g)) as r:
             out = r.render(np.asarray(g.position), np.asarray(g.rotation), rgb=True, depth=False, ids=True)
         return Query("image", image=out.rgb, image_ids=out.ids)
 
@@ -145,7 +135,7 @@ def _subtasks(doc: dict, out: list[GoatBenchSubtask], seen: set[tuple]) -> None:
                 if not isinstance(image_index, int) or isinstance(image_index, bool):
                     raise ValueError(f"episode {ep.get('episode_id')}: image task {n} needs an image index "
                                      f"(its 4th element)")
-                image_goal = _image_goal(chosen[0]["image_goals"][image_index])
+                image_goal = parse_image_goal(chosen[0]["image_goals"][image_index])
             gt = np.array([[float(v) for v in g["position"]] for g in chosen], dtype=np.float64).reshape(-1, 3)
             if not np.isfinite(gt).all():
                 raise ValueError(f"episode {ep.get('episode_id')}: goal positions must be finite")
@@ -166,16 +156,3 @@ def _category_goals(goals: dict, scene_id: str, category: str) -> list[dict]:
     for child in found[0].get("children_object_categories") or []:
         out += goals.get(f"{base}_{child}", [])
     return out
-
-
-def _image_goal(p: dict) -> ImageGoal:
-    pos = [float(v) for v in p["position"]]
-    rot = [float(v) for v in p["rotation"]]
-    h, w = (int(v) for v in p["image_dimensions"])
-    hfov = float(p["hfov"])
-    if len(pos) != 3 or len(rot) != 4 or not (0 < hfov < 180) or not (0 < h <= 4096 and 0 < w <= 4096):
-        raise ValueError(f"image goal needs position[3], rotation[4], 0 < hfov < 180 and image_dimensions "
-                         f"(H, W) up to 4096, got {p!r}"[:200])
-    if not np.isfinite(pos + rot).all() or not np.isclose(np.linalg.norm(rot), 1.0, atol=1e-3):
-        raise ValueError(f"image goal position/rotation must be finite with a unit quaternion, got {p!r}"[:200])
-    return ImageGoal(tuple(pos), tuple(rot), hfov, h, w)
