@@ -32,12 +32,17 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from navbench.episodes.io import _episode, _object_goal, _vec, read_json
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError, ObjectGoal
 from navbench.metrics import episode_metrics
 from navbench.safeio import printable
+
+if TYPE_CHECKING:
+    from navbench.scene.asset import SceneAsset
 
 # habitat-lab config/habitat/task/instance_imagenav.yaml: measurements.success.success_distance 0.1,
 # measurements.distance_to_goal.distance_to VIEW_POINTS; benchmark yamls: environment.max_episode_steps 1000.
@@ -119,6 +124,17 @@ def instance_goal_key(scene_id: str, goal_object_id: object) -> str:
     for ext in (".glb", ".basis"):
         sid = sid[: -len(ext)] if sid.endswith(ext) else sid
     return f"{sid}_{goal_object_id}"
+
+
+def instance_imagegoal_observations(asset: SceneAsset, episode: InstanceImageEpisode,
+                                    platform: str = "auto") -> dict[str, np.ndarray]:
+    """``{"instance_imagegoal": (H, W, 3) uint8, "instance_imagegoal_hfov": [hfov] float32 degrees}`` of an
+    episode (``InstanceImageGoalSensor``, ``InstanceImageGoalHFOVSensor``, L189-249)."""
+    from navbench.render.goal_images import render_image_goal
+
+    goal = episode.image_goal
+    return {"instance_imagegoal": render_image_goal(asset, goal, platform),
+            "instance_imagegoal_hfov": np.array([goal.hfov_deg], np.float32)}
 
 
 def instance_imagenav_metrics(stop_called: bool, distance_to_view_points: float, d0: float,

@@ -57,7 +57,7 @@ class GoatBenchSubtask:
         """The localiser's :class:`Query`; an image query is rendered from the scene ``asset``."""
         if self.type != "image":
             return Query(self.type, text=self.query)
-        from navbench.env.goal_images import image_goal_camera
+        from navbench.render.goal_images import image_goal_camera
         from navbench.render.renderer import Renderer
 
         g = self.image_goal

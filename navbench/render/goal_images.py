@@ -1,43 +1,47 @@
 """Goal images rendered from a dataset's camera poses: InstanceImageNav's ``instance_imagegoal`` and
-``instance_imagegoal_hfov``, and GOAT-Bench's image subtasks, which use the same procedure.
+GOAT-Bench's image subtasks, which use the same procedure.
 
 habitat-lab ``habitat/tasks/nav/instance_image_nav_task.py`` (``InstanceImageGoalSensor``, L141-187)
 adds a temporary pinhole COLOR sensor of ``resolution = image_dimensions`` ([H, W]) and ``hfov`` and
 sets its pose to the file's world ``position`` and ``rotation`` (``infer_sensor_states=False``: the
-agent's body, height and camera play no part, so pitch and roll are the file's), draws it, keeps RGB;
-``InstanceImageGoalHFOVSensor`` (L217-249) gives ``[hfov]`` as float32 degrees. The image is made once
-per episode and returned unchanged at every step; so is it here (:class:`GoalImageCache`).
+agent's body, height and camera play no part, so pitch and roll are the file's), draws it and keeps
+RGB. The image is made once per episode and returned unchanged at every step (:class:`GoalImageCache`).
+
+A goal is any object with ``position`` (3), ``rotation`` [x, y, z, w], ``hfov_deg``, ``height`` and
+``width`` (:class:`navbench.episodes.instance_imagenav.ImageGoal`).
 """
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
-from navbench.episodes.instance_imagenav import ImageGoal, InstanceImageEpisode
 from navbench.render.camera import CameraConfig
 from navbench.scene.asset import SceneAsset
 
 
-def image_goal_camera(goal: ImageGoal) -> CameraConfig:
+class CameraGoal(Protocol):
+    position: tuple[float, float, float]
+    rotation: tuple[float, float, float, float]
+    hfov_deg: float
+    height: int
+    width: int
+
+
+def image_goal_camera(goal: CameraGoal) -> CameraConfig:
     """The pinhole camera of a goal image: its width, height and horizontal field of view."""
     return CameraConfig(width=goal.width, height=goal.height, hfov_deg=goal.hfov_deg)
 
 
-def render_image_goal(asset: SceneAsset, goal: ImageGoal, platform: str = "auto") -> np.ndarray:
+def render_image_goal(asset: SceneAsset, goal: CameraGoal, platform: str = "auto") -> np.ndarray:
     """The (H, W, 3) uint8 RGB image a camera at the goal's full world pose sees in ``asset``."""
     from navbench.render.renderer import Renderer  # binds the GL platform: only when an image is drawn
 
     with Renderer(asset, image_goal_camera(goal), platform=platform) as renderer:
         out = renderer.render(np.asarray(goal.position), np.asarray(goal.rotation), rgb=True, depth=False)
+    assert out.rgb is not None  # rendered when asked for
     return np.ascontiguousarray(out.rgb[:, :, :3], dtype=np.uint8)
-
-
-def instance_imagegoal_observations(asset: SceneAsset, episode: InstanceImageEpisode,
-                                    platform: str = "auto") -> dict[str, np.ndarray]:
-    """``{"instance_imagegoal": (H, W, 3) uint8, "instance_imagegoal_hfov": [hfov] float32}`` for an episode."""
-    goal = episode.image_goal
-    return {"instance_imagegoal": render_image_goal(asset, goal, platform),
-            "instance_imagegoal_hfov": np.array([goal.hfov_deg], np.float32)}
 
 
 class GoalImageCache:
@@ -50,7 +54,7 @@ class GoalImageCache:
         self._image: np.ndarray | None = None
         self.renders = 0
 
-    def get(self, key: object, asset: SceneAsset, goal: ImageGoal) -> np.ndarray:
+    def get(self, key: object, asset: SceneAsset, goal: CameraGoal) -> np.ndarray:
         if self._image is None or key != self._key:
             self._image = render_image_goal(asset, goal, self.platform)
             self._key = key

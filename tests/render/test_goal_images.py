@@ -3,9 +3,14 @@
 import numpy as np
 import pytest
 
-from navbench.env.goal_images import GoalImageCache, instance_imagegoal_observations, render_image_goal
-from navbench.episodes.instance_imagenav import ImageGoal, InstanceImageEpisode, InstanceImageGoal
+from navbench.episodes.instance_imagenav import (
+    ImageGoal,
+    InstanceImageEpisode,
+    InstanceImageGoal,
+    instance_imagegoal_observations,
+)
 from navbench.episodes.types import AgentState, ViewPoint
+from navbench.render.goal_images import GoalImageCache, render_image_goal
 from navbench.scene.asset import load_scene
 
 POS = (0.5, 1.3, 0.5)  # inside the smoke house (bounds x, z in +-6, y in [-0.1, 2.7])
