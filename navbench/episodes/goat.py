@@ -35,6 +35,8 @@ points) is one-line :class:`EpisodeError` naming the file, the episode, the subt
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,6 +46,7 @@ import numpy as np
 from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goal
 from navbench.episodes.io import _episode, _vec, read_json
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
+from navbench.metrics import GOAT_STOP, goat_metrics
 from navbench.safeio import printable
 
 # goat-bench goat_bench/config.py GoatCurrentSubtaskSensorConfig.sub_task_type: current_subtask is the index
@@ -292,3 +295,70 @@ def _subtask(where: str, t: Any) -> GoatSubtask:
                                f"{printable(repr(t), 80)}")
     return GoatSubtask(category, kind, t[2], image_index)
 
+
+
+class GoatProgress:
+    """Where a GOAT episode stands, as goat-bench's ``GoatTask`` keeps it (``goat_task.py`` L73-130): the
+    active subtask, what the agent is told about it, and the states its measures are computed from.
+
+    ``reset(position, distance)`` with the distance from the start to ``goals[0]``; then ``step(action,
+    position, distance_to)`` after each action, the agent already moved, with ``distance_to(k)`` the
+    distance from ``position`` to the goals of subtask ``k``. SUBTASK_STOP (6) closes the active subtask
+    and the next one starts at once from the same pose; STOP (0) ends the episode; so does closing
+    ``num_goals`` subtasks or taking ``max_steps`` actions. :meth:`metrics` gives the measures."""
+
+    def __init__(self, episode: GoatEpisode, max_steps: int = MAX_EPISODE_STEPS,
+                 success_distance: float = SUCCESS_DISTANCE) -> None:
+        self.episode, self.max_steps, self.success_distance = episode, max_steps, success_distance
+        self.states: list[tuple[int | None, list[float], float]] = []
+        self.active = 0
+        self.stop_called = False
+
+    def reset(self, position: Sequence[float], distance: float) -> None:
+        self.states = [(None, [float(v) for v in position], float(distance))]
+        self.active = 0
+        self.stop_called = False
+
+    @property
+    def num_steps(self) -> int:
+        return len(self.states) - 1
+
+    @property
+    def over(self) -> bool:
+        return self.stop_called or self.active >= self.episode.num_goals or self.num_steps >= self.max_steps
+
+    def step(self, action: int, position: Sequence[float], distance_to: Callable[[int], float]) -> None:
+        if not self.states or self.over:
+            raise RuntimeError("GOAT episode is over (or not started): reset() first")
+        action = int(action)
+        if action == GOAT_STOP:
+            self.stop_called = True
+        elif action == SUBTASK_STOP:
+            self.active += 1
+        d = float(distance_to(self.active)) if self.active < self.episode.num_goals else math.nan
+        self.states.append((action, [float(v) for v in position], d))
+
+    @property
+    def distance(self) -> float:
+        """The distance to the active subtask's goals (the last one measured once the episode is over)."""
+        return next(d for _, _, d in reversed(self.states) if not math.isnan(d))
+
+    @property
+    def current_subtask(self) -> int:
+        """habitat's ``current_subtask``: 0, 1, 2 for an object, description or image subtask; 3 (``DONE``)
+        past the last task (``GoatCurrentSubtaskSensor``, ``sensors.py`` L587-602)."""
+        k = self.active
+        return self.episode.tasks[k].current_subtask if k < len(self.episode.tasks) else DONE
+
+    def goal(self) -> tuple[str, str, ImageGoal | None]:
+        """What the agent is told of the active subtask, raw: its category, its description text ("" unless
+        a description subtask) and the camera of its goal image (None unless an image subtask); "" past the
+        last task. Taken from ``tasks[k]``, as ``current_subtask`` is."""
+        k = self.active
+        if self.current_subtask == DONE:
+            return "", "", None
+        return self.episode.tasks[k].category, self.episode.descriptions[k] or "", self.episode.image_goals[k]
+
+    def metrics(self) -> dict[str, Any]:
+        return goat_metrics([t.type for t in self.episode.tasks], self.states, self.episode.num_goals,
+                            self.success_distance, self.max_steps)

@@ -146,3 +146,32 @@ def test_oversized_file_is_refused(tmp_path):
 def test_view_points_are_floats(tmp_path):
     (ep, _) = load_goat(_split(tmp_path)).episodes
     assert ep.subtask_goal_positions(2).dtype == np.float64
+
+
+def test_progress_sequences_subtasks_from_the_same_pose(tmp_path):
+    from navbench.episodes.goat import DONE, GoatProgress
+
+    (ep, _) = load_goat(_split(tmp_path)).episodes  # 5 tasks, 4 goals (the bed's description is dropped)
+    p = GoatProgress(ep)
+    pos = np.zeros(3)
+
+    def dist(k):  # to the view points of goals[k], from where the agent stands
+        return float(np.linalg.norm(ep.subtask_goal_positions(k) - pos, axis=1).min())
+
+    p.reset(pos, dist(0))
+    seen = [(p.current_subtask, p.goal()[0])]
+    for target in ([0, 0, 1], [0, 0, 2], [0, 0, 2], [0, 0, 4]):
+        while not np.allclose(pos, target):
+            pos = pos + np.array([0, 0, 0.25])
+            p.step(1, pos, dist)
+        p.step(6, pos, dist)
+        seen.append((p.current_subtask, p.goal()[0]))
+    assert p.over and p.num_steps == 16 + 4  # 16 forward steps to z = 4, four SUBTASK_STOPs
+    # habitat's current_subtask follows tasks[k]: the dropped description (tasks[3]) is announced last
+    assert seen == [(0, "chair"), (1, "chair"), (2, "chair"), (1, "bed"), (1, "bed")]
+    assert p.goal()[1] == " ".join(["word"] * 56) and DONE == 3
+    m = p.metrics()
+    # goals[3] is the stool's, reached; tasks[3] (the description) takes the success; tasks[4] never closes
+    assert m["subtask_success"] == [1.0, 1.0, 1.0, 1.0, 0.0] and m["description_success"] == 1.0
+    with pytest.raises(RuntimeError):
+        p.step(1, pos, dist)
