@@ -250,6 +250,9 @@ def _episode_of(path: Path, index: int, raw: Any, lists: dict[str, list[GoatGoal
             if len(desc.split(" ")) > MAX_DESCRIPTION_WORDS:
                 continue
         kept.append((n, task))
+    if not kept:  # the reference then indexes goals[0] at reset and fails
+        raise EpisodeError(f"{where}: every subtask is a description of more than {MAX_DESCRIPTION_WORDS} words, "
+                           f"which the reader drops: no goals left")
     goals: list[list[GoatGoal]] = []
     for n, task in kept:  # L185-219
         cat = category_list(n, task)
