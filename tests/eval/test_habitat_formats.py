@@ -159,3 +159,35 @@ def test_invisible_scene_instance_is_left_out(files):
         assert set(load_scene(path).objects) == {0}
     finally:
         path.unlink()
+
+
+def test_instance_imagenav_file_reads_and_renders_its_goal_images(files):
+    from navbench.episodes.instance_imagenav import instance_imagegoal_observations, load_instance_imagenav
+    from navbench.scene.datasets import resolve_scene
+
+    ds = load_instance_imagenav(files["instance_imagenav"])
+    assert [(e.goal_key, e.goal_image_id) for e in ds.episodes] == [(f"{H.SCAN}_3", 1), (f"{H.SCAN}_4", 0),
+                                                                     (f"{H.SCAN}_3", 0)]
+    ep = ds.episodes[0]
+    assert len(ep.goal_positions()) > 10  # measured to the view points
+    asset = load_scene(resolve_scene(ep.scene_id, files["scene_datasets"]))
+    for ep in ds.episodes[:2]:
+        obs = instance_imagegoal_observations(asset, ep)
+        g = ep.image_goal
+        assert obs["instance_imagegoal"].shape == (g.height, g.width, 3)
+        assert obs["instance_imagegoal_hfov"].tolist() == [g.hfov_deg]
+    # the armchair's view (rolled 10 degrees, pitched down 20) shows it: its green fills part of the image
+    img = instance_imagegoal_observations(asset, ds.episodes[0])["instance_imagegoal"].astype(int)
+    green = (img[..., 1] > img[..., 0] + 40) & (img[..., 1] > img[..., 2] + 40)
+    assert 0.05 < green.mean() < 0.95
+
+
+def test_goat_bench_file_reads_for_navigation(files):
+    from navbench.episodes.goat import load_goat
+
+    (ep,) = load_goat(files["goat_bench"]).episodes
+    assert [t.type for t in ep.tasks] == ["object", "description", "image", "object", "description"]
+    assert ep.num_goals == 5 and ep.descriptions[1].startswith("The television")
+    assert ep.image_goals[2].height == 224 and ep.image_goals[2].hfov_deg == 79.0
+    assert [[g.object_id for g in gs] for gs in ep.subtask_goals] == [["armchair_0"], ["tv_0"], ["armchair_0"],
+                                                                      ["tv_0"], ["armchair_0"]]
