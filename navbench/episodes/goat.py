@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goal
+from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goal, select_episodes
 from navbench.episodes.io import _episode, _vec, read_json
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import GOAT_STOP, goat_metrics
@@ -120,10 +120,12 @@ class GoatEpisode(Episode):
         return self.subtask_goal_positions(0)
 
 
-def load_goat(path: str | Path, cap: int | None = None) -> EpisodeDataset:
+def load_goat(path: str | Path, select: Callable[..., list[Episode]] | None = None,
+              cap: int | None = None) -> EpisodeDataset:
     """A GOAT-Bench split file and, when there is a ``content/`` folder beside it, every
-    ``content/*.json(.gz)`` in it (its ``content_scenes_path`` is never followed). Each file is read
-    whole, at most ``cap`` bytes decompressed."""
+    ``content/*.json(.gz)`` in it (its ``content_scenes_path`` is never followed), the episodes ``select``
+    keeps (:func:`~navbench.episodes.instance_imagenav.select_episodes`). Each file is read whole, at most
+    ``cap`` bytes decompressed."""
     path = Path(path)
     files = [path]
     content = path.parent / "content"
@@ -132,7 +134,7 @@ def load_goat(path: str | Path, cap: int | None = None) -> EpisodeDataset:
     dataset = EpisodeDataset()
     for f in files:
         dataset.episodes += _read_file(f, read_json(f, cap))
-    return dataset
+    return select_episodes(dataset, select)
 
 
 def _read_file(path: Path, doc: Any) -> list[GoatEpisode]:

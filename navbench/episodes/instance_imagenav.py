@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -146,11 +147,26 @@ def instance_imagenav_metrics(stop_called: bool, distance_to_view_points: float,
     return episode_metrics(stop_called, distance_to_view_points, d0, path_length, SUCCESS_DISTANCE)
 
 
-def load_instance_imagenav(path: str | Path, cap: int | None = None) -> EpisodeDataset:
+def select_episodes(dataset: EpisodeDataset, select: Callable[..., list[Episode]] | None) -> EpisodeDataset:
+    """``dataset`` with the episodes ``select(stream)`` keeps, ``select`` as
+    :func:`navbench.episodes.io.load_dataset` takes it (``stream()`` the episodes, ``stream(keys=True)``
+    their ``(scene_id, episode_id)``); all of them when ``select`` is None."""
+    if select is not None:
+        episodes = list(dataset.episodes)
+
+        def stream(keys: bool = False) -> Iterator[Any]:
+            return iter([(e.scene_id, e.episode_id) for e in episodes] if keys else episodes)
+        dataset.episodes = list(select(stream))
+    return dataset
+
+
+def load_instance_imagenav(path: str | Path, select: Callable[..., list[Episode]] | None = None,
+                           cap: int | None = None) -> EpisodeDataset:
     """An InstanceImageNav split file and, when it has a ``content/`` folder beside it, every
-    ``content/*.json(.gz)`` in it (habitat-lab's ``PointNavDatasetV1.__init__`` reads both). Each file
-    is read whole, at most ``cap`` bytes decompressed. Anything unusable is one-line
-    :class:`EpisodeError` naming the file, the episode and the field."""
+    ``content/*.json(.gz)`` in it (habitat-lab's ``PointNavDatasetV1.__init__`` reads both), the episodes
+    ``select`` keeps (:func:`select_episodes`). Each file is read whole, at most ``cap`` bytes
+    decompressed. Anything unusable is one-line :class:`EpisodeError` naming the file, the episode and
+    the field."""
     path = Path(path)
     files = [path]
     content = path.parent / "content"
@@ -160,7 +176,7 @@ def load_instance_imagenav(path: str | Path, cap: int | None = None) -> EpisodeD
     goals: dict[str, InstanceImageGoal] = {}
     for f in files:
         dataset.episodes += _read_file(f, read_json(f, cap), goals)
-    return dataset
+    return select_episodes(dataset, select)
 
 
 def _read_file(path: Path, doc: Any, goals: dict[str, InstanceImageGoal]) -> list[InstanceImageEpisode]:

@@ -32,6 +32,7 @@ class GoalContext(Protocol):
     episode: Episode | None
     dataset: EpisodeDataset
     config: Any  # navbench.env.config.EnvConfig
+    asset: Any  # the episode's scene (navbench.scene.types.SceneAsset), for goal images at a file's camera pose
 
     @property
     def agent_position(self) -> np.ndarray: ...

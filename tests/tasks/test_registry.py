@@ -19,7 +19,8 @@ def test_every_task_has_a_gym_id_a_bundled_default_split_and_a_known_default_age
     assert {"pointnav", "objectnav"} <= set(TASKS)
     for t in TASKS.values():
         assert t.gym_id.startswith("navbench/") and t.gym_id.endswith("-v0") and t.gym_id in gym.registry
-        assert t.default_split in t.splits and t.split_file(t.default_split).is_file(), t.name
+        # a task whose splits are not bundled (yet) runs on a user's files (--episodes)
+        assert not t.splits or (t.default_split in t.splits and t.split_file(t.default_split).is_file()), t.name
         assert t.default_agent in AGENTS and t.goal_sensors and t.actions[0] == "STOP"
     assert len({t.gym_id for t in TASKS.values()}) == len(TASKS)
 
