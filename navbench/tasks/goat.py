@@ -11,14 +11,19 @@ The env is :class:`navbench.env.goat.GoatEnv`; it keeps the episode's :class:`~n
 from __future__ import annotations
 
 import string
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
-from navbench.episodes.goat import DONE, MAX_EPISODE_STEPS, SUCCESS_DISTANCE, GoatEpisode, GoatProgress, load_goat
 from navbench.episodes.types import EpisodeDataset, EpisodeError
 from navbench.tasks.base import MEASURES, NAV_ACTIONS, GoalContext, GoalSensor, Task
 
+# goat-bench config/tasks/goat_stretch_hm3d.yaml: success.success_distance, environment.max_episode_steps; the
+# reader and GoatProgress (navbench.episodes.goat) state the same. current_subtask is 0..2, DONE past the last.
+SUCCESS_DISTANCE = 0.25
+MAX_EPISODE_STEPS = 5000
+DONE = 3
 ACTIONS = (*NAV_ACTIONS, "LOOK_UP", "LOOK_DOWN", "SUBTASK_STOP")  # goat_stretch_hm3d.yaml; subtask_stop is 6
 MAX_TEXT = 4096  # characters of a category or description observation
 GOAT_MEASURES = (
@@ -29,7 +34,16 @@ GOAT_MEASURES = (
 )
 
 
-def _progress(ctx: GoalContext) -> GoatProgress | None:
+def read_episodes(path, select=None) -> EpisodeDataset:
+    """:func:`navbench.episodes.goat.load_goat` (imported when a file is read)."""
+    from navbench.episodes.goat import load_goat
+    return load_goat(path, select)
+
+
+def _progress(ctx: GoalContext) -> Any:
+    """The env's :class:`~navbench.episodes.goat.GoatProgress`; None while it starts the episode."""
+    from navbench.episodes.goat import GoatEpisode
+
     if not isinstance(ctx.episode, GoatEpisode):
         raise EpisodeError(f"episode {getattr(ctx.episode, 'episode_id', '?')}: not a GOAT-Bench episode "
                            f"(read its file with the goat task)")
@@ -86,11 +100,12 @@ TASK = Task(
                    subtask_image),
     ),
     episode_format="Goat-v1",
-    read_episodes=load_goat,
+    read_episodes=read_episodes,
     actions=ACTIONS,
     measures=MEASURES + GOAT_MEASURES,
     distance_to="VIEW_POINTS",
     success_distance=SUCCESS_DISTANCE,
+    success_rule_text="per subtask, at its SUBTASK_STOP (6); STOP ends the episode",
     max_steps=MAX_EPISODE_STEPS,
     default_split="val",
     default_agent="oracle",

@@ -7,17 +7,24 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-from navbench.episodes.instance_imagenav import (
-    MAX_EPISODE_STEPS,
-    SUCCESS_DISTANCE,
-    InstanceImageEpisode,
-    load_instance_imagenav,
-)
-from navbench.episodes.types import EpisodeDataset, EpisodeError
+from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.tasks.base import NAV_ACTIONS, GoalContext, GoalSensor, Task
 
+# habitat-lab config/habitat/task/instance_imagenav.yaml (success.success_distance) and the benchmark yamls
+# (environment.max_episode_steps); the reader and measures (navbench.episodes.instance_imagenav) state the same.
+SUCCESS_DISTANCE = 0.1
+MAX_EPISODE_STEPS = 1000
 
-def _episode(ctx: GoalContext) -> InstanceImageEpisode:
+
+def read_episodes(path, select=None) -> EpisodeDataset:
+    """:func:`navbench.episodes.instance_imagenav.load_instance_imagenav` (imported when a file is read)."""
+    from navbench.episodes.instance_imagenav import load_instance_imagenav
+    return load_instance_imagenav(path, select)
+
+
+def _episode(ctx: GoalContext) -> Episode:
+    from navbench.episodes.instance_imagenav import InstanceImageEpisode
+
     ep = ctx.episode
     if not isinstance(ep, InstanceImageEpisode):
         raise EpisodeError(f"episode {getattr(ep, 'episode_id', '?')}: not an InstanceImageNav episode "
@@ -27,8 +34,9 @@ def _episode(ctx: GoalContext) -> InstanceImageEpisode:
 
 def _image_space(dataset: EpisodeDataset, config) -> spaces.Box:
     # habitat-lab's InstanceImageGoalSensor: the size of the first goal's first image (L133-139)
-    ep = next((e for e in dataset.episodes if isinstance(e, InstanceImageEpisode)), None)
-    h, w = (ep.goals[0].image_goals[0].height, ep.goals[0].image_goals[0].width) if ep else (512, 512)
+    first = next((g.image_goals[0] for e in dataset.episodes for g in e.goals[:1] if getattr(g, "image_goals", None)),
+                 None)
+    h, w = (first.height, first.width) if first is not None else (512, 512)
     return spaces.Box(0, 255, (h, w, 3), np.uint8)
 
 
@@ -36,11 +44,11 @@ def instance_imagegoal(ctx: GoalContext) -> np.ndarray:
     """The goal image: a pinhole camera at ``image_goals[goal_image_id]``'s world pose, hfov and size."""
     from navbench.render.goal_images import render_image_goal
 
-    return render_image_goal(ctx.asset, _episode(ctx).image_goal, ctx.config.gl_platform)
+    return render_image_goal(ctx.asset, _episode(ctx).image_goal, ctx.config.gl_platform)  # type: ignore[attr-defined]
 
 
 def instance_imagegoal_hfov(ctx: GoalContext) -> np.ndarray:
-    return np.array([_episode(ctx).image_goal.hfov_deg], np.float32)
+    return np.array([_episode(ctx).image_goal.hfov_deg], np.float32)  # type: ignore[attr-defined]
 
 
 TASK = Task(
@@ -55,7 +63,7 @@ TASK = Task(
                    instance_imagegoal_hfov, per_episode=True),
     ),
     episode_format="InstanceImageNav-v1",
-    read_episodes=load_instance_imagenav,
+    read_episodes=read_episodes,
     actions=(*NAV_ACTIONS, "LOOK_UP", "LOOK_DOWN"),  # instance_imagenav.yaml's actions
     distance_to="VIEW_POINTS",
     success_distance=SUCCESS_DISTANCE,

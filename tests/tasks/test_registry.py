@@ -129,3 +129,14 @@ def test_the_oracle_and_the_random_agent_run_any_task():
     for name in TASKS:
         for agent in ("oracle", "random"):
             check_task(agent, name, EnvConfig())
+
+
+def test_image_and_goat_task_definitions_state_their_readers_constants():
+    from navbench.episodes import goat, instance_imagenav
+    from navbench.tasks import goat as goat_task
+    from navbench.tasks import instance_imagenav as iin_task
+    assert (iin_task.SUCCESS_DISTANCE, iin_task.MAX_EPISODE_STEPS) == (instance_imagenav.SUCCESS_DISTANCE,
+                                                                       instance_imagenav.MAX_EPISODE_STEPS)
+    assert (goat_task.SUCCESS_DISTANCE, goat_task.MAX_EPISODE_STEPS, goat_task.DONE) == (
+        goat.SUCCESS_DISTANCE, goat.MAX_EPISODE_STEPS, goat.DONE)
+    assert goat_task.ACTIONS.index("SUBTASK_STOP") == goat.SUBTASK_STOP
