@@ -51,6 +51,8 @@ class GoatEnv(NavEnv):
     def __init__(self, dataset: str | Path | EpisodeDataset | None = None, scene_dir: str | Path | None = None,
                  config: EnvConfig | None = None, render_mode: str | None = None, task: str | None = None):
         self.goat_progress: GoatProgress | None = None
+        self._pending: int | None = None  # the action NavEnv.step is taking, recorded when it reports
+        self._field_subtask = -1  # the subtask the distance field measures to (-1: every subtask's goals)
         super().__init__(dataset, scene_dir, config, render_mode, task)
         self._images = GoalImageCache(self.config.gl_platform)
 
@@ -66,6 +68,7 @@ class GoatEnv(NavEnv):
         assert isinstance(self.episode, GoatEpisode) and self._motion is not None
         self._goals = self.episode.subtask_goal_positions(k)
         self._field = self._motion.distance_field(self._goals)
+        self._field_subtask = k
 
     def goal_image(self, camera: ImageGoal) -> np.ndarray:
         """The active image subtask's goal image, rendered once per subtask."""
@@ -76,6 +79,7 @@ class GoatEnv(NavEnv):
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         self.goat_progress = None
+        self._field_subtask = -1
         super().reset(seed=seed, options=options)
         assert isinstance(self.episode, GoatEpisode)
         self._use_subtask(0)
@@ -91,9 +95,7 @@ class GoatEnv(NavEnv):
         assert progress is not None  # set by reset()
         if isinstance(action, (int, np.integer)) and int(action) == SUBTASK_STOP:
             self._num_steps += 1
-            progress.step(SUBTASK_STOP, self._position, self._distance_to)
-            if progress.active < progress.episode.num_goals:
-                self._use_subtask(progress.active)
+            progress.step(SUBTASK_STOP, self._position, self._distance_to)  # the next subtask's distance
             terminated = progress.over and not progress.num_steps >= self.config.max_steps
             truncated = progress.over and not terminated
             self._done = progress.over
@@ -105,9 +107,10 @@ class GoatEnv(NavEnv):
             self._pending = None
 
     def _distance_to(self, k: int) -> float:
+        """The distance from the agent to subtask ``k``'s goals (measured to them from now on)."""
+        if k != self._field_subtask:
+            self._use_subtask(k)
         return float(self._field.distance(self._position))
-
-    _pending: int | None = None
 
     def _info(self) -> dict[str, Any]:
         progress = self.goat_progress

@@ -72,6 +72,10 @@ def test_goat_env_sequences_subtasks_and_scores_as_goat_bench(files):
                      obs["subtask_image"].shape, bool(obs["subtask_image"].any())))
         obs, _, terminated, truncated, info = follow(env, 0.25, stop_action=6)
         assert terminated == (k == 4) and not truncated
+        if k < 4:  # the next subtask starts where this one stopped: its d0 is from here to its goals
+            fresh = u._motion.distance_field(u.episode.subtask_goal_positions(k + 1)).distance(u.agent_position)
+            assert info["d0_by_subtask"][k + 1] == pytest.approx(fresh) and info["distance_to_goal"] == \
+                pytest.approx(fresh)
     assert seen == [(0, "armchair", "", (224, 224, 3), False), (1, "tv", "The television", (224, 224, 3), False),
                     (2, "armchair", "", (224, 224, 3), True), (0, "tv", "", (224, 224, 3), False),
                     (1, "armchair", "The green armc", (224, 224, 3), False)]
