@@ -33,7 +33,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
     """The episodes a run reads, from a bundled split or a user's file.
 
     Args:
-        task: a task of :data:`navbench.tasks.TASKS` or None: the file's task (PointNav or ObjectNav), or for
+        task: a task of :data:`navbench.tasks.TASKS` or None: the file's task (PointNav, ObjectNav, or as its
+            episodes' fields tell, InstanceImageNav or GOAT-Bench), or for
             a split ObjectNav unless only another task bundles a split of that name.
         split: a bundled split, or None: the task's default split (ObjectNav's val_unseen without a task).
         episodes: a user's episode file instead of a bundled split.
@@ -54,8 +55,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         def first(stream):  # the first episode (and the goals by category) tell the task and the format
             return list(itertools.islice(stream(), 1))
         if task is None:
-            from navbench.episodes.io import load_dataset
-            task = load_dataset(episodes, first).task
+            from navbench.episodes.io import file_task, load_dataset
+            task = file_task(episodes) or load_dataset(episodes, first).task
         t = get_task(task)
         dataset = t.read_episodes(episodes, first) if t.success_rule is not None else None
         return task, split, episodes, t.success_distance_for(None, dataset) if dataset is not None \

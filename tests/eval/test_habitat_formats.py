@@ -191,3 +191,14 @@ def test_goat_bench_file_reads_for_navigation(files):
     assert ep.image_goals[2].height == 224 and ep.image_goals[2].hfov_deg == 79.0
     assert [[g.object_id for g in gs] for gs in ep.subtask_goals] == [["armchair_0"], ["tv_0"], ["armchair_0"],
                                                                       ["tv_0"], ["armchair_0"]]
+
+
+@pytest.mark.parametrize("name,task,sd", [("instance_imagenav", "instance_imagenav", 0.1), ("goat_bench", "goat", 0.25)])
+def test_image_and_goat_files_run_with_the_oracle_at_sr_100(files, tmp_path, name, task, sd):
+    summary, records, config = _run(files, name, "oracle", tmp_path / name)
+    assert config["task"] == task and config["success_distance"] == sd  # told from the file's fields
+    assert summary["success"] == 1.0 and all(r["success"] == 1.0 for r in records)
+    if task == "goat":
+        (r,) = records
+        assert r["subtask_success"] == [1.0] * 5 and r["task_success"] == 0.0 and r["composite_success"] == 1.0
+        assert r["trace"]["actions"].count("6") == 5
