@@ -54,6 +54,9 @@ class GoatEnv(NavEnv):
         self._pending: int | None = None  # the action NavEnv.step is taking, recorded when it reports
         self._field_subtask = -1  # the subtask the distance field measures to (-1: every subtask's goals)
         super().__init__(dataset, scene_dir, config, render_mode, task)
+        if len(self.actions) <= SUBTASK_STOP or self.actions[SUBTASK_STOP] != "SUBTASK_STOP":
+            raise ValueError(f"the GOAT env needs SUBTASK_STOP as action {SUBTASK_STOP}: leave EnvConfig.actions "
+                             f"unset (the task's), got {', '.join(self.actions)}")
         self._images = GoalImageCache(self.config.gl_platform)
 
     # ------------------------------------------------------------------ goals

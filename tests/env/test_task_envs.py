@@ -98,3 +98,9 @@ def test_goat_plain_stop_ends_the_episode(files):
     assert info["subtask_success"] == [1.0, 0.0, 0.0, 0.0, 0.0] and info["partial_success"] == 0.2
     assert info["object_success"] == 0.5 and info["description_success"] == 0.0 and info["image_success"] == 0.0
     assert np.isnan(info["d0_by_subtask"][2]) and json.dumps([v for v in info["spl_by_subtask"]])
+
+
+def test_goat_env_needs_subtask_stop(files):
+    with pytest.raises(ValueError, match="SUBTASK_STOP as action 6"):
+        gym.make("navbench/GOAT-v0", dataset=files["goat_bench"], scene_dir=files["scene_datasets"],
+                 config=EnvConfig.load("habitat-challenge-imagenav-2023"))
