@@ -193,7 +193,8 @@ def test_goat_bench_file_reads_for_navigation(files):
                                                                       ["tv_0"], ["armchair_0"]]
 
 
-@pytest.mark.parametrize("name,task,sd", [("instance_imagenav", "instance_imagenav", 0.1), ("goat_bench", "goat", 0.25)])
+@pytest.mark.parametrize("name,task,sd", [("instance_imagenav", "instance_imagenav", 0.1),
+                                          ("goat_bench", "goat", 0.25)])
 def test_image_and_goat_files_run_with_the_oracle_at_sr_100(files, tmp_path, name, task, sd):
     summary, records, config = _run(files, name, "oracle", tmp_path / name)
     assert config["task"] == task and config["success_distance"] == sd  # told from the file's fields
