@@ -218,10 +218,10 @@ def _episode_of(path: Path, index: int, raw: Any, lists: dict[str, list[GoatGoal
     raw_tasks = raw.get("tasks")
     if not isinstance(raw_tasks, list) or not raw_tasks or len(raw_tasks) > MAX_SUBTASKS:
         raise EpisodeError(f"{where}: tasks must be a list of 1..{MAX_SUBTASKS} subtasks")
+    tasks = [_subtask(f"{where}: tasks[{n}]", t) for n, t in enumerate(raw_tasks)]
     base = _episode({**raw, "goals": [], "episode_id": eid}, path)  # goals are rebuilt (L141)
     extra = {k: v for k, v in base.extra.items() if k != "tasks"}
     scene_base = base.scene_id.split("/")[-1]  # L200: scene_id.split("/")[-1]
-    tasks = [_subtask(f"{where}: tasks[{n}]", t) for n, t in enumerate(raw_tasks)]
 
     def category_list(n: int, task: GoatSubtask) -> list[GoatGoal]:
         found = [v for v in lists.values() if v[0].object_category == task.category]  # L166-170
