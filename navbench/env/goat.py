@@ -109,6 +109,27 @@ class GoatEnv(NavEnv):
         finally:
             self._pending = None
 
+    # ------------------------------------------------------------------ snapshots
+    def snapshot(self) -> dict[str, Any]:
+        """NavEnv's snapshot and where the GOAT episode stands (its states, active subtask, STOP)."""
+        snap = super().snapshot()
+        p = self.goat_progress
+        assert p is not None  # set by reset()
+        snap["goat"] = {"states": [[a, list(pos), d] for a, pos, d in p.states], "active": p.active,
+                        "stop_called": p.stop_called}
+        return snap
+
+    def restore(self, snap: dict[str, Any]) -> dict[str, np.ndarray]:
+        super().restore(snap)
+        p, g = self.goat_progress, snap.get("goat")
+        assert p is not None  # set by the reset restore makes
+        if g is not None:
+            p.states = [(None if a is None else int(a), [float(v) for v in pos], float(d)) for a, pos, d in g["states"]]
+            p.active, p.stop_called = int(g["active"]), bool(g["stop_called"])
+            if p.active < p.episode.num_goals:
+                self._use_subtask(p.active)
+        return self._observe()
+
     def _distance_to(self, k: int) -> float:
         """The distance from the agent to subtask ``k``'s goals (measured to them from now on)."""
         if k != self._field_subtask:

@@ -104,3 +104,21 @@ def test_goat_env_needs_subtask_stop(files):
     with pytest.raises(ValueError, match="SUBTASK_STOP as action 6"):
         gym.make("navbench/GOAT-v0", dataset=files["goat_bench"], scene_dir=files["scene_datasets"],
                  config=EnvConfig.load("habitat-challenge-imagenav-2023"))
+
+
+def test_goat_snapshot_restores_the_active_subtask(files):
+    def make():
+        return gym.make("navbench/GOAT-v0", dataset=files["goat_bench"], scene_dir=files["scene_datasets"],
+                        config=EnvConfig(rgb=False, depth=False, max_steps=5000))
+    env = make()
+    env.reset(options={"episode": 0})
+    follow(env, 0.25, stop_action=6)
+    env.step(1)
+    snap = json.loads(json.dumps(env.unwrapped.snapshot()))
+    other = make()
+    obs = other.unwrapped.restore(snap)
+    assert obs["current_subtask"].tolist() == [1] and obs["subtask_description"].startswith("The television")
+    a, b = (follow(e.unwrapped, 0.25, stop_action=6)[4] for e in (env, other))  # the restored env, unwrapped
+    assert a["subtask_success"] == b["subtask_success"] == [1.0, 1.0, 0.0, 0.0, 0.0]
+    assert a["composite_spl"] == pytest.approx(b["composite_spl"])
+    assert a["d0_by_subtask"][:3] == pytest.approx(b["d0_by_subtask"][:3])
