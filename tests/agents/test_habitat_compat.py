@@ -220,5 +220,5 @@ def test_evaluate_warns_of_failed_episodes_and_fail_fast_raises(habitat_dir, poi
     with pytest.warns(RuntimeWarning, match=r"episode\(s\) failed .*'fly' is not an action") as caught:
         summary = navbench.evaluate(hab.FlyingAgent, episodes=pointnav_file, out=tmp_path / "warn")
     assert summary["num_failed"] == summary["num_episodes"] > 0 and len(caught) == 1
-    with pytest.raises(RunError, match="'fly' is not an action; expected an action id 0-5"):
+    with pytest.raises(RunError, match="'fly' is not an action; expected an action id 0-6"):
         navbench.evaluate(hab.FlyingAgent, episodes=pointnav_file, out=tmp_path / "fast", fail_fast=True)
