@@ -203,3 +203,33 @@ def test_image_and_goat_files_run_with_the_oracle_at_sr_100(files, tmp_path, nam
         (r,) = records
         assert r["subtask_success"] == [1.0] * 5 and r["task_success"] == 0.0 and r["composite_success"] == 1.0
         assert r["trace"]["actions"].count("6") == 5
+
+
+@pytest.mark.parametrize("name,break_it,needle", [
+    ("instance_imagenav", lambda d: d["episodes"][1].update(goal_object_id="99"), "goals has no key 'abcDEFghiJK_99'"),
+    ("instance_imagenav", lambda d: d["episodes"][0].update(goal_image_id=5), "goal_image_id 5 is out of range"),
+    ("goat_bench", lambda d: d["episodes"][0]["tasks"][2].__setitem__(3, 4), "tasks[2]: image index 4 is out of range"),
+    ("goat_bench", lambda d: d["episodes"][0]["tasks"][1].__setitem__(2, "tv_9"), "no instance with object_id 'tv_9'"),
+])
+def test_a_broken_image_or_goat_file_exits_2_in_one_line_naming_file_and_field(files, tmp_path, capsys, name,
+                                                                                break_it, needle):
+    import gzip
+    import shutil
+
+    from navbench.cli import main
+
+    src = files[name]
+    if name == "instance_imagenav":  # the episodes are in content/ beside the split file
+        root = tmp_path / "val"
+        shutil.copytree(src.parent, root)
+        bad, episodes = root / "content" / f"{H.SCAN}.json.gz", root / src.name
+    else:
+        bad = episodes = tmp_path / src.name
+        shutil.copy(src, bad)
+    doc = json.loads(gzip.decompress(bad.read_bytes()))
+    break_it(doc)
+    bad.write_bytes(gzip.compress(json.dumps(doc).encode()))
+    code = main(["run", "--episodes", str(episodes), "--scene-dir", str(files["scene_datasets"]), "--agent", "oracle",
+                 "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and str(bad) in err[0] and needle in err[0], err
