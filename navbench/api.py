@@ -65,6 +65,9 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         others = [t.name for t in TASKS.values() if split in t.splits and split not in TASKS[DEFAULT_TASK].splits]
         task = others[0] if split is not None and others else DEFAULT_TASK
     t = get_task(task)
+    if not t.splits:
+        raise ValueError(f"task {task} bundles no split: give a file of its episodes with --episodes FILE "
+                         f"(and its scenes with --scene-dir DIR)")
     split = split or t.default_split
     if split not in t.splits:
         raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(t.splits)}")

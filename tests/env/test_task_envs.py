@@ -122,3 +122,14 @@ def test_goat_snapshot_restores_the_active_subtask(files):
     assert a["subtask_success"] == b["subtask_success"] == [1.0, 1.0, 0.0, 0.0, 0.0]
     assert a["composite_spl"] == pytest.approx(b["composite_spl"])
     assert a["d0_by_subtask"][:3] == pytest.approx(b["d0_by_subtask"][:3])
+
+
+@pytest.mark.parametrize("gym_id,task", [("navbench/GOAT-v0", "goat"), ("navbench/InstanceImageNav-v0",
+                                                                         "instance_imagenav")])
+def test_a_task_without_bundled_splits_asks_for_a_file(gym_id, task):
+    from navbench.api import resolve_episodes
+
+    with pytest.raises(ValueError, match="bundles no split: pass dataset="):
+        gym.make(gym_id)
+    with pytest.raises(ValueError, match="bundles no split: give a file of its episodes with --episodes FILE"):
+        resolve_episodes(task, None, None)
