@@ -80,7 +80,8 @@ def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None,
     scored = [r for r in rows if not r.get("skipped")]
     out: dict[str, Any] = {"num_episodes": len(scored), "num_skipped": len(rows) - len(scored)}
     for k in keys:
-        vals = [float(r[k]) for r in scored]
+        # a measure undefined for an episode (None: GOAT's success of a goal type the episode lacks) is left out
+        vals = [float(r[k]) for r in scored if r[k] is not None]
         out[k] = math.fsum(vals) / len(vals) if vals else float("nan")
     if by is not None:
         groups: dict[str, list[Mapping[str, Any]]] = {}

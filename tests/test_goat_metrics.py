@@ -172,3 +172,13 @@ def test_bad_input():
     with pytest.raises(ValueError):
         goat_metrics(["chair"], [(None, [0, 0, 0], 1.0)])
     assert np.isclose(goat_metrics(["object"], [(None, [0, 0, 0], 0.1), (SUB, [0, 0, 0], 0.1)])["composite_spl"], 1.0)
+
+
+def test_a_summary_leaves_undefined_corrected_type_success_out_of_its_mean():
+    from navbench.metrics import aggregate
+
+    base = {"success": 1.0, "spl": 1.0, "soft_spl": 1.0, "distance_to_goal": 0.0}
+    rows = [dict(base, episode_id="0", image_success=0.0, image_success_corrected=None),  # no image subtask
+            dict(base, episode_id="1", image_success=1.0, image_success_corrected=1.0)]
+    out = aggregate(rows, keys=("success", "image_success", "image_success_corrected"))
+    assert out["image_success"] == 0.5 and out["image_success_corrected"] == 1.0

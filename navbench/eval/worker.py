@@ -209,6 +209,8 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
     record.update({m: _plain(info[m]) for m in _extra_measures(record)})
+    task = TASKS.get(str(record.get("task")))
+    record.update({f: _plain(info[f]) for f in (task.record_fields if task is not None else ()) if f in info})
     if log:
         record["log"] = log
     if trace is not None:

@@ -26,12 +26,14 @@ MAX_EPISODE_STEPS = 5000
 DONE = 3
 ACTIONS = (*NAV_ACTIONS, "LOOK_UP", "LOOK_DOWN", "SUBTASK_STOP")  # goat_stretch_hm3d.yaml; subtask_stop is 6
 MAX_TEXT = 4096  # characters of a category or description observation
+# goat-bench's measures (nav.py), as its evaluation averages them over episodes, and the corrected figures
 GOAT_MEASURES = (
     "partial_success", "composite_success", "task_success", "object_success", "description_success",
-    "image_success", "composite_spl", "composite_softspl", "subtask_success", "spl_by_subtask",
-    "task_success_corrected", "object_success_corrected", "description_success_corrected",
-    "image_success_corrected", "softspl_by_subtask", "d0_by_subtask", "subtasks_closed",
+    "image_success", "composite_spl", "composite_softspl", "task_success_corrected", "object_success_corrected",
+    "description_success_corrected", "image_success_corrected",
 )
+# per subtask, in each record (goat-bench writes success_by_subtask and spl_by_subtaskl to episode_metrics.json)
+GOAT_RECORD_FIELDS = ("subtask_success", "spl_by_subtask", "softspl_by_subtask", "d0_by_subtask", "subtasks_closed")
 
 
 def read_episodes(path, select=None) -> EpisodeDataset:
@@ -103,6 +105,7 @@ TASK = Task(
     read_episodes=read_episodes,
     actions=ACTIONS,
     measures=MEASURES + GOAT_MEASURES,
+    record_fields=GOAT_RECORD_FIELDS,
     distance_to="VIEW_POINTS",
     success_distance=SUCCESS_DISTANCE,
     success_rule_text="per subtask, at its SUBTASK_STOP (6); STOP ends the episode",

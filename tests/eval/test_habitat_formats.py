@@ -203,6 +203,8 @@ def test_image_and_goat_files_run_with_the_oracle_at_sr_100(files, tmp_path, nam
         (r,) = records
         assert r["subtask_success"] == [1.0] * 5 and r["task_success"] == 0.0 and r["composite_success"] == 1.0
         assert r["trace"]["actions"].count("6") == 5
+        assert summary["partial_success"] == summary["composite_success"] == 1.0 and summary["task_success"] == 0.0
+        assert "subtask_success" not in summary  # per-subtask lists stay in the records
 
 
 @pytest.mark.parametrize("name,break_it,needle", [
