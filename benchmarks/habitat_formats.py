@@ -29,6 +29,11 @@ What is written, and where each detail comes from:
   keyed ``{scene basename}_{category}`` with ``lang_desc`` and ``image_goals`` (habitat-lab
   ``habitat/tasks/nav/instance_image_nav_task.py``: ``position``, ``rotation`` [x, y, z, w], ``hfov``,
   ``image_dimensions`` (H, W)).
+* ``instance_imagenav/val/``: InstanceImageNav episodes as habitat-lab's ``InstanceImageNavDatasetV1``
+  reads them (``habitat/datasets/image_nav/instance_image_nav_dataset.py``): ``val.json.gz`` with no
+  episodes and ``content/{scan}.json.gz`` with ``goals`` keyed ``{scan}_{object_id}`` (view points and
+  ``image_goals``: world camera poses, pitch and roll included, ``hfov``, ``image_dimensions`` (H, W)) and
+  episodes naming ``goal_object_id`` and ``goal_image_id``.
 * ``scene_datasets/hssd/``: an HSSD-style scene instance (habitat-sim ``docs/pages/attributesJSON.rst``,
   ``src/esp/metadata/managers/SceneInstanceAttributesManager.cpp``): ``scenes/room.scene_instance.json``
   with a stage and object instances (``rotation`` [w, x, y, z], ``uniform_scale``, ``non_uniform_scale``,
@@ -308,6 +313,51 @@ def write_goat_bench(path: Path) -> Path:
     return _write(path, {"episodes": episodes, "goals": goals})
 
 
+def _quat(axis: int, deg: float) -> list[float]:
+    q = [0.0, 0.0, 0.0, float(np.cos(np.radians(deg) / 2))]
+    q[axis] = float(np.sin(np.radians(deg) / 2))
+    return [round(v, 7) for v in q]
+
+
+def _qmul(a, b) -> list[float]:
+    (x1, y1, z1, w1), (x2, y2, z2, w2) = a, b
+    return [round(v, 7) for v in (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2, w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                                  w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2)]
+
+
+def write_instance_imagenav(path: Path) -> Path:
+    """``path`` (``{split}/{split}.json.gz``, no episodes) and ``content/{scan}.json.gz`` beside it."""
+    def goal(sem_id: int, name: str, part: int, images: list[dict]) -> dict:
+        return {"position": centre(part), "object_id": sem_id, "object_name": f"{name}_{sem_id}",
+                "object_category": name, "object_surface_area": 1.0, "view_points": view_points(*part_box(part)),
+                "image_goals": images}
+
+    def image(pos, rot, hfov, dims) -> dict:
+        return {"position": pos, "rotation": rot, "hfov": hfov, "image_dimensions": dims,
+                "frame_coverage": 0.3, "object_coverage": 0.9}
+
+    goals = {  # the armchair: pitched down 25 degrees; then also rolled 10 degrees, a 120 x 160 image
+        f"{SCAN}_3": goal(3, "armchair", 2, [image([0.75, 1.2, 0.5], _quat(0, -25), 65, [512, 512]),
+                                             image([0.9, 1.1, 0.4], _qmul(_quat(0, -20), _quat(2, 10)), 60,
+                                                   [120, 160])]),
+        f"{SCAN}_4": goal(4, "tv", 3, [image([-1.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0], 90, [96, 96])]),
+    }
+    starts = [([2.0, 0.0, 2.0], [0.0, 0.0, 0.0, 1.0]), ([-2.0, 0.0, 1.5], [0.0, 0.7071068, 0.0, 0.7071068])]
+    episodes = []
+    for k, (key, image_id) in enumerate([(f"{SCAN}_3", 1), (f"{SCAN}_4", 0), (f"{SCAN}_3", 0)]):
+        pos, rot = starts[k % 2]
+        g = goals[key]
+        near = min(float(np.hypot(v["agent_state"]["position"][0] - pos[0], v["agent_state"]["position"][2] - pos[2]))
+                   for v in g["view_points"])
+        episodes.append({"episode_id": str(k), "scene_id": HM3D_SCENE_ID, "scene_dataset_config": HM3D_CONFIG,
+                         "additional_obj_config_paths": [], "start_position": pos, "start_rotation": rot,
+                         "info": {"geodesic_distance": round(near, 4), "euclidean_distance": round(near, 4)},
+                         "goals": [], "object_category": g["object_category"],
+                         "goal_object_id": str(g["object_id"]), "goal_image_id": image_id})
+    _write(path.parent / "content" / f"{SCAN}.json.gz", {"goals": goals, "episodes": episodes})
+    return _write(path, {"episodes": []})
+
+
 # ------------------------------------------------------------------------------------------ HSSD
 # Object instances: (config hash, semantic id, box, instance transform)
 HSSD_OBJECTS = [
@@ -396,6 +446,7 @@ def write_all(out: str | Path) -> dict[str, Path]:
     return {"scene_datasets": sd, "hm3d_scene": write_hm3d(sd / "hm3d"), "hssd_scene": write_hssd(sd / "hssd"),
             "ovon": write_ovon(out / "ovon" / "val_unseen.json.gz"),
             "goat_bench": write_goat_bench(out / "goat_bench" / "val_seen.json.gz"),
+            "instance_imagenav": write_instance_imagenav(out / "instance_imagenav" / "val" / "val.json.gz"),
             "objectnav_hssd": write_objectnav_hssd(out / "objectnav_hssd" / "val.json.gz")}
 
 

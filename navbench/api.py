@@ -35,7 +35,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
     """The episodes a run reads, from a bundled split or a user's file.
 
     Args:
-        task: a task of :data:`navbench.tasks.TASKS` or None: the file's task (PointNav or ObjectNav), or for
+        task: a task of :data:`navbench.tasks.TASKS` or None: the file's task (PointNav, ObjectNav, or as its
+            episodes' fields tell, InstanceImageNav or GOAT-Bench), or for
             a split ObjectNav unless only another task bundles a split of that name.
         split: a bundled split, or None: the task's default split (ObjectNav's val_unseen without a task).
         episodes: a user's episode file instead of a bundled split.
@@ -57,9 +58,13 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         def first(stream):  # the first episode (and the goals by category) tell the task and the format
             return list(itertools.islice(stream(), 1))
         dataset = None
-        if task is None:  # Habitat's PointNav-v1 or ObjectNav-v1, read once when that task's reader is the same
-            dataset = default_reader(episodes, first)
-            task = dataset.task
+        if task is None:  # InstanceImageNav and GOAT-Bench by their fields; else Habitat's PointNav-v1 or
+            # ObjectNav-v1, read once when that task's reader is the same
+            from navbench.episodes.io import file_task
+            task = file_task(episodes)
+            if task is None:
+                dataset = default_reader(episodes, first)
+                task = dataset.task
         t = get_task(task)
         if t.success_rule is None:
             return task, split, episodes, t.success_distance
@@ -70,6 +75,9 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         others = [t.name for t in TASKS.values() if split in t.splits and split not in TASKS[DEFAULT_TASK].splits]
         task = others[0] if split is not None and others else DEFAULT_TASK
     t = get_task(task)
+    if not t.splits:
+        raise ValueError(f"task {task} bundles no split: give a file of its episodes with --episodes FILE "
+                         f"(and its scenes with --scene-dir DIR)")
     split = split or t.default_split
     if split not in t.splits:
         raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(t.splits)}")

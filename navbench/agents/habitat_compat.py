@@ -24,7 +24,8 @@ from navbench.tasks import get_task
 
 # by Habitat's ids (navbench.env.config.KNOWN_ACTIONS); names are matched case-insensitively. Which ids a run
 # takes is its env's action space (LOOK_UP / LOOK_DOWN only under a configuration that lists them).
-ACTIONS = tuple(a.lower() for a in KNOWN_ACTIONS)
+# GOAT-Bench adds subtask_stop as 6 (goat-bench goat_bench/task/actions.py); other tasks' envs refuse that id.
+ACTIONS = (*(a.lower() for a in KNOWN_ACTIONS), "subtask_stop")
 RUN_ARGUMENTS = ("success_distance", "goal_sensor_uuid")  # what habitat-baselines passes its agents
 # A plug-in whose constructor (or factory) names this parameter gets the run's device ("cpu", "cuda:N")
 # unless its options give one.

@@ -1,5 +1,6 @@
 """``oracle``: follows the geodesic shortest path to the nearest goal and stops inside the success
-distance, like Habitat's ShortestPathFollower. Its SR/SPL are the ceiling a benchmark split allows;
+distance, like Habitat's ShortestPathFollower (on a GOAT-Bench episode, to each subtask's goals in turn,
+closing each with SUBTASK_STOP). Its SR/SPL are the ceiling a benchmark split allows;
 if they are low, the geodesics, view points or motion model are wrong.
 
 ``optimistic``: the same follower planning on the map its own depth frames have shown it (unseen
@@ -20,6 +21,7 @@ import numpy as np
 from navbench.agents.base import PoseTracker
 from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
+from navbench.episodes.goat import SUBTASK_STOP, GoatEpisode
 from navbench.episodes.types import Episode
 from navbench.scene.asset import load_scene
 from navbench.scene.cache import layers_for, load_scene_and_navgrid
@@ -55,7 +57,7 @@ class OracleAgent:
         env moves such an episode on them)."""
         grid = self._navgrid(episode)
         self._view = None
-        goals = episode.goal_positions()
+        goals = np.concatenate(_goal_sets(episode), axis=0)
         off = ~grid.on_storey(goals)
         if not off.any():
             return grid
@@ -69,7 +71,15 @@ class OracleAgent:
 
     def reset(self, episode: Episode) -> None:
         self._pose.reset(episode)
-        self._follower = GreedyFollower(self._motion(episode), episode.goal_positions(), self.success_distance,
+        # one goal set per subtask: GOAT-Bench's subtasks in turn, each closed with SUBTASK_STOP (6)
+        self._goal_sets = _goal_sets(episode)
+        self._subtask_stop = isinstance(episode, GoatEpisode)
+        self._k = 0
+        self._motion_now = self._motion(episode)
+        self._follow(0)
+
+    def _follow(self, k: int) -> None:
+        self._follower = GreedyFollower(self._motion_now, self._goal_sets[k], self.success_distance,
                                         forward_step=self.env_config.forward_step,
                                         turn_angle_deg=self.env_config.turn_angle_deg)
 
@@ -77,7 +87,20 @@ class OracleAgent:
         position, yaw = self._pose(observations)
         if self._view is not None:
             self._view.track(position)
-        return int(self._follower.next_action(position, quat_from_yaw(yaw)))
+        action = int(self._follower.next_action(position, quat_from_yaw(yaw)))
+        if action == 0 and self._subtask_stop:
+            self._k += 1
+            if self._k < len(self._goal_sets):
+                self._follow(self._k)
+            return SUBTASK_STOP
+        return action
+
+
+def _goal_sets(episode: Episode) -> list[np.ndarray]:
+    """The goal points of each of the episode's subtasks: one set, or a GOAT-Bench episode's, in order."""
+    if isinstance(episode, GoatEpisode):
+        return [episode.subtask_goal_positions(k) for k in range(episode.num_goals)]
+    return [episode.goal_positions()]
 
 
 class OptimisticOracleAgent(OracleAgent):

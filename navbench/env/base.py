@@ -81,6 +81,8 @@ class NavEnv(gym.Env):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.render_mode = render_mode
         if dataset is None:
+            if not self.task_def.splits:
+                raise ValueError(f"task {self.task} bundles no split: pass dataset= (a file of its episodes)")
             dataset = self.task_def.split_file(self.task_def.default_split)
         self.dataset = dataset if isinstance(dataset, EpisodeDataset) else self.task_def.read_episodes(dataset)
         if not self.dataset.episodes:

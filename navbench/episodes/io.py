@@ -313,6 +313,26 @@ def episode_keys(path: str | Path, cap: int | None = None) -> set[tuple[str, str
     return keys
 
 
+def file_task(path: str | Path, cap: int | None = None) -> str | None:
+    """The task a file's first episode belongs to when its fields name one: ``"goat"`` for GOAT-Bench's
+    ``tasks`` (goat-bench ``GoatEpisode``), ``"instance_imagenav"`` for InstanceImageNav's ``goal_image_id``
+    (habitat-lab ``InstanceImageGoalNavEpisode``); None otherwise (PointNav-v1 / ObjectNav-v1: see
+    :attr:`EpisodeDataset.task`). Reads up to the first episode (of the ``content/`` files too)."""
+    p = _Pass(Path(path), cap)
+    try:
+        for raw, _ in p.raw():
+            if isinstance(raw, dict) and "tasks" in raw:
+                return "goat"
+            if isinstance(raw, dict) and "goal_image_id" in raw:
+                return "instance_imagenav"
+            return None
+    except EpisodeError:
+        return None  # the task's own reader names what is wrong
+    finally:
+        p.close()
+    return None
+
+
 def _keys(raws) -> Iterator[tuple[str, str]]:
     for raw, _ in raws:
         yield (str(raw.get("scene_id")), _episode_id(raw)) if isinstance(raw, dict) else ("?", "?")

@@ -208,12 +208,26 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
         path_length=info["path_length"], num_steps=info["num_steps"], stop_called=info["stop_called"],
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
-    record.update({m: info[m] for m in _extra_measures(record)})
+    record.update({m: _plain(info[m]) for m in _extra_measures(record)})
+    task = TASKS.get(str(record.get("task")))
+    record.update({f: _plain(info[f]) for f in (task.record_fields if task is not None else ()) if f in info})
     if log:
         record["log"] = log
     if trace is not None:
         record["trace"] = trace.record()
     return record
+
+
+def _plain(value: Any) -> Any:
+    """A measure as a record holds it: numbers as floats, lists as lists, a NaN (undefined) as None."""
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    value = float(value)
+    return value if math.isfinite(value) else None
 
 
 def _fail(record: dict[str, Any], exc: BaseException, d0: float, info: dict[str, Any] | None,

@@ -32,6 +32,7 @@ class GoalContext(Protocol):
     episode: Episode | None
     dataset: EpisodeDataset
     config: Any  # navbench.env.config.EnvConfig
+    asset: Any  # the episode's scene (navbench.scene.types.SceneAsset), for goal images at a file's camera pose
 
     @property
     def agent_position(self) -> np.ndarray: ...
@@ -95,6 +96,8 @@ class Task:
             from the episode's last ``info`` (0 for a failed episode) and the summary their means.
         extra_info: optional ``extra_info(context, info)`` -> the task's own ``info`` entries, computed after
             each reset and step from the env (:class:`GoalContext`) and its standard ``info``.
+        record_fields: ``info`` entries a record also holds but the summary does not average (per-subtask
+            lists, such as GOAT-Bench's ``subtask_success``); absent from a failed episode's record.
         distance_to: ``"POINT"`` (goal positions) or ``"VIEW_POINTS"`` (the goals' view points, falling
             back on an object's centre when it has none), Habitat's DistanceToGoal ``distance_to``.
         success_distance: Habitat's ``success.success_distance`` for the task.
@@ -118,6 +121,7 @@ class Task:
     actions: tuple[str, ...] = NAV_ACTIONS
     measures: tuple[str, ...] = MEASURES
     extra_info: Callable[[GoalContext, dict[str, Any]], dict[str, Any]] | None = None
+    record_fields: tuple[str, ...] = ()
     distance_to: str = "POINT"
     success_distance: float = 0.2
     success_rule: Callable[[str | None, EpisodeDataset | None], float | None] | None = None

@@ -159,3 +159,79 @@ def test_invisible_scene_instance_is_left_out(files):
         assert set(load_scene(path).objects) == {0}
     finally:
         path.unlink()
+
+
+def test_instance_imagenav_file_reads_and_renders_its_goal_images(files):
+    from navbench.episodes.instance_imagenav import instance_imagegoal_observations, load_instance_imagenav
+    from navbench.scene.datasets import resolve_scene
+
+    ds = load_instance_imagenav(files["instance_imagenav"])
+    assert [(e.goal_key, e.goal_image_id) for e in ds.episodes] == [(f"{H.SCAN}_3", 1), (f"{H.SCAN}_4", 0),
+                                                                     (f"{H.SCAN}_3", 0)]
+    ep = ds.episodes[0]
+    assert len(ep.goal_positions()) > 10  # measured to the view points
+    asset = load_scene(resolve_scene(ep.scene_id, files["scene_datasets"]))
+    for ep in ds.episodes[:2]:
+        obs = instance_imagegoal_observations(asset, ep)
+        g = ep.image_goal
+        assert obs["instance_imagegoal"].shape == (g.height, g.width, 3)
+        assert obs["instance_imagegoal_hfov"].tolist() == [g.hfov_deg]
+    # the armchair's view (rolled 10 degrees, pitched down 20) shows it: its green fills part of the image
+    img = instance_imagegoal_observations(asset, ds.episodes[0])["instance_imagegoal"].astype(int)
+    green = (img[..., 1] > img[..., 0] + 40) & (img[..., 1] > img[..., 2] + 40)
+    assert 0.05 < green.mean() < 0.95
+
+
+def test_goat_bench_file_reads_for_navigation(files):
+    from navbench.episodes.goat import load_goat
+
+    (ep,) = load_goat(files["goat_bench"]).episodes
+    assert [t.type for t in ep.tasks] == ["object", "description", "image", "object", "description"]
+    assert ep.num_goals == 5 and ep.descriptions[1].startswith("The television")
+    assert ep.image_goals[2].height == 224 and ep.image_goals[2].hfov_deg == 79.0
+    assert [[g.object_id for g in gs] for gs in ep.subtask_goals] == [["armchair_0"], ["tv_0"], ["armchair_0"],
+                                                                      ["tv_0"], ["armchair_0"]]
+
+
+@pytest.mark.parametrize("name,task,sd", [("instance_imagenav", "instance_imagenav", 0.1),
+                                          ("goat_bench", "goat", 0.25)])
+def test_image_and_goat_files_run_with_the_oracle_at_sr_100(files, tmp_path, name, task, sd):
+    summary, records, config = _run(files, name, "oracle", tmp_path / name)
+    assert config["task"] == task and config["success_distance"] == sd  # told from the file's fields
+    assert summary["success"] == 1.0 and all(r["success"] == 1.0 for r in records)
+    if task == "goat":
+        (r,) = records
+        assert r["subtask_success"] == [1.0] * 5 and r["task_success"] == 0.0 and r["composite_success"] == 1.0
+        assert r["trace"]["actions"].count("6") == 5
+        assert summary["partial_success"] == summary["composite_success"] == 1.0 and summary["task_success"] == 0.0
+        assert "subtask_success" not in summary  # per-subtask lists stay in the records
+
+
+@pytest.mark.parametrize("name,break_it,needle", [
+    ("instance_imagenav", lambda d: d["episodes"][1].update(goal_object_id="99"), "goals has no key 'abcDEFghiJK_99'"),
+    ("instance_imagenav", lambda d: d["episodes"][0].update(goal_image_id=5), "goal_image_id 5 is out of range"),
+    ("goat_bench", lambda d: d["episodes"][0]["tasks"][2].__setitem__(3, 4), "tasks[2]: image index 4 is out of range"),
+    ("goat_bench", lambda d: d["episodes"][0]["tasks"][1].__setitem__(2, "tv_9"), "no instance with object_id 'tv_9'"),
+])
+def test_a_broken_image_or_goat_file_exits_2_in_one_line_naming_file_and_field(files, tmp_path, capsys, name,
+                                                                                break_it, needle):
+    import gzip
+    import shutil
+
+    from navbench.cli import main
+
+    src = files[name]
+    if name == "instance_imagenav":  # the episodes are in content/ beside the split file
+        root = tmp_path / "val"
+        shutil.copytree(src.parent, root)
+        bad, episodes = root / "content" / f"{H.SCAN}.json.gz", root / src.name
+    else:
+        bad = episodes = tmp_path / src.name
+        shutil.copy(src, bad)
+    doc = json.loads(gzip.decompress(bad.read_bytes()))
+    break_it(doc)
+    bad.write_bytes(gzip.compress(json.dumps(doc).encode()))
+    code = main(["run", "--episodes", str(episodes), "--scene-dir", str(files["scene_datasets"]), "--agent", "oracle",
+                 "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and str(bad) in err[0] and needle in err[0], err
