@@ -194,3 +194,8 @@ def test_provenance_names_torchs_build_and_the_dataset_releases_its_paths_tell(t
     assert dataset_versions(ep, [scene]) == {"episodes": "objectnav/hm3d/v2", "scenes": "hm3d/v0.2"}
     assert dataset_versions(tmp_path / "objectnav_hm3d_v1/val/val.json.gz", []) == {"episodes": "objectnav/hm3d/v1"}
     assert dataset_versions(VAL, [SCENES_DIR / "house_008.glb"]) == {}  # navbench's own: split_version says it
+    # InstanceImageNav's and GOAT-Bench's releases, in habitat-challenge's and goat-bench's layouts
+    iin = tmp_path / "habitat-challenge-data/data/datasets/instance_imagenav/hm3d/v3/val_mini/val_mini.json.gz"
+    assert dataset_versions(iin, []) == {"episodes": "instance_imagenav/hm3d/v3"}
+    assert dataset_versions(tmp_path / "data/datasets/goat_bench/hm3d/v1/val_seen/val_seen.json.gz", []) == \
+        {"episodes": "goat_bench/hm3d/v1"}
