@@ -1,7 +1,8 @@
 """navbench: a CPU-friendly, Habitat-style benchmark harness for embodied navigation.
 
-``import navbench`` registers the Gymnasium ids ``navbench/PointNav-v0`` and ``navbench/ObjectNav-v0``
-(entry points are strings, so nothing heavy is imported until an env is made). What users import is
+``import navbench`` registers a Gymnasium id for each task of :data:`navbench.tasks.TASKS`
+(``navbench/PointNav-v0``, ``navbench/ObjectNav-v0``...; entry points are strings, so nothing heavy is
+imported until an env is made). What users import is
 listed in ``__all__`` and loaded on first use:
 
     >>> import navbench
@@ -16,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as _gym
 
 from navbench._version import __version__
+from navbench.tasks import TASKS as _TASKS
 
 if TYPE_CHECKING:
     from navbench.agents.base import Agent, BatchAgent
@@ -25,11 +27,11 @@ if TYPE_CHECKING:
     from navbench.eval.config import RunConfig
     from navbench.eval.records import EpisodeRecord, RunSummary
 
-for _id, _entry in (("navbench/PointNav-v0", "navbench.env.pointnav:PointNavEnv"),
-                    ("navbench/ObjectNav-v0", "navbench.env.objectnav:ObjectNavEnv")):
-    if _id not in _gym.registry:
-        # Habitat truncates at 500 steps inside the env; no TimeLimit wrapper on top of that.
-        _gym.register(id=_id, entry_point=_entry, disable_env_checker=True)
+for _task in _TASKS.values():
+    if _task.gym_id not in _gym.registry:
+        # The env truncates at the task's step limit itself, as Habitat does; no TimeLimit wrapper on top.
+        _gym.register(id=_task.gym_id, entry_point=_task.env_class, kwargs={"task": _task.name},
+                      disable_env_checker=True)
 
 # name -> the module that defines it; imported on first access, so `import navbench` stays light
 _EXPORTS = {

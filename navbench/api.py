@@ -15,18 +15,17 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from navbench.env.config import SUCCESS_DISTANCE
 from navbench.eval.records import EpisodeRecord, RunSummary
-from navbench.paths import SCENES_DIR, split_file
+from navbench.paths import SCENES_DIR
+from navbench.tasks import TASKS, get_task
 
 __all__ = ["evaluate", "resolve_episodes", "run_dir"]
 
 VIDEOS = ("none", "failures", "all")
 
-# `select`: houses of their own for choosing among trained policies, so `val` is looked at once, to report
-POINTNAV_SPLITS = ("train", "val", "select")
-OBJECTNAV_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")
-OVON_SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")  # navbench's ObjectNav splits
+# What a run reads without --task: a user's file tells its own task (PointNav-v1 or ObjectNav-v1); a split
+# is this task's, unless only another task bundles a split of that name.
+DEFAULT_TASK = "objectnav"
 
 
 def resolve_episodes(task: str | None, split: str | None, episodes: str | Path | None
@@ -34,38 +33,41 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
     """The episodes a run reads, from a bundled split or a user's file.
 
     Args:
-        task: ``"pointnav"``, ``"objectnav"`` or None: the file's task, or for a split ObjectNav unless
-            the split is PointNav's only.
-        split: a bundled split, or None: the task's validation split (val_unseen without a task).
+        task: a task of :data:`navbench.tasks.TASKS` or None: the file's task (PointNav or ObjectNav), or for
+            a split ObjectNav unless only another task bundles a split of that name.
+        split: a bundled split, or None: the task's default split (ObjectNav's val_unseen without a task).
         episodes: a user's episode file instead of a bundled split.
 
     Returns:
-        (task, split or None for a user's file, episode file, the default success distance: a user's
-        ObjectNav file in HM3D-OVON's format (:func:`navbench.episodes.io.is_ovon`) or drawn by navbench
-        (``navbench generate benchmark``: it states a ``split_version``) gets OVON's).
+        (task, split or None for a user's file, episode file, the default success distance: the task's
+        ``success_distance_for`` the split or the file's first episode; for ObjectNav a file in HM3D-OVON's
+        format (:func:`navbench.episodes.io.is_ovon`) or drawn by navbench (``navbench generate benchmark``:
+        it states a ``split_version``) gets OVON's).
 
     >>> resolve_episodes("pointnav", None, None)[::3]
     ('pointnav', 0.2)
     """
+    if task is not None:
+        get_task(task)  # an unknown task is a one-line ValueError naming the known ones
     if episodes:
         episodes = Path(episodes)
-        if task in (None, "objectnav"):
-            from navbench.episodes.io import is_ovon, load_dataset
-            # the first episode (and the goals by category) tell the task and the format: streamed
-            dataset = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), 1)))
-            task = task or dataset.task
-            # OVON's files, and navbench's own OVON-style ones (they state the split_version they were drawn under)
-            if task == "objectnav" and (is_ovon(dataset) or "split_version" in dataset.extra):
-                return task, split, episodes, SUCCESS_DISTANCE["ovon"]
-        return task, split, episodes, SUCCESS_DISTANCE[task]
-    split = split or ("val" if task == "pointnav" else "val_unseen")
+        def first(stream):  # the first episode (and the goals by category) tell the task and the format
+            return list(itertools.islice(stream(), 1))
+        if task is None:
+            from navbench.episodes.io import load_dataset
+            task = load_dataset(episodes, first).task
+        t = get_task(task)
+        dataset = t.read_episodes(episodes, first) if t.success_rule is not None else None
+        return task, split, episodes, t.success_distance_for(None, dataset) if dataset is not None \
+            else t.success_distance
     if task is None:
-        task = "pointnav" if split in POINTNAV_SPLITS and split not in OBJECTNAV_SPLITS else "objectnav"
-    valid = POINTNAV_SPLITS if task == "pointnav" else OBJECTNAV_SPLITS
-    if split not in valid:
-        raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(valid)}")
-    sd = SUCCESS_DISTANCE["ovon"] if task == "objectnav" and split in OVON_SPLITS else SUCCESS_DISTANCE[task]
-    return task, split, split_file(task, split), sd
+        others = [t.name for t in TASKS.values() if split in t.splits and split not in TASKS[DEFAULT_TASK].splits]
+        task = others[0] if split is not None and others else DEFAULT_TASK
+    t = get_task(task)
+    split = split or t.default_split
+    if split not in t.splits:
+        raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(t.splits)}")
+    return task, split, t.split_file(split), t.success_distance_for(split)
 
 
 def run_dir(task: str, split: str, label: str, root: str | Path = "runs") -> Path:
@@ -101,9 +103,10 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         agent: an agent spec as ``--agent`` takes it (a built-in or entry-point name,
             ``"package.module:Name"``, ``"http://HOST:PORT"``), a class (built as ``Class(**options)``), a
             factory function (``f(run_config, **options)``) or an agent instance (used as is; pickled into
-            each worker when ``workers > 1``). None: the task's own agent (memory for ObjectNav,
-            pointnav for PointNav).
-        task: ``"pointnav"`` or ``"objectnav"`` (default: the episode file's, else from the split).
+            each worker when ``workers > 1``). None: the task's default agent (``Task.default_agent``:
+            memory for ObjectNav, pointnav for PointNav).
+        task: a task of :data:`navbench.tasks.TASKS` (``navbench tasks`` lists them; default: the episode
+            file's, else from the split).
         split: a bundled split (default: the task's validation split).
         episodes: a Habitat-format episode file instead of a bundled split.
         options: the agent's options (a built-in's by field name, e.g. ``{"decoding": "sample"}``).
@@ -161,6 +164,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     # `navbench run` resolved the episodes already (for the task's default agent): a user's file is read once
     task, split, episodes_path, default_sd = _episodes or resolve_episodes(task, split, episodes)
     env, env_name = _env_config(env_config)
+    if env is None:
+        env = _task_env(task)
     resolved = resolve_agent(default_agent(task) if agent is None else agent, options, seed,
                              envs_per_worker=envs_per_worker, device=device, task=task, env=env)
     if success_distance is None and env is not None:
@@ -184,7 +189,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         from navbench.eval.ray_backend import require_ray
         require_ray()
     if resolved.prepare is not None:
-        resolved.prepare(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard).episodes)
+        resolved.prepare(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard, cfg.task).episodes)
     summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                   execution=execution)
     if video != "none":  # drawn from the finished records, so the run itself is the same without
@@ -204,6 +209,14 @@ def _env_config(env_config: Any) -> tuple[Any, str | None]:
     if isinstance(env_config, (str, Path)):
         return EnvConfig.load(env_config), env_config_name(env_config)
     raise ValueError(f"env_config: expected a name, a TOML file or an EnvConfig, got {env_config!r}"[:200])
+
+
+def _task_env(task: str) -> Any:
+    """None (navbench's EnvConfig), or for a task whose step limit is not EnvConfig's, EnvConfig with it (the
+    run's config.json records it as an ``env`` override)."""
+    from navbench.env.config import EnvConfig
+    limit = get_task(task).max_steps
+    return None if limit == EnvConfig().max_steps else EnvConfig(max_steps=limit)
 
 
 def warn_failed(summary: RunSummary, out: Path) -> None:

@@ -5,8 +5,9 @@
                  [--step-timeout SECONDS] [--fail-fast] [--backend local|ray [--address auto|HOST:PORT]]
     navbench run --agent package.module:Name|http://HOST:PORT|NAME [--agent-opt KEY=VALUE ...] ...
     navbench agents
+    navbench tasks
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
-    navbench check-agent http://HOST:PORT [--task pointnav|objectnav] [--steps 200]
+    navbench check-agent http://HOST:PORT [--task TASK] [--steps 200]
     navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
     navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
@@ -41,6 +42,7 @@ from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: impo
 from navbench.episodes.io import file_split
 from navbench.loop_progress import silenced
 from navbench.paths import EPISODES_DIR, SCENES_DIR
+from navbench.tasks import TASKS, task_names
 
 METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
 
@@ -129,6 +131,29 @@ def cmd_agents(args) -> int:
         print(f"{r['name']:<{width}}  {r['source']:<24}  {r['target']}")
     print("\nalso: --agent package.module:Name (a class or factory) or --agent http://HOST:PORT "
           "(a served agent)")
+    return 0
+
+
+def task_rows() -> list[dict[str, str]]:
+    """``navbench tasks``' rows: name, Gymnasium id, success rule, step limit, default split."""
+    rows = []
+    for t in TASKS.values():
+        to = "the goal point" if t.distance_to == "POINT" else "a goal's view points"
+        rule = f"STOP < {t.success_distance:g} m from {to}"
+        if t.success_rule_text:
+            rule += f"; {t.success_rule_text}"
+        rows.append({"task": t.name, "gym id": t.gym_id, "success": rule, "steps": str(t.max_steps),
+                     "default split": t.default_split})
+    return rows
+
+
+def cmd_tasks(args) -> int:
+    rows = task_rows()
+    widths = {k: max(len(k), *(len(r[k]) for r in rows)) for k in rows[0]}
+    print("  ".join(f"{k:<{w}}" for k, w in widths.items()).rstrip())
+    for r in rows:
+        print("  ".join(f"{r[k]:<{w}}" for k, w in widths.items()).rstrip())
+    print("\nnavbench run --task NAME; gymnasium.make(GYM_ID); docs/tasks.md describes each")
     return 0
 
 
@@ -324,10 +349,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="evaluate an agent on a split and print SR/SPL")
-    r.add_argument("--split", help="bundled split (default val_unseen)")
-    r.add_argument("--task", choices=("pointnav", "objectnav"))
-    r.add_argument("--agent", help=f"one of: {', '.join(AGENTS)} (default: {default_agent('objectnav')} for "
-                                   f"ObjectNav, {default_agent('pointnav')} for PointNav), an installed plug-in's "
+    r.add_argument("--split", help="bundled split (default: the task's; val_unseen without --task)")
+    r.add_argument("--task", choices=task_names(), help="default: the episode file's, else from the split "
+                                                       "(`navbench tasks` lists them)")
+    r.add_argument("--agent", help=f"one of: {', '.join(AGENTS)} (default: the task's: "
+                                   f"{', '.join(f'{t.default_agent} for {t.name}' for t in TASKS.values())}), "
+                                   "an installed plug-in's "
                                    "name (`navbench agents`), "
                                    "package.module:Name (a class or a factory f(run_config, **opts)), or "
                                    "http://HOST:PORT (an agent served by `navbench serve-agent`)")
@@ -361,7 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--success-distance", type=_positive)
     r.add_argument("--env-config", metavar="NAME|FILE",
                    help="the conditions: a named configuration (habitat-challenge-pointnav-2020, "
-                        "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, navbench, ...: "
+                        "habitat-challenge-pointnav-2021, habitat-challenge-objectnav-2021, habitat-objectnav-hm3d, "
+                        "navbench, ...: "
                         "configs/env/) or a TOML file of EnvConfig fields (sensors, noise; docs/realistic.md)")
     flags = r.add_argument_group("agent options (in brackets: the agents that read each; another agent's flag "
                                  "is an error)")
@@ -469,6 +497,10 @@ def build_parser() -> argparse.ArgumentParser:
     a = sub.add_parser("agents", help="list the agents --agent takes by name and where each comes from")
     a.set_defaults(func=cmd_agents)
 
+    ts = sub.add_parser("tasks", help="list the tasks --task takes: Gymnasium id, success rule, step limit, "
+                                      "default split")
+    ts.set_defaults(func=cmd_tasks)
+
     sa = sub.add_parser("serve-agent", help="serve a local agent over HTTP for `run --agent http://HOST:PORT` "
                                             "(protocol: docs/remote_agent.md)")
     sa.add_argument("agent", help="a built-in or plug-in name, or package.module:Name")
@@ -476,7 +508,7 @@ def build_parser() -> argparse.ArgumentParser:
     sa.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine "
                                                         "only)")
     sa.add_argument("--port", type=int, default=8765, help="default 8765; 0 picks a free port")
-    sa.add_argument("--task", default="pointnav", choices=("pointnav", "objectnav"),
+    sa.add_argument("--task", default="pointnav", choices=task_names(),
                     help="task of the agent built at start to answer /info (each client's run says its own)")
     sa.add_argument("--scene-dir", help="where this machine keeps the scenes, if not where the client does")
     sa.set_defaults(func=cmd_serve_agent)
@@ -484,7 +516,7 @@ def build_parser() -> argparse.ArgumentParser:
     ca = sub.add_parser("check-agent", help="exercise a remote agent server against the protocol "
                                             "(docs/remote_agent.md); exit 1 if it breaks it")
     ca.add_argument("url", help="http://HOST:PORT")
-    ca.add_argument("--task", default="pointnav", choices=("pointnav", "objectnav"),
+    ca.add_argument("--task", default="pointnav", choices=task_names(),
                     help="the env whose observations are sent")
     ca.add_argument("--steps", type=int, default=200, help="/act round trips timed (default 200)")
     ca.add_argument("--timeout", type=_positive, default=10.0, help="seconds per request (default 10)")

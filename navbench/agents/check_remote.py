@@ -97,30 +97,33 @@ class _Client:
             self.conn = None
 
 
-SPLITS = {"pointnav": "val", "objectnav": "val_seen"}  # the bundled split whose first episode is sent
+SPLITS = {"objectnav": "val_seen"}  # the bundled split whose first episode is sent, when not the task's default
+
+
+def check_split(task: str) -> str:
+    """The bundled split of ``task`` whose first episode the check sends."""
+    from navbench.tasks import get_task
+    return SPLITS.get(task, get_task(task).default_split)
 
 
 def run_config(task: str) -> dict[str, Any]:
     """The ``config`` of ``/reset`` as navbench's client sends it for the task's bundled split."""
-    from navbench.env.config import SUCCESS_DISTANCE
-    from navbench.paths import SCENES_DIR, split_file
-    success_distance = SUCCESS_DISTANCE["ovon" if task == "objectnav" else task]  # navbench's bundled splits
-    return {"task": task, "split": SPLITS[task], "episodes": str(split_file(task, SPLITS[task])),
-            "scene_dir": str(SCENES_DIR), "success_distance": success_distance, "seed": 0, "env": {}}
+    from navbench.paths import SCENES_DIR
+    from navbench.tasks import get_task
+    t, split = get_task(task), check_split(task)
+    return {"task": task, "split": split, "episodes": str(t.split_file(split)),
+            "scene_dir": str(SCENES_DIR), "success_distance": t.success_distance_for(split), "seed": 0, "env": {}}
 
 
 def sample_observation(task: str, sensors: tuple[str, ...]) -> tuple[dict[str, np.ndarray], Any]:
     """One observation as the task's env gives it to an agent reading ``sensors`` (the first episode of the
     bundled validation split, rendered), and that episode."""
     from navbench.env.config import EnvConfig
-    from navbench.paths import split_file
-    cfg = EnvConfig(rgb="rgb" in sensors, depth="depth" in sensors, semantic="semantic" in sensors)
-    if task == "objectnav":
-        from navbench.env.objectnav import ObjectNavEnv
-        env: Any = ObjectNavEnv(split_file(task, SPLITS[task]), config=cfg)
-    else:
-        from navbench.env.pointnav import PointNavEnv
-        env = PointNavEnv(split_file(task, SPLITS[task]), config=cfg)
+    from navbench.env.make import task_env
+    from navbench.tasks import get_task
+    cfg = EnvConfig(rgb="rgb" in sensors, depth="depth" in sensors, semantic="semantic" in sensors,
+                    max_steps=get_task(task).max_steps)
+    env = task_env(task, get_task(task).split_file(check_split(task)), config=cfg)
     try:
         episode = env.dataset.episodes[0]
         obs, _ = env.reset(seed=0, options={"episode": episode})

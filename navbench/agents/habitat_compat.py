@@ -3,7 +3,8 @@
 habitat-lab's agent protocol is ``reset()`` without arguments before each episode and
 ``act(observations)`` returning an action id, an action name (``"move_forward"``, ``"STOP"``...) or a
 dict ``{"action": id or name, "action_args": ...}``. navbench calls ``reset(episode)`` and steps the env
-with an id (0 STOP, 1 MOVE_FORWARD, 2 TURN_LEFT, 3 TURN_RIGHT, Habitat's ids). :func:`adapt` wraps a
+with an id (0 STOP, 1 MOVE_FORWARD, 2 TURN_LEFT, 3 TURN_RIGHT, and under a configuration with Habitat's
+ObjectNav actions 4 LOOK_UP, 5 LOOK_DOWN: Habitat's ids). :func:`adapt` wraps a
 plug-in agent so both forms work: ``reset`` gets the episode only if it takes an argument, and ``act``'s
 answer becomes the id. :func:`check_agent` refuses, before a run, an agent whose methods cannot be
 called that way. habitat-baselines' agents take ``success_distance`` and ``goal_sensor_uuid`` in their
@@ -16,8 +17,12 @@ import inspect
 import math
 from typing import Any
 
-ACTIONS = ("stop", "move_forward", "turn_left", "turn_right")  # by id; names are matched case-insensitively
-GOAL_SENSOR = {"pointnav": "pointgoal_with_gps_compass", "objectnav": "objectgoal"}
+from navbench.env.config import KNOWN_ACTIONS, EnvConfig
+from navbench.tasks import get_task
+
+# by Habitat's ids (navbench.env.config.KNOWN_ACTIONS); names are matched case-insensitively. Which ids a run
+# takes is its env's action space (LOOK_UP / LOOK_DOWN only under a configuration that lists them).
+ACTIONS = tuple(a.lower() for a in KNOWN_ACTIONS)
 RUN_ARGUMENTS = ("success_distance", "goal_sensor_uuid")  # what habitat-baselines passes its agents
 # A plug-in whose constructor (or factory) names this parameter gets the run's device ("cpu", "cuda:N")
 # unless its options give one.
@@ -115,12 +120,21 @@ def run_arguments(target: Any, cfg: Any, options: dict[str, Any]) -> dict[str, A
         if name == "success_distance" and getattr(cfg, "success_distance", None) is not None:
             out[name] = float(cfg.success_distance)
         elif name == "goal_sensor_uuid":
-            uuid = GOAL_SENSOR.get(getattr(cfg, "task", "pointnav"), GOAL_SENSOR["pointnav"])
-            env = getattr(cfg, "env", None)
-            if uuid == GOAL_SENSOR["pointnav"] and isinstance(env, dict) and env.get("gps_compass") is False:
-                uuid = "pointgoal"  # Habitat's PointNav challenges: the static goal sensor
-            out[name] = uuid
+            # the task's first goal sensor under the run's conditions (without GPS+compass, PointNav's is
+            # Habitat's static `pointgoal`)
+            out[name] = get_task(getattr(cfg, "task", "pointnav")).goal_sensor_uuid(_env_of(cfg))
     return out
+
+
+def _env_of(cfg: Any) -> EnvConfig:
+    """The run's EnvConfig (a RunConfig's, or one from a duck-typed config's ``env`` overrides)."""
+    if callable(getattr(cfg, "env_config", None)):
+        return cfg.env_config(())
+    env = getattr(cfg, "env", None)
+    try:
+        return EnvConfig(**env) if isinstance(env, dict) else EnvConfig()
+    except (TypeError, ValueError):
+        return EnvConfig()
 
 
 def _parameters(target: Any) -> dict[str, bool]:

@@ -37,6 +37,7 @@ from navbench.agents.options import (  # noqa: F401
     decoding_of,
 )
 from navbench.episodes.types import Episode
+from navbench.tasks import TASKS, get_task
 
 
 # ------------------------------------------------------------------------------------------ factories
@@ -236,7 +237,7 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}
-DEFAULT_TASK_AGENT = {"objectnav": "memory", "pointnav": "pointnav"}  # `navbench run` without --agent
+DEFAULT_TASK_AGENT = {name: t.default_agent for name, t in TASKS.items()}  # `navbench run` without --agent
 
 
 def check_conditions(agent: str | None, task: str, env: Any) -> None:
@@ -265,8 +266,9 @@ agent_factory = agent_spec  # a spec is its agent's factory
 
 
 def default_agent(task: str) -> str:
-    """The benchmark's own method for ``task``: the memory agent for ObjectNav, the policy for PointNav."""
-    return DEFAULT_TASK_AGENT[task]
+    """The benchmark's own method for ``task`` (its ``Task.default_agent``): the memory agent for ObjectNav,
+    the policy for PointNav."""
+    return get_task(task).default_agent
 
 
 def loads_models(agent: str, options: dict[str, Any]) -> bool:

@@ -1,6 +1,8 @@
-"""The core both navigation envs share: scene switching, the motion model, sensors and running metrics.
+"""The navigation env every task runs on: scene switching, the motion model, sensors and running metrics.
 
-Concrete envs (``pointnav.py``, ``objectnav.py``) only add their goal sensor and observation space.
+What differs between tasks (goal observations, action list, success distance, step limit, the points
+distance-to-goal is measured to) comes from the task's definition in :mod:`navbench.tasks`; ``NavEnv(task=NAME)``
+runs any registered task. ``pointnav.py`` and ``objectnav.py`` name two of them and document their interface.
 """
 
 from __future__ import annotations
@@ -14,9 +16,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from navbench.env.config import MOVE_FORWARD, STOP, SUCCESS_DISTANCE, TURN_LEFT, TURN_RIGHT, EnvConfig
+from navbench.env.config import EnvConfig
 from navbench.env.sensors import compass, gps, normalize_depth
-from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import episode_metrics
 from navbench.paths import SCENES_DIR
@@ -28,6 +29,7 @@ from navbench.scene.datasets import resolve_scene
 from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import heading_vector, quat_from_yaw, vector_length, wrap_angle, yaw_from_quat
+from navbench.tasks import get_task
 
 
 def resolve_scene_path(scene_id: str, scene_dir: Path) -> Path:
@@ -43,41 +45,57 @@ class AgentState(NamedTuple):
     rotation: np.ndarray
 
 
-def camera_at(position: np.ndarray, yaw: float, config: EnvConfig) -> tuple[np.ndarray, np.ndarray]:
+def camera_at(position: np.ndarray, yaw: float, config: EnvConfig, tilt_deg: float = 0.0
+              ) -> tuple[np.ndarray, np.ndarray]:
     """The camera's (position, rotation [x, y, z, w]) for an agent at ``position`` facing ``yaw``: the
-    agent's height above it, pitched about its x axis by ``camera_pitch_deg`` (Habitat's sensor orientation)."""
+    agent's height above it, pitched about its x axis by ``camera_pitch_deg`` (Habitat's sensor orientation)
+    plus ``tilt_deg`` (what LOOK_UP / LOOK_DOWN have added, positive up)."""
     eye = position + np.array([0.0, config.agent_height, 0.0])
-    if config.camera_pitch_deg == 0.0:
+    pitch = config.camera_pitch_deg + tilt_deg
+    if pitch == 0.0:
         return eye, quat_from_yaw(yaw)
     # q_yaw * q_pitch (rotation about +y, then about the camera's own x axis)
     cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
-    half = math.radians(config.camera_pitch_deg) / 2.0
+    half = math.radians(pitch) / 2.0
     cp, sp = math.cos(half), math.sin(half)
     return eye, np.array([cy * sp, sy * cp, -sy * sp, cy * cp])
 
 
 class NavEnv(gym.Env):
-    """Shared machinery; see :class:`navbench.env.pointnav.PointNavEnv` for the documented interface."""
+    """The env of any registered task (``task``: a name in :data:`navbench.tasks.TASKS`); see
+    :class:`navbench.env.pointnav.PointNavEnv` for the documented interface.
+
+    ``dataset`` defaults to the task's default bundled split, ``config`` to navbench's EnvConfig with the
+    task's step limit. The action space is ``Discrete(len(actions))`` over the config's ``actions`` (the task's
+    when it sets none); the observations are the sensors plus the task's goal sensors."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
     task: str = "pointnav"
 
-    def __init__(self, dataset: str | Path | EpisodeDataset, scene_dir: str | Path | None = None,
-                 config: EnvConfig | None = None, render_mode: str | None = None):
-        self.config = config or EnvConfig()
+    def __init__(self, dataset: str | Path | EpisodeDataset | None = None, scene_dir: str | Path | None = None,
+                 config: EnvConfig | None = None, render_mode: str | None = None, task: str | None = None):
+        self.task = task or type(self).task
+        self.task_def = get_task(self.task)
+        self.config = config or EnvConfig(max_steps=self.task_def.max_steps)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.render_mode = render_mode
-        self.dataset = dataset if isinstance(dataset, EpisodeDataset) else load_dataset(dataset)
+        if dataset is None:
+            dataset = self.task_def.split_file(self.task_def.default_split)
+        self.dataset = dataset if isinstance(dataset, EpisodeDataset) else self.task_def.read_episodes(dataset)
         if not self.dataset.episodes:
             raise EpisodeError(f"{dataset}: dataset has no episodes")
         self.scene_dir = Path(scene_dir) if scene_dir is not None else SCENES_DIR
         self.success_distance = (self.config.success_distance if self.config.success_distance is not None
-                                 else SUCCESS_DISTANCE[self.task])
+                                 else self.task_def.success_distance)
         self.nav_config = self.config.nav_grid_config()
         self.camera = CameraConfig(width=self.config.width, height=self.config.height, hfov_deg=self.config.hfov_deg)
-        self.action_space = spaces.Discrete(4)
+        self.actions = self.task_def.env_actions(self.config)
+        self.action_space = spaces.Discrete(len(self.actions))
+        self.goal_sensors = self.task_def.sensors(self.config)
         self.observation_space = spaces.Dict(self._observation_spaces())
+        self._episode_goals: dict[str, np.ndarray] = {}  # the per-episode goal observations of the episode
+        self._tilt = 0.0  # degrees LOOK_UP / LOOK_DOWN have added to the camera's pitch
 
         self._scene_path: Path | None = None
         self.asset: SceneAsset | None = None
@@ -116,6 +134,8 @@ class NavEnv(gym.Env):
             big = np.finfo(np.float32).max  # Habitat's GPS bounds: any finite float32
             obs["gps"] = spaces.Box(-big, big, (2,), np.float32)
             obs["compass"] = spaces.Box(-np.pi, np.pi, (1,), np.float32)
+        for sensor in self.goal_sensors:
+            obs[sensor.uuid] = sensor.space(self.dataset, c)
         return obs
 
     # ------------------------------------------------------------------ scene
@@ -136,6 +156,14 @@ class NavEnv(gym.Env):
         if self.config.rgb or self.config.depth or self.config.semantic or self.render_mode == "rgb_array":
             self._renderer = Renderer(self.asset, self.camera, platform=self.config.gl_platform)
 
+    def _scene_renderer(self) -> Renderer:
+        """The renderer of the current scene, made when first needed (a goal image under a config that renders
+        no sensor)."""
+        if self._renderer is None:
+            assert self.asset is not None  # loaded with the episode's scene
+            self._renderer = Renderer(self.asset, self.camera, platform=self.config.gl_platform)
+        return self._renderer
+
     # ------------------------------------------------------------------ episode selection
     def _select_episode(self, options: dict[str, Any] | None) -> Episode:
         ep = (options or {}).get("episode")
@@ -151,7 +179,7 @@ class NavEnv(gym.Env):
         raise EpisodeError(f"episode {ep!r} is not in the dataset")
 
     def _goal_points(self, episode: Episode) -> np.ndarray:
-        return episode.goal_positions()
+        return self.task_def.goal_points(episode)
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -208,26 +236,35 @@ class NavEnv(gym.Env):
         self._path_length = 0.0
         self._stop_called = False
         self._done = False
+        self._tilt = 0.0
+        # per-episode goal observations (goal images) are computed once, here, at the start pose
+        self._episode_goals = {}
+        self._episode_goals = {s.uuid: s.observe(self) for s in self.goal_sensors if s.per_episode}
         return self._observe(), self._info()
 
     def step(self, action):
         if self._done:
             raise RuntimeError("episode is over: call reset() before step()")
+        n = len(self.actions)
         if not self.action_space.contains(action):
             try:
                 a = int(action)
             except (TypeError, ValueError):
-                raise ValueError(f"action must be an int in 0..3, got {action!r}") from None
-            if not 0 <= a < 4 or a != action:
-                raise ValueError(f"action must be an int in 0..3 (STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT), "
+                raise ValueError(f"action must be an int in 0..{n - 1}, got {action!r}") from None
+            if not 0 <= a < n or a != action:
+                raise ValueError(f"action must be an int in 0..{n - 1} ({', '.join(self.actions)}), "
                                  f"got {action!r}")
-        action = int(action)
+        name = self.actions[int(action)]
         self._num_steps += 1
-        if action == STOP:
+        if name == "STOP":
             self._stop_called = True
+        elif name in ("LOOK_UP", "LOOK_DOWN"):
+            # habitat-lab's LookUpAction / LookDownAction rotate the sensors about their x axis, no limit
+            tilt = self._tilt + (self.config.tilt_angle_deg if name == "LOOK_UP" else -self.config.tilt_angle_deg)
+            self._tilt = (tilt + 180.0) % 360.0 - 180.0
         elif self._actuation is not None:
-            self._noisy_move(action)
-        elif action == MOVE_FORWARD:
+            self._noisy_move(name)
+        elif name == "MOVE_FORWARD":
             fwd = heading_vector(self._yaw)
             assert self._motion is not None  # set by reset()
             new, collided = self._motion.try_step(self._position, self._position + self.config.forward_step * fwd,
@@ -237,24 +274,24 @@ class NavEnv(gym.Env):
             self._path_length += vector_length(step)
             self._position = np.asarray(new, np.float64)
             self._collisions += int(collided)
-        elif action in (TURN_LEFT, TURN_RIGHT):
-            sign = 1.0 if action == TURN_LEFT else -1.0
+        elif name in ("TURN_LEFT", "TURN_RIGHT"):
+            sign = 1.0 if name == "TURN_LEFT" else -1.0
             self._yaw = wrap_angle(self._yaw + sign * math.radians(self.config.turn_angle_deg))
         terminated = self._stop_called
         truncated = not terminated and self._num_steps >= self.config.max_steps
         self._done = terminated or truncated
         return self._observe(), 0.0, terminated, truncated, self._info()
 
-    def _noisy_move(self, action: int) -> None:
+    def _noisy_move(self, action: str) -> None:
         """One MOVE_FORWARD or turn as habitat-sim's PyRobot noisy controls make it: the sampled translation
         (a turn's too), through the same collision rule as a noiseless step, then the sampled rotation."""
         from navbench.env.noise import sample_motion
         from navbench.env.sensors import from_agent_frame
         assert self._actuation is not None and self._noise_rng is not None and self._motion is not None
         c = self.config
-        turn = 0.0 if action == MOVE_FORWARD else \
-            (1.0 if action == TURN_LEFT else -1.0) * math.radians(c.turn_angle_deg)
-        fwd, right, dyaw = sample_motion(self._actuation, c.forward_step if action == MOVE_FORWARD else 0.0, turn,
+        turn = 0.0 if action == "MOVE_FORWARD" else \
+            (1.0 if action == "TURN_LEFT" else -1.0) * math.radians(c.turn_angle_deg)
+        fwd, right, dyaw = sample_motion(self._actuation, c.forward_step if action == "MOVE_FORWARD" else 0.0, turn,
                                          c.actuation_noise_multiplier, self._noise_rng)
         target = self._position + from_agent_frame(fwd, right, self._yaw)
         new, collided = self._motion.try_step(self._position, target, sliding=c.allow_sliding)
@@ -289,7 +326,8 @@ class NavEnv(gym.Env):
                 "start_rotation": [float(v) for v in self.episode.start_rotation],
                 "position": [float(v) for v in self._position], "yaw": float(self._yaw),
                 "num_steps": self._num_steps, "collisions": self._collisions, "path_length": self._path_length,
-                "stop_called": self._stop_called, "done": self._done, "rng": self.np_random.bit_generator.state}
+                "stop_called": self._stop_called, "done": self._done, "rng": self.np_random.bit_generator.state,
+                **({"tilt": self._tilt} if self._tilt else {})}
 
     def restore(self, snap: dict[str, Any]) -> dict[str, np.ndarray]:
         """Continue the episode :meth:`snapshot` described (an episode of this env's dataset, possibly with
@@ -307,6 +345,7 @@ class NavEnv(gym.Env):
         self._num_steps, self._collisions = int(snap["num_steps"]), int(snap["collisions"])
         self._path_length, self._stop_called = float(snap["path_length"]), bool(snap["stop_called"])
         self._done = bool(snap["done"])
+        self._tilt = float(snap.get("tilt", 0.0))
         self.np_random.bit_generator.state = snap["rng"]
         return self._observe()
 
@@ -332,8 +371,31 @@ class NavEnv(gym.Env):
         """Whether the episode runs on the joined surfaces of several storeys (a goal on another one)."""
         return self._motion is not None and self._motion is self.layered
 
+    @property
+    def start_position(self) -> np.ndarray:
+        """The episode's declared start on the floor the episode runs on (what GPS is measured from)."""
+        return self._start_position.copy()
+
+    @property
+    def start_yaw(self) -> float:
+        return self._start_yaw
+
+    @property
+    def camera_tilt_deg(self) -> float:
+        """Degrees LOOK_UP / LOOK_DOWN have pitched the camera (positive up), on top of ``camera_pitch_deg``."""
+        return self._tilt
+
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        return camera_at(self._position, self._yaw, self.config)
+        return camera_at(self._position, self._yaw, self.config, self._tilt)
+
+    def render_rgb(self, position, rotation) -> np.ndarray:
+        """The RGB sensor's image (its size, hfov, height and mounting pitch, no look tilt, no noise) for an
+        agent standing at ``position`` with ``rotation`` [x, y, z, w]: what goal images are rendered with."""
+        p = np.asarray(position, np.float64).reshape(-1)
+        out = self._scene_renderer().render(*camera_at(p, yaw_from_quat(rotation), self.config), rgb=True,
+                                            depth=False, ids=False)
+        assert out.rgb is not None  # rendered when asked for
+        return out.rgb
 
     # ------------------------------------------------------------------ habitat-sim's agent state
     def get_agent_state(self) -> AgentState:
@@ -399,7 +461,8 @@ class NavEnv(gym.Env):
         return obs
 
     def _goal_observation(self) -> dict[str, np.ndarray]:
-        return {}
+        """The task's goal observations: per-episode ones as computed at reset, the others now."""
+        return {s.uuid: self._episode_goals[s.uuid] if s.per_episode else s.observe(self) for s in self.goal_sensors}
 
     def _info(self) -> dict[str, Any]:
         d = self.distance_to_goal()

@@ -10,17 +10,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from navbench.paths import CONFIGS_DIR
+from navbench.tasks import TASKS
+from navbench.tasks.base import NAV_ACTIONS
+from navbench.tasks.objectnav import OVON_SUCCESS_DISTANCE
 
 if TYPE_CHECKING:
     from navbench.scene.navigability import NavGridConfig
 
-# Habitat's action ids.
-STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
-ACTION_NAMES = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
+# Habitat's action ids (habitat-lab habitat/sims/habitat_simulator/actions.py, HabitatSimActions).
+STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN = 0, 1, 2, 3, 4, 5
+ACTION_NAMES = NAV_ACTIONS  # the default action list: STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT
+# Every action the env can take, by name and in Habitat's id order; an EnvConfig's ``actions`` are the first
+# four or more of them, so that an action's name and its id agree in every configuration.
+KNOWN_ACTIONS = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN")
 
 
 class Action(IntEnum):
-    """The actions of both tasks, as an agent's ``act`` may return them (a plain int works too).
+    """Habitat's action ids, as an agent's ``act`` may return them (a plain int works too). LOOK_UP and
+    LOOK_DOWN exist only under an EnvConfig whose ``actions`` list them (``habitat-objectnav-hm3d``).
 
     >>> Action.MOVE_FORWARD == 1, Action(3).name
     (True, 'TURN_RIGHT')
@@ -29,11 +36,12 @@ class Action(IntEnum):
     MOVE_FORWARD = MOVE_FORWARD
     TURN_LEFT = TURN_LEFT
     TURN_RIGHT = TURN_RIGHT
+    LOOK_UP = LOOK_UP
+    LOOK_DOWN = LOOK_DOWN
 
 
-# Success distances by task as Habitat's configs set them; HM3D-OVON uses 0.25 m (naokiyokoyama/ovon
-# config/experiments/*.yaml, habitat.task.measurements.success.success_distance).
-SUCCESS_DISTANCE = {"pointnav": 0.2, "objectnav": 0.1, "ovon": 0.25}
+# Success distances by task as the task registry (navbench.tasks) defines them; "ovon": HM3D-OVON's.
+SUCCESS_DISTANCE = {**{name: t.success_distance for name, t in TASKS.items()}, "ovon": OVON_SUCCESS_DISTANCE}
 
 # The noise models navbench.env.noise samples: habitat-sim's PyRobot robots and controllers, its depth and RGB models.
 ACTUATION_NOISE = tuple(f"{robot}-{controller}" for robot in ("LoCoBot", "LoCoBot-Lite")
@@ -65,6 +73,11 @@ class EnvConfig:
     max_climb: float = 0.2
     forward_step: float = 0.25
     turn_angle_deg: float = 30.0
+    # The action list, by Habitat's ids (names from KNOWN_ACTIONS); None: the task's (STOP, MOVE_FORWARD,
+    # TURN_LEFT, TURN_RIGHT). LOOK_UP / LOOK_DOWN tilt the camera by tilt_angle_deg about its x axis with no
+    # limit, as habitat-lab's LookUpAction / LookDownAction do (habitat/tasks/nav/nav.py; its default 15).
+    actions: tuple[str, ...] | None = None
+    tilt_angle_deg: float = 15.0
     allow_sliding: bool = False  # HM3D ObjectNav: no sliding along walls
     # episode
     max_steps: int = 500
@@ -92,6 +105,19 @@ class EnvConfig:
     gps_compass: bool = True
 
     def __post_init__(self) -> None:
+        if self.actions is not None:
+            if isinstance(self.actions, str) or not all(isinstance(a, str) for a in self.actions):
+                raise ValueError(f"actions must be a list of action names, got {self.actions!r}"[:200])
+            names = tuple(a.upper() for a in self.actions)
+            unknown = [a for a in names if a not in KNOWN_ACTIONS]
+            if unknown:
+                raise ValueError(f"actions: unknown {', '.join(unknown)}; choose from {', '.join(KNOWN_ACTIONS)}")
+            if names != KNOWN_ACTIONS[:len(names)] or len(names) < len(NAV_ACTIONS):
+                raise ValueError(f"actions must be Habitat's, in its id order ({', '.join(KNOWN_ACTIONS)}; the first "
+                                 f"{len(NAV_ACTIONS)} at least), got {', '.join(names)}")
+            object.__setattr__(self, "actions", names)
+        if not (isinstance(self.tilt_angle_deg, (int, float)) and 0 < self.tilt_angle_deg <= 180):
+            raise ValueError(f"tilt_angle_deg must be within (0, 180], got {self.tilt_angle_deg!r}")
         for name, value, known in (("actuation_noise", self.actuation_noise, ACTUATION_NOISE),
                                    ("depth_noise", self.depth_noise, DEPTH_NOISE),
                                    ("rgb_noise", self.rgb_noise, RGB_NOISE)):
@@ -117,8 +143,8 @@ class EnvConfig:
         """The fields that differ from ``EnvConfig()``, as a run's config.json records them (``env``); which
         images are rendered and the success distance are the run's, not the configuration's."""
         base = EnvConfig()
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                if f.name not in ("rgb", "depth", "semantic", "success_distance")
+        return {f.name: list(v) if isinstance(v := getattr(self, f.name), tuple) else v  # as JSON holds it
+                for f in dataclasses.fields(self) if f.name not in ("rgb", "depth", "semantic", "success_distance")
                 and getattr(self, f.name) != getattr(base, f.name)}
 
     @classmethod

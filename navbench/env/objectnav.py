@@ -12,20 +12,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-from gymnasium import spaces
-
 from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
-from navbench.episodes.types import EpisodeDataset, EpisodeError
-from navbench.paths import split_file
+from navbench.episodes.types import EpisodeDataset
 
 
 class ObjectNavEnv(NavEnv):
     """Object-goal navigation (Habitat ObjectNav-v1 semantics).
 
     ## Action space
-    As :class:`navbench.env.pointnav.PointNavEnv`: ``Discrete(4)`` STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT.
+    As :class:`navbench.env.pointnav.PointNavEnv`: ``Discrete(4)`` STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT;
+    under a configuration with Habitat's HM3D ObjectNav actions (``EnvConfig.load("habitat-objectnav-hm3d")``)
+    ``Discrete(6)``, adding 4 LOOK_UP and 5 LOOK_DOWN (the camera tilts by ``tilt_angle_deg`` = 30).
 
     ## Observation space (``Dict``)
     ``rgb``, ``depth``, optional ``semantic``, ``gps``, ``compass`` as in PointNav, plus
@@ -42,6 +40,9 @@ class ObjectNavEnv(NavEnv):
     ``dataset`` (ObjectNav-v1 file or :class:`EpisodeDataset`; default: bundled ``val_seen``),
     ``scene_dir``, ``config``, ``render_mode`` as for PointNav.
 
+    The goal sensor, success distance, step limit and default split are the ``objectnav`` task's
+    (:mod:`navbench.tasks.objectnav`).
+
     ## Version history
     - v0: initial release.
     """
@@ -49,26 +50,5 @@ class ObjectNavEnv(NavEnv):
     task = "objectnav"
 
     def __init__(self, dataset: str | Path | EpisodeDataset | None = None, scene_dir: str | Path | None = None,
-                 config: EnvConfig | None = None, render_mode: str | None = None):
-        super().__init__(dataset if dataset is not None else split_file("objectnav", "val_seen"), scene_dir,
-                         config, render_mode)
-
-    def _observation_spaces(self):
-        obs = super()._observation_spaces()
-        # Called from NavEnv.__init__ once the dataset is loaded; a dataset without the category table
-        # (a hand-written file) gets one in sorted category order.
-        if not self.dataset.category_to_task_category_id:
-            self.dataset.category_to_task_category_id = {
-                c: i for i, c in enumerate(sorted({str(e.object_category) for e in self.dataset.episodes}))}
-        cats = self.dataset.category_to_task_category_id
-        obs["objectgoal"] = spaces.Box(0, max(cats.values()), (1,), np.int64)
-        return obs
-
-    def _goal_observation(self):
-        assert self.episode is not None  # set by reset()
-        cat = self.episode.object_category
-        cats = self.dataset.category_to_task_category_id
-        if cat not in cats:
-            raise EpisodeError(f"episode {self.episode.episode_id}: category {cat!r} is not in "
-                               f"category_to_task_category_id")
-        return {"objectgoal": np.array([cats[cat]], np.int64)}
+                 config: EnvConfig | None = None, render_mode: str | None = None, task: str | None = None):
+        super().__init__(dataset, scene_dir, config, render_mode, task)

@@ -12,14 +12,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-from gymnasium import spaces
-
 from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
-from navbench.env.sensors import pointgoal_polar
 from navbench.episodes.types import EpisodeDataset
-from navbench.paths import split_file
 
 
 class PointNavEnv(NavEnv):
@@ -29,7 +24,9 @@ class PointNavEnv(NavEnv):
     ``Discrete(4)``: 0 STOP (ends the episode), 1 MOVE_FORWARD (``forward_step`` = 0.25 m; motion is
     checked against the navigability grid: without sliding the agent stops where the segment leaves
     the navigable area and a collision is counted), 2 TURN_LEFT and 3 TURN_RIGHT (``turn_angle_deg`` = 30,
-    left = counter-clockwise seen from above).
+    left = counter-clockwise seen from above). An ``EnvConfig`` may list Habitat's six actions
+    (``actions``): 4 LOOK_UP and 5 LOOK_DOWN then tilt the camera by ``tilt_angle_deg`` about its x axis,
+    without limit, as habitat-lab does; the images are rendered at that pitch and nothing moves.
 
     ## Observation space (``Dict``)
     - ``rgb``: ``Box(0, 255, (H, W, 3), uint8)`` pinhole camera, HFOV 79 deg, 0.88 m above the floor.
@@ -65,6 +62,9 @@ class PointNavEnv(NavEnv):
     ``reset(seed=s)`` draws an episode with the env's seeded generator; ``reset(options={"episode": e})``
     runs a given episode (an ``Episode``, an episode id, or an index).
 
+    The goal sensors, success distance, step limit and default split are the ``pointnav`` task's
+    (:mod:`navbench.tasks.pointnav`).
+
     ## Version history
     - v0: initial release.
     """
@@ -72,25 +72,11 @@ class PointNavEnv(NavEnv):
     task = "pointnav"
 
     def __init__(self, dataset: str | Path | EpisodeDataset | None = None, scene_dir: str | Path | None = None,
-                 config: EnvConfig | None = None, render_mode: str | None = None):
-        super().__init__(dataset if dataset is not None else split_file("pointnav", "val"), scene_dir, config,
-                         render_mode)
-
-    def _observation_spaces(self):
-        obs = super()._observation_spaces()
-        big = np.finfo(np.float32).max
-        obs[self.goal_sensor] = spaces.Box(-big, big, (2,), np.float32)
-        return obs
+                 config: EnvConfig | None = None, render_mode: str | None = None, task: str | None = None):
+        super().__init__(dataset, scene_dir, config, render_mode, task)
 
     @property
     def goal_sensor(self) -> str:
         """``pointgoal_with_gps_compass`` (the goal from where the agent is), or without GPS+compass
         Habitat's static ``pointgoal`` (the goal from the start pose, the same every step)."""
-        return "pointgoal_with_gps_compass" if self.config.gps_compass else "pointgoal"
-
-    def _goal_observation(self):
-        assert self.episode is not None  # set by reset()
-        goal = np.asarray(self.episode.goals[0].position, np.float64)
-        if not self.config.gps_compass:
-            return {"pointgoal": pointgoal_polar(goal, self._start_position, self._start_yaw)}
-        return {"pointgoal_with_gps_compass": pointgoal_polar(goal, self._position, self._yaw)}
+        return self.task_def.goal_sensor_uuid(self.config)

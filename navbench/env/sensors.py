@@ -10,15 +10,8 @@ import math
 
 import numpy as np
 
-from navbench.scene.pose import wrap_angle
-
-
-def to_agent_frame(vec: np.ndarray, yaw: float) -> tuple[float, float]:
-    """World xz offset -> (forward, right) in the frame of an agent with heading ``yaw``."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    x = c * vec[0] - s * vec[2]  # rotate by -yaw about +y
-    z = s * vec[0] + c * vec[2]
-    return -z, x
+# to_agent_frame and pointgoal_polar live with the other pose geometry (task goal sensors read them there)
+from navbench.scene.pose import pointgoal_polar, to_agent_frame, wrap_angle  # noqa: F401
 
 
 def from_agent_frame(forward: float, right: float, yaw: float) -> np.ndarray:
@@ -35,12 +28,6 @@ def gps(position: np.ndarray, start_position: np.ndarray, start_yaw: float) -> n
 
 def compass(yaw: float, start_yaw: float) -> np.ndarray:
     return np.array([wrap_angle(yaw - start_yaw)], np.float32)
-
-
-def pointgoal_polar(goal: np.ndarray, position: np.ndarray, yaw: float) -> np.ndarray:
-    """[rho, theta] of the goal in the agent frame; theta counter-clockwise positive (Habitat's polar)."""
-    fwd, right = to_agent_frame(np.asarray(goal) - np.asarray(position), yaw)
-    return np.array([math.hypot(fwd, right), -math.atan2(right, fwd)], np.float32)
 
 
 def world_pose(gps_obs: np.ndarray, compass_obs: np.ndarray, start_position: np.ndarray,

@@ -44,11 +44,15 @@ from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, CONDITIONS, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
 from navbench.scene import NAVIGABILITY_VERSION
+from navbench.tasks import TASKS
 
 PROVENANCE = "provenance.json"
 PACKAGES = ("torch", "numpy", "gymnasium", "pyrender", "trimesh")
 # EnvConfig fields that do not change a score: which images are rendered (each agent's own) and the GL platform.
 _NOT_PROTOCOL = ("rgb", "depth", "semantic", "gl_platform")
+# EnvConfig fields a protocol lists only when set: the action list (its names are the protocol's `actions`)
+# and the tilt of LOOK_UP / LOOK_DOWN.
+_WHEN_SET = {"actions": None, "tilt_angle_deg": EnvConfig().tilt_angle_deg}
 
 
 class ProtocolError(ValueError):
@@ -67,9 +71,12 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
     # realistic conditions (noise, camera pitch, no GPS+compass) only when on: a noiseless run's protocol is
     # what it was before they existed, and a noisy one never matches it
     fields = {k: v for k, v in fields.items() if k not in CONDITIONS or v != CONDITIONS[k]}
+    fields = {k: v for k, v in fields.items() if k not in _WHEN_SET or (v != _WHEN_SET[k] and k != "actions")}
     fields["success_distance"] = success_distance if success_distance is not None else SUCCESS_DISTANCE.get(task)
     fields["navigability"] = NAVIGABILITY_VERSION
-    return {"task": task, "actions": list(ACTION_NAMES), **dict(sorted(fields.items()))}
+    known = TASKS.get(task)
+    actions = cfg.actions or (known.actions if known is not None else ACTION_NAMES)
+    return {"task": task, "actions": list(actions), **dict(sorted(fields.items()))}
 
 
 def protocol_id(proto: dict[str, Any]) -> str:

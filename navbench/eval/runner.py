@@ -53,6 +53,7 @@ from navbench.eval.stats import add_intervals
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
 from navbench.metrics import aggregate
 from navbench.safeio import read_input
+from navbench.tasks import get_task
 
 __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "read_records", "run", "run_dataset",
            "select_episodes", "shard_of", "summarize"]
@@ -81,7 +82,7 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> RunSummary:
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the
     failed episodes with their reasons."""
-    by = "object_category" if cfg.task == "objectnav" else None
+    by = get_task(cfg.task).group_by
     summary = aggregate(records, by=by)
     add_intervals(summary, records, by)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
     failed = sorted((r for r in records if r.get("failed")), key=lambda r: (str(r["scene_id"]), str(r["episode_id"])))
@@ -226,7 +227,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
     if not resume and not overwrite and (old or (out / "config.json").is_file()):
         raise RunError(f"{out} already holds a run ({len(old)} records): --resume to continue it, --overwrite to "
                        f"replace it, or another --out")
-    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard)  # streamed: the selection only
+    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task)  # streamed: the selection only
     if resume:
         _check_resume(out, cfg_json, bool(old))
         records = _repair(old, jsonl, dataset, cfg.episodes, notes)

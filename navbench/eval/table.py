@@ -24,6 +24,7 @@ from typing import Any
 import pandas as pd
 
 from navbench.safeio import read_input
+from navbench.tasks import TASKS
 
 FORMATS = ("markdown", "csv", "latex")
 
@@ -120,7 +121,8 @@ def first_summary(run_dir: str | Path, first: int) -> dict[str, Any]:
     from navbench.metrics import aggregate
 
     summary = load_summary(run_dir)
-    by = "object_category" if summary.get("task") == "objectnav" else None
+    task = TASKS.get(str(summary.get("task")))
+    by = task.group_by if task is not None else None
     return {**summary, **aggregate(first_records(run_dir, first), by=by)}
 
 

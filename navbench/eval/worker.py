@@ -26,8 +26,7 @@ import numpy as np
 
 from navbench.agents.base import Agent, BatchAgent, episode_log, is_batch_agent, slot_agent
 from navbench.env.base import NavEnv
-from navbench.env.objectnav import ObjectNavEnv
-from navbench.env.pointnav import PointNavEnv
+from navbench.env.make import task_env
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.eval.config import RunConfig, selector
@@ -35,6 +34,7 @@ from navbench.eval.rundir import RunError
 from navbench.eval.trace import Trace
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
+from navbench.tasks import get_task
 
 Key = tuple[str, str]  # (scene_id, episode_id)
 AgentFactory = Callable[[RunConfig], Any]
@@ -45,24 +45,24 @@ _DATASET: dict[tuple, EpisodeDataset] = {}
 
 
 def run_dataset(path: str | Path, limit: int | None = None, per_scene: int | None = None,
-                shard: str | None = None) -> EpisodeDataset:
-    """The run's episode file, parsed once per process (the driver and an in-process worker share it);
-    read again when the file changed. With a selection (see :func:`~navbench.eval.config.select_episodes`)
-    the file is streamed and the dataset holds only the episodes selected. Callers must not modify it."""
+                shard: str | None = None, task: str | None = None) -> EpisodeDataset:
+    """The run's episode file, parsed once per process (the driver and an in-process worker share it) by
+    ``task``'s reader (Habitat's PointNav/ObjectNav JSON without one); read again when the file changed.
+    With a selection (see :func:`~navbench.eval.config.select_episodes`) the file is streamed and the
+    dataset holds only the episodes selected. Callers must not modify it."""
     st = Path(path).stat()
-    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard)
+    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard, task)
     if key not in _DATASET:
         select = None if limit is None and per_scene is None and shard is None else \
             selector(limit, per_scene, shard)
-        dataset = load_dataset(path, select)
+        dataset = get_task(task).read_episodes(path, select) if task is not None else load_dataset(path, select)
         _DATASET.clear()
         _DATASET[key] = dataset
     return _DATASET[key]
 
 
 def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) -> NavEnv:
-    env_cls = ObjectNavEnv if cfg.task == "objectnav" else PointNavEnv
-    env = env_cls(dataset, scene_dir=cfg.scene_dir, config=cfg.env_config(sensors))
+    env = task_env(cfg.task, dataset, scene_dir=cfg.scene_dir, config=cfg.env_config(sensors))
     env.reset(seed=cfg.seed)  # seeds the env's generator; episodes are then given explicitly
     return env
 
@@ -357,7 +357,7 @@ class EpisodeWorker:
         if single_thread:
             share_cores(1)
         self.cfg = cfg
-        self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard)
+        self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task)
         self.agent = make_agent(cfg)
         self.envs: list[NavEnv] = []
         try:  # an env that fails to start (a bad first episode, a bad scene) still closes the agent

@@ -75,3 +75,17 @@ def yaw_towards(source, target) -> float:
     t = _finite(np.asarray(target, dtype=float), "target")
     dx, dz = t[0] - s[0], t[2] - s[2]
     return wrap_angle(math.atan2(-dx, -dz))
+
+
+def to_agent_frame(vec: np.ndarray, yaw: float) -> tuple[float, float]:
+    """World xz offset -> (forward, right) in the frame of an agent with heading ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    x = c * vec[0] - s * vec[2]  # rotate by -yaw about +y
+    z = s * vec[0] + c * vec[2]
+    return -z, x
+
+
+def pointgoal_polar(goal: np.ndarray, position: np.ndarray, yaw: float) -> np.ndarray:
+    """[rho, theta] of the goal in the agent frame; theta counter-clockwise positive (Habitat's polar)."""
+    fwd, right = to_agent_frame(np.asarray(goal) - np.asarray(position), yaw)
+    return np.array([math.hypot(fwd, right), -math.atan2(right, fwd)], np.float32)

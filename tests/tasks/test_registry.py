@@ -1,0 +1,100 @@
+"""The task registry: every part of navbench reads a task from its definition, so a new one runs through the
+env, the worker, the runner and the CLI without any of them naming it."""
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+import navbench
+from navbench.cli import build_parser, main
+from navbench.env.make import task_env
+from navbench.tasks import TASKS, GoalSensor, Task, get_task, task_names
+
+
+def test_every_task_has_a_gym_id_a_bundled_default_split_and_a_known_default_agent():
+    from navbench.agents.registry import AGENTS
+    assert {"pointnav", "objectnav"} <= set(TASKS)
+    for t in TASKS.values():
+        assert t.gym_id.startswith("navbench/") and t.gym_id.endswith("-v0") and t.gym_id in gym.registry
+        assert t.default_split in t.splits and t.split_file(t.default_split).is_file(), t.name
+        assert t.default_agent in AGENTS and t.goal_sensors and t.actions[0] == "STOP"
+    assert len({t.gym_id for t in TASKS.values()}) == len(TASKS)
+
+
+def test_unknown_task_is_one_line_naming_the_known_ones():
+    with pytest.raises(ValueError, match="unknown task 'nope': choose from pointnav, objectnav"):
+        get_task("nope")
+    with pytest.raises(ValueError, match="unknown task"):
+        navbench.evaluate("oracle", task="nope")
+
+
+def test_a_task_definition_is_checked():
+    with pytest.raises(ValueError, match="distance_to"):
+        Task("x", "navbench/X-v0", "", "", (), distance_to="CENTRE")
+    with pytest.raises(ValueError, match="default split"):
+        Task("x", "navbench/X-v0", "", "", (), splits=("val",), default_split="test")
+
+
+def test_every_task_flag_takes_its_choices_from_the_registry(capsys):
+    parser = build_parser()
+    for command in ("run", "serve-agent", "check-agent"):
+        sub = parser._subparsers._group_actions[0].choices[command]
+        flag = next(a for a in sub._actions if "--task" in a.option_strings)
+        assert tuple(flag.choices) == task_names(), command
+    assert main(["tasks"]) == 0
+    out = capsys.readouterr().out
+    for t in TASKS.values():
+        line = next(ln for ln in out.splitlines() if ln.startswith(t.name + " "))
+        assert t.gym_id in line and f" {t.max_steps} " in line and line.rstrip().endswith(t.default_split)
+        assert f"{t.success_distance:g} m" in line
+
+
+def test_objectnav_scores_ovon_style_splits_and_files_at_ovons_distance(objectnav_file):
+    from navbench.api import resolve_episodes
+    assert resolve_episodes("objectnav", "val_unseen", None)[3] == 0.25
+    assert resolve_episodes(None, "select", None)[:2] == ("pointnav", "select")
+    assert resolve_episodes(None, None, objectnav_file)[0] == "objectnav"
+    assert resolve_episodes("pointnav", None, None)[3] == 0.2
+
+
+# A task that exists only in this test: PointNav's episodes, the goal given as its Euclidean distance.
+def _distance(ctx) -> np.ndarray:
+    goal = np.asarray(ctx.episode.goals[0].position, np.float64)
+    return np.array([np.linalg.norm((goal - ctx.agent_position)[[0, 2]])], np.float32)
+
+
+def _distance_space(dataset, config) -> spaces.Box:
+    return spaces.Box(0, np.inf, (1,), np.float32)
+
+
+TOY = Task(name="toydistance", gym_id="navbench/ToyDistance-v0", title="a toy", reference="none",
+           goal_sensors=(GoalSensor("goal_distance", _distance_space, _distance),),
+           success_distance=0.3, max_steps=40, splits=("val",), default_split="val", default_agent="oracle")
+
+
+@pytest.fixture
+def toy_task(monkeypatch):
+    monkeypatch.setitem(TASKS, TOY.name, TOY)
+    return TOY
+
+
+def test_a_registered_task_runs_through_env_worker_and_runner_unchanged(toy_task, pointnav_file, tmp_path):
+    env = task_env(toy_task.name, pointnav_file)
+    obs, info = env.reset(seed=0)
+    assert set(env.observation_space.spaces) >= {"goal_distance"} and "pointgoal_with_gps_compass" not in obs
+    assert env.success_distance == 0.3 and env.config.max_steps == 40
+    env.close()
+    summary = navbench.evaluate("oracle", task=toy_task.name, episodes=pointnav_file, out=tmp_path / "run")
+    cfg = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert summary["task"] == cfg["task"] == "toydistance" and cfg["success_distance"] == 0.3
+    assert cfg["env"] == {"max_steps": 40}  # the task's step limit, recorded
+    assert summary["success"] == 1.0 and summary["num_episodes"] > 0
+
+
+def test_env_takes_its_action_list_and_limit_from_the_task(pointnav_file):
+    env = task_env("pointnav", pointnav_file)
+    assert env.actions == ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT") and env.action_space.n == 4
+    env.close()
