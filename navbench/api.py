@@ -212,11 +212,14 @@ def _env_config(env_config: Any) -> tuple[Any, str | None]:
 
 
 def _task_env(task: str) -> Any:
-    """None (navbench's EnvConfig), or for a task whose step limit is not EnvConfig's, EnvConfig with it (the
-    run's config.json records it as an ``env`` override)."""
+    """None (navbench's EnvConfig); for a task with a named configuration of its own (``Task.env_config``),
+    that; for a task whose step limit is not EnvConfig's, EnvConfig with it (the run's config.json records
+    either as ``env`` overrides)."""
     from navbench.env.config import EnvConfig
-    limit = get_task(task).max_steps
-    return None if limit == EnvConfig().max_steps else EnvConfig(max_steps=limit)
+    t = get_task(task)
+    if t.env_config is not None:
+        return EnvConfig.load(t.env_config)
+    return None if t.max_steps == EnvConfig().max_steps else EnvConfig(max_steps=t.max_steps)
 
 
 def warn_failed(summary: RunSummary, out: Path) -> None:

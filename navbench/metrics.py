@@ -68,8 +68,10 @@ def episode_metrics(stop_called: bool, distance_to_goal: float, d0: float, path_
 METRIC_KEYS = ("success", "spl", "soft_spl", "distance_to_goal")
 
 
-def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None) -> dict[str, Any]:
-    """Mean of each metric over scored records (skipped episodes excluded, and counted).
+def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None,
+              keys: Iterable[str] = METRIC_KEYS) -> dict[str, Any]:
+    """Mean of each metric (``keys``: a task's measures) over scored records (skipped episodes excluded, and
+    counted); a plain mean, as VLN-CE's and Habitat's evaluations take it (an infinite distance makes it inf).
 
     With ``by`` (e.g. ``"object_category"``) also returns ``{"by_<by>": {value: {...means...}}}``.
     Records are sorted by episode id first so floating-point sums do not depend on finishing order.
@@ -77,14 +79,15 @@ def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None) -> di
     rows = sorted(records, key=lambda r: (str(r.get("scene_id", "")), str(r.get("episode_id", ""))))
     scored = [r for r in rows if not r.get("skipped")]
     out: dict[str, Any] = {"num_episodes": len(scored), "num_skipped": len(rows) - len(scored)}
-    for k in METRIC_KEYS:
+    keys = tuple(keys)
+    for k in keys:
         vals = [float(r[k]) for r in scored]
         out[k] = math.fsum(vals) / len(vals) if vals else float("nan")
     if by is not None:
         groups: dict[str, list[Mapping[str, Any]]] = {}
         for r in scored:
             groups.setdefault(str(r.get(by)), []).append(r)
-        out[f"by_{by}"] = {g: {k: v for k, v in aggregate(rs).items() if k != "num_skipped"}
+        out[f"by_{by}"] = {g: {k: v for k, v in aggregate(rs, keys=keys).items() if k != "num_skipped"}
                            for g, rs in sorted(groups.items())}
     return out
 
@@ -125,8 +128,14 @@ def vlnce_path_length(positions: Iterable[Any]) -> float:
     pts = np.asarray(list(positions), np.float32).reshape(-1, 3)
     total = 0.0
     for a, b in zip(pts[:-1], pts[1:]):
-        total += float(np.linalg.norm(b - a, ord=2))
+        total += vlnce_step_length(a, b)
     return total
+
+
+def vlnce_step_length(a: Any, b: Any) -> float:
+    """One step's length as PathLength and SPL take it: the float32 norm of the float32 difference."""
+    import numpy as np
+    return float(np.linalg.norm(np.asarray(b, np.float32) - np.asarray(a, np.float32), ord=2))
 
 
 def _euclidean(a: Any, b: Any) -> float:

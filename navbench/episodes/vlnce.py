@@ -61,12 +61,14 @@ class VLNCEDataset(EpisodeDataset):
             there is no gt file (nDTW and SDTW are then not scored).
         gt_files: the gt files read.
         split: the split name the file goes by (RxR's text features are filed under it).
+        text_features_dir: RxR's ``text_features/`` directory when its features are to be read, else None.
     """
     flavor: str = "r2r"
     word_list: list[str] | None = None
     gt_locations: dict[str, list[list[float]]] | None = None
     gt_files: list[Path] = field(default_factory=list)
     split: str = ""
+    text_features_dir: Path | None = None
 
     @property
     def task(self) -> str:

@@ -82,9 +82,10 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
               extra: dict[str, Any] | None = None) -> RunSummary:
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the
     failed episodes with their reasons."""
-    by = get_task(cfg.task).group_by
-    summary = aggregate(records, by=by)
-    add_intervals(summary, records, by)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
+    task = get_task(cfg.task)
+    by, keys = task.group_by, task.summary_keys
+    summary = aggregate(records, by=by, keys=keys)
+    add_intervals(summary, records, by, keys)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
     failed = sorted((r for r in records if r.get("failed")), key=lambda r: (str(r["scene_id"]), str(r["episode_id"])))
     summary.update(task=cfg.task, split=cfg.split, agent=cfg.label or cfg.agent, success_distance=cfg.success_distance,
                    seed=cfg.seed, protocol_id=protocol_id(config_protocol(cfg)), complete=complete,

@@ -144,6 +144,8 @@ def start_distance(episode: Episode) -> float:
     d = episode.info.get("geodesic_distance") if isinstance(episode.info, dict) else None
     if isinstance(d, (int, float)) and math.isfinite(d):
         return float(d)
+    if not episode.goals and episode.object_category is None:
+        return math.nan  # a VLN-CE test split's episode: no goal, not scored
     pts = episode.goal_positions()
     start = np.asarray(episode.start_position, np.float64)
     return float(np.min(np.hypot(pts[:, 0] - start[0], pts[:, 2] - start[2]))) if len(pts) else 0.0
@@ -161,6 +163,7 @@ def failed_record(record: dict[str, Any], reason: str, d0: float, distance: floa
         stop_called=bool(info.get("stop_called", False)), collisions=int(info.get("collisions", 0)),
         elapsed_s=round(elapsed, 4), failed=True, failure_reason=reason,
     )
+    record.update(_task_measures(record, info))
     return record
 
 
@@ -179,7 +182,7 @@ def _begin(env: NavEnv, episode: Episode, cfg: RunConfig, tracker: Tracker = _NO
     except Exception as exc:
         raise _EnvFailure(failed_record(record, failure_reason(exc), start_distance(episode), None, 0,
                                         time.perf_counter() - t0)) from None
-    if not math.isfinite(info["geodesic_distance"]):
+    if info["geodesic_distance"] == math.inf:  # NaN: an episode without a goal runs, unscored
         record.update(skipped=True, skip_reason="unreachable: no goal on the start's navigable island",
                       geodesic_distance=None, elapsed_s=round(time.perf_counter() - t0, 4))
         return record, None, t0, math.inf
@@ -193,6 +196,18 @@ class _EnvFailure(Exception):
         self.record = record
 
 
+def _task_measures(record: dict[str, Any], info: dict[str, Any] | None) -> dict[str, Any]:
+    """The task's measures beyond the four every task reports (VLN-CE's oracle_success, ndtw...), from the
+    env's ``info``, and the path VLN-CE's leaderboard files are written from (``vlnce_path``)."""
+    info = info or {}
+    extra = [m for m in get_task(record["task"]).measures if m not in ("success", "spl", "soft_spl",
+                                                                       "distance_to_goal", "path_length")]
+    out = {m: float(info.get(m, math.nan)) for m in extra}
+    if "vlnce_path" in info:
+        out["vlnce_path"] = info["vlnce_path"]
+    return out
+
+
 def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any],
          trace: Trace | None = None) -> dict[str, Any]:
     record.update(
@@ -201,6 +216,7 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
         path_length=info["path_length"], num_steps=info["num_steps"], stop_called=info["stop_called"],
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
+    record.update(_task_measures(record, info))
     if log:
         record["log"] = log
     if trace is not None:
