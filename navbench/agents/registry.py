@@ -53,6 +53,21 @@ def make_optimistic(cfg):
     return OptimisticOracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(("depth",)))
 
 
+def make_vln_random(cfg):
+    from navbench.agents.vlnce import VLNRandomAgent
+    return VLNRandomAgent(seed=cfg.seed)
+
+
+def make_vln_forward(cfg):
+    from navbench.agents.vlnce import VLNForwardAgent
+    return VLNForwardAgent(seed=cfg.seed)
+
+
+def make_vln_oracle(cfg):
+    from navbench.agents.vlnce import ReferencePathOracle
+    return ReferencePathOracle(cfg.scene_dir, cfg.env_config(()))
+
+
 def make_random(cfg):
     from navbench.agents.random_agent import RandomAgent
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
@@ -234,6 +249,11 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
               **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
               explores=True, level_camera=True, **_POLICY_FILES),
+    AgentSpec("vln_random", make_vln_random, RandomOptions, help="VLN-CE's RandomAgent: actions drawn from the "
+              "R2R training set's oracle distribution", gps_free=True),
+    AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "
+              "37 steps forward, STOP", gps_free=True),
+    AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path (an upper bound)"),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}

@@ -117,7 +117,7 @@ _COMMON: dict[str, Any] = dict(
     success_distance=VLNCE_SUCCESS_DISTANCE,
     max_steps=500,
     env_class="navbench.env.vlnce:VLNCEEnv",
-    default_agent="oracle",
+    default_agent="vln_random",  # runs under VLN-CE's own sensors (no GPS+compass), as every run's default
     # the VLN-CE README's table: TL, NE, OS, SR, SPL; nDTW and SDTW as the RxR-Habitat leaderboard lists them
     columns=(("TL", "path_length", 1), ("NE", "distance_to_goal", 1), ("OS", "oracle_success", 100),
              ("SR", "success", 100), ("SPL", "spl", 100), ("nDTW", "ndtw", 100), ("SDTW", "sdtw", 100)),

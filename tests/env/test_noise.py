@@ -305,3 +305,5 @@ def test_vlnce_configurations_are_the_task_yamls():
     assert rxr.actions[4:] == ("LOOK_UP", "LOOK_DOWN")
     for c in (r2r, rxr):
         assert (c.max_steps, c.forward_step, c.success_distance, c.gps_compass) == (500, 0.25, 3.0, False)
+    for name in ("r2r-ce", "rxr-ce"):  # navbench's, for baselines that know their pose: the same plus GPS+compass
+        assert EnvConfig.load(f"navbench-{name}") == dataclasses.replace(EnvConfig.load(name), gps_compass=True)

@@ -1,0 +1,109 @@
+"""VLN-CE's baselines through navbench.evaluate on an R2R-CE file written here from the published schema: the
+reference-path oracle reaches SR 100 with nDTW >= 0.8, VLN-CE's random and hand-crafted agents run, the records
+and summary carry VLN-CE's measures with intervals and `navbench table` prints TL/NE/OS/SR/SPL/nDTW/SDTW."""
+
+import gzip
+import json
+
+import numpy as np
+import pytest
+
+import navbench
+from navbench.agents.vlnce import VLNForwardAgent, VLNRandomAgent
+from navbench.cli import main
+from navbench.env.config import EnvConfig
+from navbench.episodes.io import load_dataset
+from navbench.episodes.types import Episode
+from navbench.paths import SCENES_DIR
+from navbench.scene.cache import load_scene_and_navgrid
+
+pytest.importorskip("fastdtw", reason="fastdtw is a navbench dependency (the reference's nDTW library)")
+
+MEASURES = ("distance_to_goal", "success", "oracle_success", "spl", "path_length", "steps_taken", "ndtw", "sdtw")
+
+
+def geodesic_trace(grid, start, goal, step=0.25):
+    """Points every ``step`` metres along the geodesic from start to goal (what an oracle rollout records): a
+    descent over the grid's cells on the distance field's values, resampled by arc length."""
+    field = grid.distance_field(np.asarray(goal, float).reshape(1, 3))
+    on = grid.snap_point(np.asarray(start, float))  # a start a little off the grid, as the env snaps it
+    ij = tuple(int(v) for v in grid.world_to_grid(on.reshape(1, 3))[0])
+    cells = [ij]
+    while field.values[ij] > 0.2 and len(cells) < 5000:
+        i, j = ij
+        nbrs = [(i + a, j + b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)
+                and 0 <= i + a < field.values.shape[0] and 0 <= j + b < field.values.shape[1]]
+        nxt = min(nbrs, key=lambda c: field.values[c])
+        if field.values[nxt] >= field.values[ij]:
+            break
+        ij = nxt
+        cells.append(ij)
+    pts = grid.grid_to_world(np.asarray(cells))
+    pts = np.column_stack([pts[:, 0], np.full(len(pts), float(start[1])), pts[:, -1]])
+    pts[0] = start
+    out, walked = [list(map(float, start))], 0.0
+    for a, b in zip(pts[:-1], pts[1:]):
+        walked += float(np.linalg.norm(b - a))
+        if walked >= step:
+            out.append([float(v) for v in b])
+            walked = 0.0
+    return out
+
+
+@pytest.fixture(scope="module")
+def r2r_file(tmp_path_factory, pointnav_file):
+    d = tmp_path_factory.mktemp("r2r") / "val_seen"
+    d.mkdir()
+    eps, gt = [], {}
+    src = load_dataset(pointnav_file).episodes
+    grid = load_scene_and_navgrid(SCENES_DIR / src[0].scene_id, EnvConfig.load("r2r-ce").nav_grid_config())[1]
+    for i, e in enumerate(src):
+        locs = geodesic_trace(grid, e.start_position, e.goals[0].position)
+        eps.append({"episode_id": i, "trajectory_id": i, "scene_id": e.scene_id,
+                    "start_position": e.start_position, "start_rotation": e.start_rotation,
+                    "info": {"geodesic_distance": e.info["geodesic_distance"]},
+                    "goals": [{"position": e.goals[0].position, "radius": 3.0}],
+                    "reference_path": [locs[0], *locs[8:-1:8], e.goals[0].position],
+                    "instruction": {"instruction_text": "Go to the goal.", "instruction_tokens": [1, 2, 0]}})
+        gt[str(i)] = {"actions": [], "forward_steps": len(locs) - 1, "locations": locs}
+    path = d / "val_seen.json.gz"
+    path.write_bytes(gzip.compress(json.dumps({"episodes": eps,
+                                               "instruction_vocab": {"word_list": ["<PAD>", "go", "goal"]}}).encode()))
+    (d / "val_seen_gt.json.gz").write_bytes(gzip.compress(json.dumps(gt).encode()))
+    return path
+
+
+def test_oracle_follows_the_reference_path(r2r_file, tmp_path, capsys):
+    s = navbench.evaluate("vln_oracle", task="r2r_ce", episodes=r2r_file, env_config="navbench-r2r-ce",
+                          out=tmp_path / "oracle")
+    assert s["num_episodes"] == 6 and s["num_failed"] == 0
+    assert s["success"] == 1.0 and s["spl"] > 0.5 and s["ndtw"] >= 0.8 and s["sdtw"] == s["ndtw"]
+    assert all(m in s and m in s["ci95"] for m in MEASURES)
+    recs = [json.loads(line) for line in (tmp_path / "oracle" / "episodes.jsonl").read_text().splitlines()]
+    assert all(set(MEASURES) <= set(r) and r["vlnce_path"]["stop"][-1] for r in recs)
+    assert main(["table", str(tmp_path / "oracle")]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    cols = [c.strip() for c in header.strip("|").split("|")]
+    assert [c for c in cols if c in ("TL", "NE", "OS", "SR", "SPL", "nDTW", "SDTW")] == \
+        ["TL", "NE", "OS", "SR", "SPL", "nDTW", "SDTW"]
+
+
+def test_random_and_forward_baselines_run_under_vlnce_sensors(r2r_file, tmp_path):
+    for agent in ("vln_random", "vln_forward"):
+        s = navbench.evaluate(agent, task="r2r_ce", episodes=r2r_file, out=tmp_path / agent,
+                              options={}, seed=1)
+        assert s["num_episodes"] == 6 and s["num_failed"] == 0
+        assert 0 <= s["ndtw"] <= 1 and s["steps_taken"] >= 1
+
+
+def test_forward_agent_is_vlnces_handcrafted_agent():
+    ep = Episode("1", "s", [0, 0, 0], [0, 0, 0, 1])
+    a = VLNForwardAgent(seed=3)
+    a.reset(ep)
+    turns = a.turns
+    acts = [a.act({}) for _ in range(turns + 38)]
+    assert 0 <= turns <= 24 and acts == [3] * turns + [1] * 37 + [0]
+    r = VLNRandomAgent(seed=3)
+    r.reset(ep)
+    draws = [r.act({}) for _ in range(4000)]
+    assert abs(draws.count(1) / 4000 - 0.68) < 0.03 and abs(draws.count(0) / 4000 - 0.02) < 0.01
