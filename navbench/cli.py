@@ -195,6 +195,12 @@ def cmd_table(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from navbench.eval.export import export_run
+    print(export_run(args.run_dir, args.format, args.out))
+    return 0
+
+
 def cmd_compare(args) -> int:
     from navbench.eval.stats import compare_runs, format_comparison
     results = compare_runs(args.base, args.others, tuple(dict.fromkeys(args.metric or ())) or METRIC_NAMES,
@@ -429,6 +435,12 @@ def build_parser() -> argparse.ArgumentParser:
                                                                 "(success distance, step limit...) anyway: a "
                                                                 "protocol column and a note mark the table")
     t.set_defaults(func=cmd_table)
+
+    ex = sub.add_parser("export", help="write a VLN-CE run's leaderboard file (R2R-CE JSON, RxR-CE JSON Lines)")
+    ex.add_argument("run_dir")
+    ex.add_argument("--format", required=True, choices=("r2r-ce", "rxr-ce"))
+    ex.add_argument("-o", "--out", help="the file to write (default: RUN/predictions.json or .jsonl)")
+    ex.set_defaults(func=cmd_export)
 
     c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
                        description="Pairs OTHER with BASE on the episodes both scored and, per metric, prints "

@@ -81,6 +81,9 @@ def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None,
     out: dict[str, Any] = {"num_episodes": len(scored), "num_skipped": len(rows) - len(scored)}
     keys = tuple(keys)
     for k in keys:
+        if any(r[k] is None for r in scored):  # not measured (a split without goals or gt paths): no mean
+            out[k] = None
+            continue
         vals = [float(r[k]) for r in scored]
         out[k] = math.fsum(vals) / len(vals) if vals else float("nan")
     if by is not None:

@@ -116,7 +116,8 @@ def test_the_seed_names_a_run_only_when_the_agent_draws():
 
 
 def test_registry_lookup_and_run_directory():
-    assert set(AGENTS) == {"oracle", "optimistic", "random", "pointnav", "memory", "frontier"}
+    assert set(AGENTS) == {"oracle", "optimistic", "random", "pointnav", "memory", "frontier", "vln_random",
+                           "vln_forward", "vln_oracle"}
     assert agent_factory("memory") is AGENTS["memory"]
     with pytest.raises(ValueError, match="unknown agent 'nope': choose from oracle"):
         agent_factory("nope")

@@ -124,6 +124,9 @@ class VLNCEEnv(NavEnv):
             stops = [False] * (len(t["positions"]) - 1) + [bool(self._stop_called)]
             info["vlnce_path"] = {"positions": [p.tolist() for p in t["positions"]], "headings": list(t["headings"]),
                                   "stop": stops}
+            iid = self.episode.extra["instruction"].get("instruction_id")
+            if iid is not None:  # RxR: what its leaderboard file is keyed by
+                info["vlnce_path"]["instruction_id"] = int(iid)
         else:
             d = t["distances"][-1]
             m = {"distance_to_goal": d, "success": 0.0, "oracle_success": float(self._oracle), "spl": 0.0,
@@ -131,6 +134,6 @@ class VLNCEEnv(NavEnv):
                  "ndtw_exact": nan}
         if not self.scored:
             m = {k: nan if k != "steps_taken" and k != "path_length" else v for k, v in m.items()}
-            info["geodesic_distance"] = nan
+            info["geodesic_distance"] = info["soft_spl"] = nan
         info.update({k: m[k] for k in VLNCE_METRIC_KEYS})
         return info

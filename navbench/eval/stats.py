@@ -101,6 +101,7 @@ def add_intervals(summary: dict[str, Any], records: Iterable[Mapping[str, Any]],
     """Put ``ci95`` and ``ci_method`` beside the means of a summary (see :func:`navbench.metrics.aggregate`),
     and ``ci95`` into each group of its ``by_<by>`` breakdown."""
     rows = _scored(records)
+    metrics = [m for m in metrics if all(r.get(m) is not None for r in rows)]  # null: not measured
     summary["ci95"], summary["ci_method"] = intervals(rows, metrics), CI_METHOD
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for r in rows:

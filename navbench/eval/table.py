@@ -68,6 +68,8 @@ def load_summary(run_dir: str | Path) -> dict[str, Any]:
     s = _read_object(path, "summary")
     for k in task_metrics(s.get("task")):
         v = s.get(k)
+        if v is None and k in s:  # a measure the run could not take (a split without goals or gt paths)
+            continue
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise TableError(f"{path}: corrupt summary ({k!r} must be a number, got {v!r})"[:300])
     for k in ("agent", "task", "split"):
@@ -187,8 +189,8 @@ def summary_row(s: dict[str, Any], identity: dict[str, Any] | None = None,
     row = {"agent": s.get("agent"), **(identity or {}), "task": s.get("task"), "split": s.get("split") or "custom",
            "episodes": s.get("num_episodes")}
     for col, (m, scale) in task_columns(s.get("task")).items():
-        row[col] = scale * s[m]
-        if ci is not None:
+        row[col] = None if s[m] is None else scale * s[m]
+        if ci is not None and m in ci:
             row[f"{col} lo"], row[f"{col} hi"] = scale * ci[m][0], scale * ci[m][1]
     return row
 
@@ -207,7 +209,7 @@ def run_intervals(run_dir: str | Path, summary: dict[str, Any], first: int | Non
     """summary.json's ``ci95`` (all episodes), else the two-stage bootstrap of the records the row scores."""
     from navbench.eval.stats import StatsError, intervals
 
-    metrics = task_metrics(summary.get("task"))
+    metrics = tuple(m for m in task_metrics(summary.get("task")) if summary.get(m) is not None)
     if first is None and _valid_ci(summary.get("ci95"), metrics):
         return summary["ci95"]
     recs = run_records(run_dir, first)
@@ -329,7 +331,7 @@ def render(df: pd.DataFrame, fmt: str = "markdown") -> str:
 def summary_markdown(summary: dict[str, Any]) -> str:
     """The table ``navbench run`` prints: the overall row, then per-category rows for ObjectNav, each
     figure with its 95% interval when the summary has one."""
-    metrics = task_metrics(summary.get("task"))
+    metrics = tuple(m for m in task_metrics(summary.get("task")) if summary.get(m) is not None)
     ci = summary.get("ci95") if _valid_ci(summary.get("ci95"), metrics) else None
     rows = [dict(summary_row(summary, ci=ci), category="all")]
     for cat, m in (summary.get("by_object_category") or {}).items():

@@ -163,8 +163,8 @@ def failed_record(record: dict[str, Any], reason: str, d0: float, distance: floa
         stop_called=bool(info.get("stop_called", False)), collisions=int(info.get("collisions", 0)),
         elapsed_s=round(elapsed, 4), failed=True, failure_reason=reason,
     )
-    record.update(_task_measures(record, info))
-    return record
+    record.update(_task_measures(record, info, failed=True))
+    return _nan_to_null(record)
 
 
 def _begin(env: NavEnv, episode: Episode, cfg: RunConfig, tracker: Tracker = _NO_TRACKER,
@@ -196,16 +196,33 @@ class _EnvFailure(Exception):
         self.record = record
 
 
-def _task_measures(record: dict[str, Any], info: dict[str, Any] | None) -> dict[str, Any]:
+_SCORES = ("success", "spl", "soft_spl", "distance_to_goal", "geodesic_distance")
+
+
+def _task_measures(record: dict[str, Any], info: dict[str, Any] | None, failed: bool = False) -> dict[str, Any]:
     """The task's measures beyond the four every task reports (VLN-CE's oracle_success, ndtw...), from the
-    env's ``info``, and the path VLN-CE's leaderboard files are written from (``vlnce_path``)."""
+    env's ``info``, and the path VLN-CE's leaderboard files are written from (``vlnce_path``). A measure the
+    env could not take (NaN: an episode without a goal, a split without gt paths) is recorded as null; a failed
+    episode's measures that only its end gives (nDTW) count as a failure's, 0."""
     info = info or {}
-    extra = [m for m in get_task(record["task"]).measures if m not in ("success", "spl", "soft_spl",
-                                                                       "distance_to_goal", "path_length")]
-    out = {m: float(info.get(m, math.nan)) for m in extra}
+    out: dict[str, Any] = {}
+    for m in get_task(record["task"]).measures:
+        if m in ("success", "spl", "soft_spl", "distance_to_goal", "path_length"):
+            continue
+        v = float(info.get(m, math.nan))
+        out[m] = v if v == v else (0.0 if failed else None)
     if "vlnce_path" in info:
         out["vlnce_path"] = info["vlnce_path"]
     return out
+
+
+def _nan_to_null(record: dict[str, Any]) -> dict[str, Any]:
+    """Scores an env reports as NaN (nothing to measure against) as null: records are strict JSON."""
+    for k in _SCORES:
+        v = record.get(k)
+        if isinstance(v, float) and v != v:
+            record[k] = None
+    return record
 
 
 def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any],
@@ -217,6 +234,7 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
     record.update(_task_measures(record, info))
+    _nan_to_null(record)
     if log:
         record["log"] = log
     if trace is not None:

@@ -107,3 +107,42 @@ def test_forward_agent_is_vlnces_handcrafted_agent():
     r.reset(ep)
     draws = [r.act({}) for _ in range(4000)]
     assert abs(draws.count(1) / 4000 - 0.68) < 0.03 and abs(draws.count(0) / 4000 - 0.02) < 0.01
+
+
+def test_export_r2r_and_rxr_leaderboard_files(r2r_file, tmp_path, capsys):
+    navbench.evaluate("vln_forward", task="r2r_ce", episodes=r2r_file, out=tmp_path / "fwd")
+    assert main(["export", str(tmp_path / "fwd"), "--format", "r2r-ce", "-o", str(tmp_path / "p.json")]) == 0
+    pred = json.loads((tmp_path / "p.json").read_text())
+    recs = {json.loads(x)["episode_id"]: json.loads(x) for x in (tmp_path / "fwd" / "episodes.jsonl").open()}
+    assert sorted(pred) == sorted(recs)
+    for eid, steps in pred.items():
+        assert len(steps) == recs[eid]["steps_taken"] + 1  # the start state, then one entry per action
+        assert [s["stop"] for s in steps] == [False] * (len(steps) - 1) + [True]
+        assert set(steps[0]) == {"position", "heading", "stop"} and len(steps[0]["position"]) == 3
+    # an R2R run has no instruction ids: no RxR file, one line, exit 2
+    assert main(["export", str(tmp_path / "fwd"), "--format", "rxr-ce"]) == 2
+    assert "instruction_id" in capsys.readouterr().err
+
+    # an RxR guide file of the same episodes, goal-less as test_challenge is: it runs unscored and exports
+    src = json.loads(gzip.decompress(r2r_file.read_bytes()))
+    d = tmp_path / "RxR_VLNCE_v0" / "test_challenge"
+    d.mkdir(parents=True)
+    eps = []
+    for i, e in enumerate(src["episodes"]):
+        e = dict(e, episode_id=str(i), trajectory_id=str(i), goals=None, info={"role": "guide"})
+        e["instruction"] = {"instruction_id": str(50 - i), "instruction_text": "Walk ahead.", "language": "en-US",
+                            "annotator_id": "1", "edit_distance": 0.0, "timed_instruction": []}
+        eps.append(e)
+    rxr = d / "test_challenge_guide.json.gz"
+    rxr.write_bytes(gzip.compress(json.dumps({"episodes": eps}).encode()))
+    s = navbench.evaluate("vln_forward", task="rxr_ce", episodes=rxr, out=tmp_path / "rxr")
+    assert s["num_episodes"] == 6  # nothing to score against: no means, and no intervals of them
+    assert all(s[m] is None for m in MEASURES if m not in ("steps_taken", "path_length")) and s["steps_taken"] >= 1
+    assert main(["table", str(tmp_path / "rxr")]) == 0
+    capsys.readouterr()
+    out = tmp_path / "rxr" / "predictions.jsonl"
+    assert main(["export", str(tmp_path / "rxr"), "--format", "rxr-ce"]) == 0
+    lines = [json.loads(x) for x in out.read_text().splitlines()]
+    assert [x["instruction_id"] for x in lines] == sorted(50 - i for i in range(6))
+    for x in lines:
+        assert all(a != b for a, b in zip(x["path"], x["path"][1:]))  # consecutive repeats dropped
