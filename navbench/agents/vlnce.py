@@ -25,7 +25,7 @@ from navbench.env.base import resolve_scene_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.episodes.types import Episode
 from navbench.scene.cache import load_scene_and_navgrid
-from navbench.scene.follower import GreedyFollower
+from navbench.scene.follower import WaypointFollower
 from navbench.scene.pose import quat_from_yaw
 
 RANDOM_ACTIONS = (STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT)
@@ -72,24 +72,17 @@ class VLNForwardAgent:
 
 
 class ReferencePathOracle:
-    """Follows ``reference_path`` waypoint by waypoint (module docstring).
-
-    Args:
-        waypoint_radius: a waypoint counts as passed within this distance (xz), and the next one is driven to.
-        stop_radius: STOP within this distance of the path's end (VLN-CE's gt paths end within 0.5 m of the goal:
-            ``habitat_extensions/config/default.py``, "all goals can be navigated to within 0.5m").
-        max_waypoint_steps: actions spent on one waypoint before it is given up (one off the navigable space).
-    """
+    """Follows ``reference_path`` waypoint by waypoint (module docstring) with
+    :class:`navbench.scene.follower.WaypointFollower`, stopping within ``stop_radius`` of its end."""
 
     sensors: tuple[str, ...] = ()  # privileged: needs no rendered observation
 
     def __init__(self, scene_dir: str | Path, env_config: EnvConfig = EnvConfig(), waypoint_radius: float = 0.5,
-                 stop_radius: float = 0.5, max_waypoint_steps: int = 80):
+                 stop_radius: float = 0.5):
         self.scene_dir = Path(scene_dir)
         self.env_config = env_config
         self.nav_config = env_config.nav_grid_config()
         self.waypoint_radius, self.stop_radius = waypoint_radius, stop_radius
-        self.max_waypoint_steps = max_waypoint_steps
         self._pose = PoseTracker()
         self._grid_key: tuple | None = None
         self._grid = None
@@ -110,44 +103,11 @@ class ReferencePathOracle:
             goal = np.asarray(episode.goals[0].position, np.float64)
             if not points or xz_dist(points[-1], goal) > 1e-6:
                 points.append(goal)
-        self._waypoints = points
-        self._grid_now = self._navgrid(episode)
-        self._follower: GreedyFollower | None = None
-        self._steps_on = 0
-
-    def _next_follower(self, position: np.ndarray) -> GreedyFollower | None:
-        """The follower to the next waypoint not yet passed (dropping the passed and the unreachable ones)."""
-        while self._waypoints:
-            last = len(self._waypoints) == 1
-            wp = self._waypoints[0]
-            radius = self.stop_radius if last else self.waypoint_radius
-            if not last and xz_dist(position, wp) < radius:
-                self._waypoints.pop(0)
-                continue
-            c = self.env_config
-            f = GreedyFollower(self._grid_now, wp.reshape(1, 3), radius, forward_step=c.forward_step,
-                               turn_angle_deg=c.turn_angle_deg, sliding=c.allow_sliding)
-            if not np.isfinite(f.distance(position)):
-                self._waypoints.pop(0)  # not on this navigable space
-                continue
-            self._steps_on = 0
-            return f
-        return None
+        c = self.env_config
+        self._follower = WaypointFollower(self._navgrid(episode), points, forward_step=c.forward_step,
+                                          turn_angle_deg=c.turn_angle_deg, sliding=c.allow_sliding,
+                                          waypoint_radius=self.waypoint_radius, stop_radius=self.stop_radius)
 
     def act(self, observations) -> int:
         position, yaw = self._pose(observations)
-        for _ in range(len(self._waypoints) + 1):
-            if self._follower is None:
-                self._follower = self._next_follower(position)
-                if self._follower is None:
-                    return STOP
-            last = len(self._waypoints) == 1
-            action = int(self._follower.next_action(position, quat_from_yaw(yaw)))
-            self._steps_on += 1
-            if action != STOP and self._steps_on <= self.max_waypoint_steps:
-                return action
-            if last:
-                return STOP
-            self._waypoints.pop(0)  # reached (or given up): on to the next waypoint
-            self._follower = None
-        return STOP
+        return self._follower.next_action(position, quat_from_yaw(yaw))
