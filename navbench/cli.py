@@ -235,6 +235,9 @@ def cmd_generate(args) -> int:
         h = POLICY_SELECT_HOUSES
         generate_dataset(SCENES_DIR / h["dir"], n_train=0, n_val=h["n_val"], seed=h["seed"])
         generate_policy_select_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+    elif args.what == "vlnce":
+        from navbench.episodes.vlnce_generate import generate_vlnce_split
+        generate_vlnce_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
     else:
         from navbench.episodes.generate import generate_bundled_splits
         generate_bundled_splits(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
@@ -464,8 +467,8 @@ def build_parser() -> argparse.ArgumentParser:
                                         "extra training houses and episodes (policy-train) or its houses and "
                                         "episodes for choosing among policies (policy-select); or a larger "
                                         "ObjectNav benchmark with houses of its own and checksums (benchmark "
-                                        "--out DIR)")
-    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select", "benchmark"))
+                                        "--out DIR); or the R2R-CE-style val split (vlnce)")
+    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select", "benchmark", "vlnce"))
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
     g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")

@@ -130,7 +130,7 @@ R2R_TASK = Task(
     episode_format="VLN-CE-v1",
     read_episodes=read_r2r,
     actions=NAV_ACTIONS,
-    splits=(),
+    splits=("val",),  # navbench generate vlnce: R2R-style routes through the bundled val houses
     default_split="val",
     env_config="r2r-ce",
     **_COMMON,
