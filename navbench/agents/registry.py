@@ -68,6 +68,11 @@ def make_vln_oracle(cfg):
     return ReferencePathOracle(cfg.scene_dir, cfg.env_config(()))
 
 
+def make_vln_memory(cfg):
+    from navbench.agents.vlnce import InstructionMemoryAgent
+    return InstructionMemoryAgent(make_memory(cfg))  # one episode at a time (envs_per_worker 1)
+
+
 def make_random(cfg):
     from navbench.agents.random_agent import RandomAgent
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
@@ -254,6 +259,9 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "
               "37 steps forward, STOP", gps_free=True),
     AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path (an upper bound)"),
+    AgentSpec("vln_memory", make_vln_memory, MemoryOptions, help="localises a VLN instruction's last landmark "
+              "in the keyframe memory, then the PointNav policy", prepare=prebuild_memories, scene_files=_memory_files,
+              scene_option="memory_root", level_camera=True, run_files=_checkpoint_file),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}

@@ -11,12 +11,18 @@
   is what following the described path, not only reaching its end, scores. Privileged: it reads the scene and
   its pose from GPS+compass (run it under ``navbench-r2r-ce`` / ``navbench-rxr-ce``).
 
-None of them reads the instruction: they are the floor (random, forward) and the ceiling (oracle) of a split.
+- ``vln_memory``: memory over maps for instructions (:class:`InstructionMemoryAgent`): the instruction's final
+  landmark localised in the pre-scan memory and driven to with the PointNav policy.
+
+The first three do not read the instruction: they are the floor (random, forward) and the ceiling (oracle).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -111,3 +117,41 @@ class ReferencePathOracle:
     def act(self, observations) -> int:
         position, yaw = self._pose(observations)
         return self._follower.next_action(position, quat_from_yaw(yaw))
+
+
+# ------------------------------------------------------------------------------ memory over maps, for instructions
+def instruction_goal(text: str) -> str:
+    """The instruction's final landmark as a description ``navbench localize``'s language queries take:
+    "... and stop next to the pink plant in the kitchen." -> "the pink plant in the kitchen"; without a room,
+    the last "the ..." phrase; "" when there is none."""
+    t = " " + " ".join(re.sub(r"[^a-z ]", " ", str(text).lower()).split())
+    head, sep, room = t.rpartition(" in the ")
+    if sep and room and " the " in head:
+        return f"the {head.rsplit(' the ', 1)[1]} in the {room}"
+    return "the " + t.rsplit(" the ", 1)[1] if " the " in t else ""
+
+
+class InstructionMemoryAgent:
+    """Memory over maps for instructions: the instruction's final landmark (:func:`instruction_goal`) localised
+    in the scene's pre-scan keyframe memory, as ``navbench localize`` localises a language query, then driven to
+    with the PointNav policy by the ObjectNav memory agent (:mod:`navbench.agents.memory_agent`), which stops by
+    it. An honest, simple baseline: it reads only the instruction's last landmark, not the route it describes,
+    so its nDTW reflects how far the shortest way there happens to follow the instruction's."""
+
+    def __init__(self, inner: Any):
+        self.inner = inner
+        self.sensors = tuple(getattr(inner, "sensors", ()))
+        self.goal_text = ""
+
+    def reset(self, episode: Episode) -> None:
+        ins = episode.extra.get("instruction") or {}
+        self.goal_text = instruction_goal(ins.get("instruction_text", ""))
+        self.inner.reset(dataclasses.replace(episode, object_category=self.goal_text or "object", goals=[]))
+
+    def act(self, observations) -> int:
+        return int(self.inner.act(observations))
+
+    def __getattr__(self, name: str) -> Any:  # the inner agent's log and decision, for the run's records
+        if name == "inner":
+            raise AttributeError(name)
+        return getattr(self.inner, name)

@@ -146,3 +146,20 @@ def test_export_r2r_and_rxr_leaderboard_files(r2r_file, tmp_path, capsys):
     assert [x["instruction_id"] for x in lines] == sorted(50 - i for i in range(6))
     for x in lines:
         assert all(a != b for a, b in zip(x["path"], x["path"][1:]))  # consecutive repeats dropped
+
+
+def test_instruction_goal_is_the_last_landmark():
+    from navbench.agents.vlnce import instruction_goal
+    assert instruction_goal("Leave the bedroom, walk past the grey sofa and stop next to the plant in the "
+                            "kitchen.") == "the plant in the kitchen"
+    assert instruction_goal("Exit the office and wait by the tv stand in the living room") == \
+        "the tv stand in the living room"
+    assert instruction_goal("Walk to the door.") == "the door" and instruction_goal("Go.") == ""
+
+
+@pytest.mark.slow
+def test_memory_over_maps_follows_an_instruction_on_the_bundled_split(tmp_path):
+    # the pre-scan memory and the PointNav policy: ~40 s on 2 cores
+    s = navbench.evaluate("vln_memory", task="r2r_ce", split="val", env_config="navbench-r2r-ce", limit=2,
+                          out=tmp_path / "mem")
+    assert s["num_episodes"] == 2 and s["num_failed"] == 0 and s["success"] > 0
