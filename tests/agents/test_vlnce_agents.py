@@ -163,3 +163,28 @@ def test_memory_over_maps_follows_an_instruction_on_the_bundled_split(tmp_path):
     s = navbench.evaluate("vln_memory", task="r2r_ce", split="val", env_config="navbench-r2r-ce", limit=2,
                           out=tmp_path / "mem")
     assert s["num_episodes"] == 2 and s["num_failed"] == 0 and s["success"] > 0
+
+
+class HabitatInstructionAgent:
+    """A habitat-lab ``Agent`` as VLN-CE's are written: reset() without arguments, act(observations) returning
+    {"action": ...}, reading the instruction and the depth image."""
+
+    seen: list = []
+
+    def reset(self):
+        self.steps = 0
+
+    def act(self, observations):
+        ins = observations["instruction"]
+        assert isinstance(ins["text"], str) and observations["depth"].shape == (224, 224, 1)
+        HabitatInstructionAgent.seen.append((ins["text"], list(ins["tokens"][:3])))
+        self.steps += 1
+        return {"action": "move_forward"} if self.steps < 4 else {"action": "STOP"}
+
+
+def test_a_habitat_agent_reading_the_instruction_runs_unchanged(r2r_file, tmp_path):
+    HabitatInstructionAgent.seen.clear()
+    s = navbench.evaluate(f"{__name__}:HabitatInstructionAgent", task="r2r_ce", episodes=r2r_file, limit=2,
+                          out=tmp_path / "habitat")
+    assert s["num_failed"] == 0 and s["steps_taken"] == 4.0
+    assert HabitatInstructionAgent.seen[0] == ("Go to the goal.", [1, 2, 0])
