@@ -88,10 +88,12 @@ class VLNCEEnv(NavEnv):
         return self.episode is not None and bool(self.episode.goals)
 
     def _distance(self, p32: np.ndarray) -> float:
-        """d_t as habitat-lab v0.1.7's DistanceToGoal keeps it: recomputed only when the position moved beyond
-        ``np.allclose(previous, p, atol=1e-4)`` (:func:`navbench.metrics.habitat_distances`, incrementally)."""
+        """d_t as habitat-lab v0.1.7's DistanceToGoal keeps it: recomputed only when the float32 position moved
+        beyond ``np.allclose(previous, p, atol=1e-4)`` (:func:`navbench.metrics.habitat_distances`,
+        incrementally); the geodesic is taken from the env's own position (rounded to float32, a position on
+        a cell's edge could read as the cell beside it)."""
         if self._d_at is None or not np.allclose(self._d_at, p32, atol=1e-4):
-            self._d_last = float(self._field.distance(p32.astype(np.float64))) if self.scored else math.nan
+            self._d_last = float(self._field.distance(self._position)) if self.scored else math.nan
             self._d_at = p32
         return self._d_last
 
