@@ -48,7 +48,8 @@ class VLNCEEnv(NavEnv):
     ## Observation space (``Dict``)
     ``rgb``, ``depth`` as the configuration sets them, and ``instruction``: ``text``, ``tokens`` (as in the
     file), ``trajectory_id``, for RxR ``language`` and, where they exist, ``features`` (see
-    :mod:`navbench.tasks.vlnce`). No GPS, compass or goal point.
+    :mod:`navbench.tasks.vlnce`), the features also as ``rxr_instruction`` (VLN-CE's ``RxRInstructionSensor``
+    uuid). No GPS, compass or goal point.
 
     ## Episode end
     Terminated when STOP is called; truncated after 500 actions.
@@ -75,6 +76,19 @@ class VLNCEEnv(NavEnv):
         self._d_last = math.nan
         self._tl = 0.0
         self._oracle = False
+
+    def _observation_spaces(self) -> dict:
+        obs = super()._observation_spaces()
+        ins = obs.get("instruction")
+        if ins is not None and "features" in ins.spaces:  # RxR with text features: VLN-CE's sensor uuid too
+            obs["rxr_instruction"] = ins.spaces["features"]
+        return obs
+
+    def _goal_observation(self) -> dict:
+        out = super()._goal_observation()
+        if isinstance(out.get("instruction"), dict) and "features" in out["instruction"]:
+            out["rxr_instruction"] = out["instruction"]["features"]  # RxRInstructionSensor's uuid
+        return out
 
     def _goal_points(self, episode: Episode) -> np.ndarray:
         if episode.goals:

@@ -125,6 +125,31 @@ def test_rxr_configuration_looks_up_and_down(r2r_file):
     assert env.unwrapped.camera_tilt_deg == 30.0
 
 
+def test_rxr_text_features_are_observed(tmp_path, pointnav_file):
+    import io
+    src = json.loads(gzip.decompress(write_r2r(tmp_path / "r2r", pointnav_file).read_bytes()))
+    d = tmp_path / "RxR_VLNCE_v0" / "val_unseen"
+    d.mkdir(parents=True)
+    eps = []
+    for i, e in enumerate(src["episodes"]):
+        e = dict(e, episode_id=str(i), trajectory_id=str(i))
+        e["instruction"] = {"instruction_id": str(7 + i), "instruction_text": "Gehen Sie.", "language": "hi-IN"}
+        eps.append(e)
+    (d / "val_unseen_guide.json.gz").write_bytes(gzip.compress(json.dumps({"episodes": eps}).encode()))
+    feats = tmp_path / "RxR_VLNCE_v0" / "text_features" / "rxr_val_unseen"
+    feats.mkdir(parents=True)
+    for i in range(len(eps)):
+        buf = io.BytesIO()
+        np.savez_compressed(buf, features=np.full((5, 768), i + 1.0))
+        (feats / f"{7 + i:06}_hi_text_features.npz").write_bytes(buf.getvalue())
+    env = gym.make("navbench/VLNCE-v0", dataset=d / "val_unseen_guide.json.gz", config=blind("rxr-ce"),
+                   task="rxr_ce")
+    obs, _ = env.reset(options={"episode": 1})
+    assert obs["instruction"]["language"] == "hi-IN" and obs["rxr_instruction"].shape == (512, 768)
+    assert (obs["rxr_instruction"][:5] == 2.0).all() and not obs["rxr_instruction"][5:].any()
+    assert env.observation_space.contains(obs)
+
+
 @pytest.mark.parametrize("yaw", [0.0, 0.3, -1.2, math.pi / 2, 3.0, -3.1])
 def test_heading_is_habitats(yaw):
     assert habitat_heading(quat_from_yaw(yaw)) == pytest.approx(wrap_angle(yaw), abs=1e-9)
