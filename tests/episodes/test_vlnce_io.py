@@ -200,3 +200,15 @@ def test_text_features_padded_and_bounded(tmp_path):
     for bad in (("../x", "en-US"), ("12", "../../etc")):
         with pytest.raises(ValueError):
             text_features_path(tmp_path, "val", *bad)
+
+
+def test_the_cli_names_file_and_field_and_exits_2(tmp_path, capsys):
+    from navbench.cli import main
+
+    ep = r2r_episode(5)
+    del ep["instruction"]["instruction_text"]
+    p = write(tmp_path / "val.json.gz", {"episodes": [ep], "instruction_vocab": {"word_list": WORDS}})
+    assert main(["run", "--task", "r2r_ce", "--episodes", str(p), "--agent", "vln_random",
+                 "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(p) in err and "instruction.instruction_text" in err
