@@ -89,6 +89,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
              step_timeout: float | None = None, fail_fast: bool = False, env_config: Any = None,
              progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
              on_run_dir: Callable[[Path], None] | None = None, device: str = "cpu", precision: str = "fp32",
+             gt: str | Path | None = None,
              _episodes: tuple[str, str | None, Path, float] | None = None) -> RunSummary:
     """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary; what
     ``navbench run`` does, flag for flag.
@@ -141,6 +142,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
             ``"auto"`` (CUDA when torch sees a GPU); a device that is not there is a one-line ValueError.
             Records on CUDA agree with the CPU's up to the last bits (docs/gpu.md).
         precision: ``"fp32"`` (default), ``"bf16"`` or ``"fp16"``: the real perception models' weights.
+        gt: a VLN-CE task's gt paths file (``{split}_gt.json.gz``), when it is not beside the episode file.
 
     Returns:
         The summary, as ``summary.json`` holds it.
@@ -175,7 +177,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                     success_distance=success_distance if success_distance is not None else default_sd,
                     seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=resolved.envs_per_worker,
                     agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision,
-                    env={} if env is None else env.overrides(), env_config_name=env_name)
+                    env={} if env is None else env.overrides(), env_config_name=env_name,
+                    gt=None if gt is None else str(gt))
     cfg.label = label or (resolved.label + (f"-{env_name}" if env_name else ""))
     parsed_shard = parse_shard(shard)
     if out is None:
@@ -189,7 +192,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         from navbench.eval.ray_backend import require_ray
         require_ray()
     if resolved.prepare is not None:
-        resolved.prepare(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard, cfg.task).episodes)
+        selected = run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt)
+        resolved.prepare(cfg, selected.episodes)
     summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                   execution=execution)
     if video != "none":  # drawn from the finished records, so the run itself is the same without

@@ -74,7 +74,7 @@ def cmd_run(args) -> int:
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, env_config=args.env_config,
             progress=None if args.quiet else Progress(),
             video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
-            _episodes=episodes)
+            gt=args.gt, _episodes=episodes)
     out = where[0]
     print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
@@ -372,6 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "null, [1,2]) or else kept as a string. A plug-in class gets them as constructor "
                         "keywords; a remote agent takes timeout=SECONDS (per request, default 30)")
     r.add_argument("--episodes", help="a Habitat-format episode file (.json/.json.gz) instead of a bundled split")
+    r.add_argument("--gt", help="VLN-CE: the gt paths file, when it is not beside the episodes as {split}_gt.json.gz")
     r.add_argument("--scene-dir", help="where episode scene_id paths are resolved (default: bundled envs/)")
     r.add_argument("--limit", type=_count, help="first N episodes only")
     r.add_argument("--per-scene", type=_count, help="first K episodes of each scene only (before --limit)")

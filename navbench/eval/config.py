@@ -57,6 +57,8 @@ class RunConfig:
     # The named environment configuration (configs/env/NAME.toml, or a file's stem) ``env`` came from; None:
     # navbench's defaults with the ``env`` overrides.
     env_config_name: str | None = None
+    # VLN-CE: the gt paths file given with --gt (None: the one beside the episode file, as VLN-CE finds it).
+    gt: str | None = None
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)

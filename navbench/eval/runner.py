@@ -62,7 +62,7 @@ __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "r
 # beyond float rounding, docs/comparing.md).
 _RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device", "benchmark_dir")
 # RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
-_DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32"}
+_DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32", "gt": None}
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -228,7 +228,8 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
     if not resume and not overwrite and (old or (out / "config.json").is_file()):
         raise RunError(f"{out} already holds a run ({len(old)} records): --resume to continue it, --overwrite to "
                        f"replace it, or another --out")
-    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task)  # streamed: the selection only
+    # streamed: the selection only
+    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt)
     if resume:
         _check_resume(out, cfg_json, bool(old))
         records = _repair(old, jsonl, dataset, cfg.episodes, notes)

@@ -15,6 +15,7 @@ SceneError) is bad input and is raised.
 from __future__ import annotations
 
 import enum
+import inspect
 import math
 import time
 import warnings
@@ -45,17 +46,23 @@ _DATASET: dict[tuple, EpisodeDataset] = {}
 
 
 def run_dataset(path: str | Path, limit: int | None = None, per_scene: int | None = None,
-                shard: str | None = None, task: str | None = None) -> EpisodeDataset:
+                shard: str | None = None, task: str | None = None, gt: str | None = None) -> EpisodeDataset:
     """The run's episode file, parsed once per process (the driver and an in-process worker share it) by
     ``task``'s reader (Habitat's PointNav/ObjectNav JSON without one); read again when the file changed.
     With a selection (see :func:`~navbench.eval.config.select_episodes`) the file is streamed and the
-    dataset holds only the episodes selected. Callers must not modify it."""
+    dataset holds only the episodes selected. ``gt``: a VLN-CE task's gt paths file, read instead of the one
+    beside the episodes. Callers must not modify it."""
     st = Path(path).stat()
-    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard, task)
+    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard, task, gt)
     if key not in _DATASET:
         select = None if limit is None and per_scene is None and shard is None else \
             selector(limit, per_scene, shard)
-        dataset = get_task(task).read_episodes(path, select) if task is not None else load_dataset(path, select)
+        if gt is not None:  # a VLN-CE task's gt paths, given instead of found beside the episodes
+            if task is None or "gt" not in inspect.signature(get_task(task).read_episodes).parameters:
+                raise ValueError(f"--gt applies to the VLN-CE tasks (r2r_ce, rxr_ce), not {task}")
+            dataset = get_task(task).read_episodes(path, select, gt=gt)
+        else:
+            dataset = get_task(task).read_episodes(path, select) if task is not None else load_dataset(path, select)
         _DATASET.clear()
         _DATASET[key] = dataset
     return _DATASET[key]
@@ -391,7 +398,7 @@ class EpisodeWorker:
         if single_thread:
             share_cores(1)
         self.cfg = cfg
-        self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task)
+        self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt)
         self.agent = make_agent(cfg)
         self.envs: list[NavEnv] = []
         try:  # an env that fails to start (a bad first episode, a bad scene) still closes the agent

@@ -93,17 +93,17 @@ def instruction(ctx: GoalContext) -> dict[str, Any]:
     return out
 
 
-def read_r2r(path: str | Path, select=None) -> VLNCEDataset:
-    """An R2R-CE ``{split}.json.gz`` with its ``{split}_gt.json.gz`` beside it when there is one."""
+def read_r2r(path: str | Path, select=None, gt: str | Path | None = None) -> VLNCEDataset:
+    """An R2R-CE ``{split}.json.gz`` with its ``{split}_gt.json.gz`` beside it when there is one (or ``gt``)."""
     from navbench.episodes.vlnce import read_vlnce
-    return read_vlnce(path, select)
+    return read_vlnce(path, select, gt=gt)
 
 
-def read_rxr(path: str | Path, select=None) -> VLNCEDataset:
+def read_rxr(path: str | Path, select=None, gt: str | Path | None = None) -> VLNCEDataset:
     """An RxR-CE ``{split}_{role}.json.gz`` (every language; the challenge scores all three), with both roles'
-    gt files beside it and the text features when ``../text_features/`` exists."""
+    gt files beside it (or ``gt``) and the text features when ``../text_features/`` exists."""
     from navbench.episodes.vlnce import read_vlnce
-    ds = read_vlnce(path, select)
+    ds = read_vlnce(path, select, gt=gt)
     fdir = Path(path).parent.parent / "text_features"
     ds.text_features_dir = fdir if fdir.is_dir() else None
     return ds

@@ -188,3 +188,23 @@ def test_a_habitat_agent_reading_the_instruction_runs_unchanged(r2r_file, tmp_pa
                           out=tmp_path / "habitat")
     assert s["num_failed"] == 0 and s["steps_taken"] == 4.0
     assert HabitatInstructionAgent.seen[0] == ("Go to the goal.", [1, 2, 0])
+
+
+def test_gt_given_with_the_flag(r2r_file, tmp_path, capsys):
+    import shutil
+    alone = tmp_path / "alone" / "val_seen.json.gz"
+    alone.parent.mkdir()
+    shutil.copy(r2r_file, alone)  # no gt file beside it: nDTW is not measured
+    s = navbench.evaluate("vln_forward", task="r2r_ce", episodes=alone, out=tmp_path / "nogt")
+    assert s["ndtw"] is None and s["sdtw"] is None and s["success"] is not None
+    gt = tmp_path / "elsewhere_gt.json.gz"
+    shutil.copy(r2r_file.parent / "val_seen_gt.json.gz", gt)
+    assert main(["run", "--task", "r2r_ce", "--episodes", str(alone), "--gt", str(gt), "--agent", "vln_forward",
+                 "--out", str(tmp_path / "gt"), "-q"]) == 0
+    capsys.readouterr()
+    assert json.loads((tmp_path / "gt" / "config.json").read_text())["gt"] == str(gt)
+    assert 0 < json.loads((tmp_path / "gt" / "summary.json").read_text())["ndtw"] <= 1
+    assert "gt" not in json.loads((tmp_path / "nogt" / "config.json").read_text())
+    assert main(["run", "--task", "pointnav", "--split", "val", "--gt", str(gt), "--agent", "oracle", "--limit", "1",
+                 "--out", str(tmp_path / "pn")]) == 2
+    assert "--gt applies to the VLN-CE tasks" in capsys.readouterr().err
