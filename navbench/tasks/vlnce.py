@@ -47,9 +47,14 @@ def _charset(dataset: EpisodeDataset) -> str:
     return "".join(sorted(chars))
 
 
+def _int_tokens(ep) -> list[int]:
+    tokens = ep.extra["instruction"].get("instruction_tokens") or []
+    return tokens if all(type(t) is int for t in tokens) else []  # RxR's may be word strings: not given as ids
+
+
 def token_length(dataset: EpisodeDataset) -> int:
-    """The tokens' length in the observation: the longest episode's (the files pad them all alike)."""
-    return max((len(ep.extra["instruction"].get("instruction_tokens") or ()) for ep in dataset.episodes), default=0)
+    """The tokens' length in the observation: the longest episode's (R2R-CE's files pad them all alike)."""
+    return max((len(_int_tokens(ep)) for ep in dataset.episodes), default=0)
 
 
 def instruction_space(dataset: EpisodeDataset, config: Any) -> spaces.Dict:
@@ -78,9 +83,8 @@ def instruction(ctx: GoalContext) -> dict[str, Any]:
     n = token_length(ctx.dataset)
     if n:
         tokens = np.zeros(n, np.int64)
-        raw = ins.get("instruction_tokens") or []
-        if raw and all(isinstance(t, int) for t in raw):
-            tokens[: len(raw)] = raw
+        raw = _int_tokens(ep)
+        tokens[: len(raw)] = raw
         out["tokens"] = tokens
     if getattr(ctx.dataset, "flavor", "r2r") == "rxr":
         out["language"] = str(ins.get("language") or "")
