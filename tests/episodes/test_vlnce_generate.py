@@ -83,3 +83,20 @@ def test_the_bundled_split_reads():
     path = split_file("r2r_ce", "val")
     ds = read_vlnce(path)
     assert len(ds.episodes) == 400 and ds.gt_locations is not None and len(ds.gt_locations) == 400
+
+
+def test_the_final_landmark_grounds_in_navbench_localizes_words(small):
+    # memory over maps for instructions localises "the <landmark> in the <room>": the generator writes words the
+    # localiser's descriptions know, and they fit the landmark the episode ends at
+    from navbench.agents.vlnce import instruction_goal
+    from navbench.localize.describe import ground, parse
+
+    ds = read_vlnce(small / "val.json.gz")
+    houses = {}
+    for ep in ds.episodes:
+        h = houses.setdefault(ep.scene_id, HouseRoutes(SCENES_DIR / ep.scene_id, SCENES_DIR))
+        goal = np.asarray(ep.goals[0].position)
+        (landmark,) = [o for o, _, at in h.landmarks if np.allclose(at, goal, atol=1e-4)]
+        desc = parse(instruction_goal(ep.extra["instruction"]["instruction_text"]))
+        assert desc is not None and desc.room is not None and desc.category == landmark.category
+        assert landmark.id in ground(desc, h.asset.objects)
