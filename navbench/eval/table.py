@@ -25,6 +25,7 @@ import pandas as pd
 
 from navbench.safeio import read_input
 from navbench.tasks import TASKS
+from navbench.tasks.base import COLUMNS
 
 FORMATS = ("markdown", "csv", "latex")
 
@@ -47,7 +48,7 @@ def task_metrics(task: Any) -> tuple[str, ...]:
 def task_columns(task: Any) -> dict[str, tuple[str, float]]:
     """``{header: (measure, scale)}`` of a run of ``task``'s table row (:attr:`navbench.tasks.base.Task.columns`)."""
     t = TASKS.get(task) if isinstance(task, str) else None
-    return {h: (m, k) for h, m, k in (t.columns if t is not None else COLUMNS_DEFAULT)}
+    return {h: (m, k) for h, m, k in (t.columns if t is not None else COLUMNS)}
 
 
 def _read_object(path: Path, what: str) -> dict[str, Any]:
@@ -173,8 +174,6 @@ def run_identity(run_dir: str | Path) -> dict[str, Any]:
     return ident
 
 
-COLUMNS = {"SR": ("success", 100), "SPL": ("spl", 100), "SoftSPL": ("soft_spl", 100), "DTG": ("distance_to_goal", 1)}
-COLUMNS_DEFAULT = tuple((h, m, k) for h, (m, k) in COLUMNS.items())
 
 
 def _valid_ci(ci: Any, metrics: tuple[str, ...] = METRICS) -> bool:
