@@ -39,9 +39,9 @@ clean: ; rm -rf $(VENV) .pytest_cache dist build
 # Reference tables in results/ (results/README.md); runs land in results/runs/<task>/<split>/<label>/; LIMIT=N: first N each.
 results-oracle: setup
 	for s in $(OBJNAV_SPLITS); do $(RUN) --split $$s --agent oracle $(LIMIT_ARG) || exit 1; done
-	$(RUN) --task pointnav --split val --agent oracle $(LIMIT_ARG)
 	$(NB) table $(RUNS)/objectnav/*/oracle > results/oracle_objectnav.md
-	$(NB) table --long $(RUNS)/pointnav/val/oracle > results/oracle_pointnav.md
+	for t in pointnav imagenav; do $(RUN) --task $$t --split val --agent oracle $(LIMIT_ARG) && \
+	  $(NB) table --long $(RUNS)/$$t/val/oracle > results/oracle_$$t.md || exit 1; done
 results-localize: setup
 	for n in none default heavy; do \
 	  $(NB) localize --split goat_val --noise $$n --out results/localize/oracle_$${n}_fusion || exit 1; \

@@ -18,6 +18,7 @@ from typing import Any
 from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.paths import SCENES_DIR
 from navbench.tasks import TASKS, get_task
+from navbench.tasks.base import default_reader
 
 __all__ = ["evaluate", "resolve_episodes", "run_dir"]
 
@@ -51,15 +52,19 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         get_task(task)  # an unknown task is a one-line ValueError naming the known ones
     if episodes:
         episodes = Path(episodes)
+
         def first(stream):  # the first episode (and the goals by category) tell the task and the format
             return list(itertools.islice(stream(), 1))
-        if task is None:
-            from navbench.episodes.io import load_dataset
-            task = load_dataset(episodes, first).task
+        dataset = None
+        if task is None:  # Habitat's PointNav-v1 or ObjectNav-v1, read once when that task's reader is the same
+            dataset = default_reader(episodes, first)
+            task = dataset.task
         t = get_task(task)
-        dataset = t.read_episodes(episodes, first) if t.success_rule is not None else None
-        return task, split, episodes, t.success_distance_for(None, dataset) if dataset is not None \
-            else t.success_distance
+        if t.success_rule is None:
+            return task, split, episodes, t.success_distance
+        if dataset is None or t.read_episodes is not default_reader:
+            dataset = t.read_episodes(episodes, first)
+        return task, split, episodes, t.success_distance_for(None, dataset)
     if task is None:
         others = [t.name for t in TASKS.values() if split in t.splits and split not in TASKS[DEFAULT_TASK].splits]
         task = others[0] if split is not None and others else DEFAULT_TASK

@@ -11,7 +11,7 @@
     navbench merge RUN_DIR... --out DIR
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
     navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
-    navbench generate scenes|episodes|policy-train|policy-select [--seed 0]
+    navbench generate scenes|episodes|imagenav|policy-train|policy-select [--seed 0]
     navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
@@ -235,6 +235,9 @@ def cmd_generate(args) -> int:
         h = POLICY_SELECT_HOUSES
         generate_dataset(SCENES_DIR / h["dir"], n_train=0, n_val=h["n_val"], seed=h["seed"])
         generate_policy_select_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+    elif args.what == "imagenav":  # ImageNav's val only (`episodes` writes it with every other split)
+        from navbench.episodes.generate import write_imagenav_split
+        write_imagenav_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
     elif args.what == "vlnce":
         from navbench.episodes.vlnce_generate import generate_vlnce_split
         generate_vlnce_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
@@ -468,8 +471,10 @@ def build_parser() -> argparse.ArgumentParser:
                                         "extra training houses and episodes (policy-train) or its houses and "
                                         "episodes for choosing among policies (policy-select); or a larger "
                                         "ObjectNav benchmark with houses of its own and checksums (benchmark "
-                                        "--out DIR); or the R2R-CE-style val split (vlnce)")
-    g.add_argument("what", choices=("scenes", "episodes", "policy-train", "policy-select", "benchmark", "vlnce"))
+                                        "--out DIR); or ImageNav's val split (imagenav), or the R2R-CE-style val split "
+                                        "(vlnce)")
+    g.add_argument("what", choices=("scenes", "episodes", "imagenav", "policy-train", "policy-select", "benchmark",
+                                    "vlnce"))
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
     g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")

@@ -165,6 +165,8 @@ def check_server(url: str, task: str = "pointnav", steps: int = 200, timeout: fl
                  log=print) -> list[Check]:
     """Run every check against the server at ``url``, calling ``log`` with each result's line as it is
     known; the results. ValueError (one line) when the server cannot be reached at all."""
+    from navbench.tasks import get_task
+    actions = get_task(task).actions  # the action space of the task's bundled split (navbench's EnvConfig)
     client = _Client(url, timeout)
     checks: list[Check] = []
 
@@ -227,8 +229,9 @@ def check_server(url: str, task: str = "pointnav", steps: int = 200, timeout: fl
         problem = _answer_problem(a, "action")
         if not problem:
             action = a.body["action"]
-            if not isinstance(action, int) or isinstance(action, bool) or not 0 <= action <= 3:
-                problem = f"action {action!r}: expected an integer 0-3 (0 STOP, 1 FORWARD, 2 LEFT, 3 RIGHT)"
+            if not isinstance(action, int) or isinstance(action, bool) or not 0 <= action < len(actions):
+                problem = (f"action {action!r}: expected an integer 0-{len(actions) - 1} "
+                           f"({', '.join(f'{i} {a}' for i, a in enumerate(actions))})")
         return a, problem
 
     first, problem = act(sa)

@@ -288,9 +288,12 @@ def resolve_agent(agent: Any, options: dict[str, Any] | None = None, seed: int =
                              f"not {resolved.spec!r}, which steps one at a time")
         resolved.envs_per_worker = envs_per_worker
     resolved.device = resolve_device(device)
-    if env is not None and resolved.builtin:
-        from navbench.agents.registry import check_conditions
-        check_conditions(resolved.spec, task or "", env)
+    if resolved.builtin:
+        from navbench.agents.registry import check_conditions, check_task
+        from navbench.env.config import EnvConfig
+        if env is not None:
+            check_conditions(resolved.spec, task or "", env)
+        check_task(resolved.spec, task or "", env if env is not None else EnvConfig())
     return resolved
 
 

@@ -48,8 +48,6 @@ def make_oracle(cfg):
 
 def make_optimistic(cfg):
     from navbench.agents.oracle import OptimisticOracleAgent
-    if cfg.task != "pointnav":
-        raise ValueError("agent 'optimistic' plans to a single goal point: use it with --task pointnav")
     return OptimisticOracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(("depth",)))
 
 
@@ -227,6 +225,9 @@ class AgentSpec:
     gps_free: bool = False
     # Back-projects depth with a level camera, so cannot run with a pitched one (EnvConfig.camera_pitch_deg).
     level_camera: bool = False
+    # The goal observations it navigates to (a task must give one of them); empty: any task's (it plans from
+    # the episode's goals, as the oracle does).
+    goals: tuple[str, ...] = ()
 
     def __call__(self, cfg: Any) -> Any:
         return self.factory(cfg)
@@ -242,18 +243,20 @@ class AgentSpec:
 
 
 _POLICY_FILES = dict(run_files=_checkpoint_file, envs_per_worker=8)
+_POINT_GOALS = ("pointgoal_with_gps_compass", "pointgoal")
+_OBJECT_GOALS = ("objectgoal",)
 AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path (an upper bound)"),
     AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)",
-              level_camera=True),
+              level_camera=True, goals=_POINT_GOALS),
     AgentSpec("random", make_random, RandomOptions, help="Habitat's random agent", gps_free=True),
     AgentSpec("pointnav", make_pointnav, PointNavOptions, help="the PointNav policy (without GPS+compass it "
-              "dead-reckons from its own actions)", gps_free=True, **_POLICY_FILES),
+              "dead-reckons from its own actions)", gps_free=True, goals=_POINT_GOALS, **_POLICY_FILES),
     AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory, localisation, then the PointNav policy",
               prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", level_camera=True,
-              **_POLICY_FILES),
+              goals=_OBJECT_GOALS, **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
-              explores=True, level_camera=True, **_POLICY_FILES),
+              explores=True, level_camera=True, goals=_OBJECT_GOALS, **_POLICY_FILES),
     AgentSpec("vln_random", make_vln_random, RandomOptions, help="VLN-CE's RandomAgent: actions drawn from the "
               "R2R training set's oracle distribution", gps_free=True),
     AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "
@@ -261,7 +264,7 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path (an upper bound)"),
     AgentSpec("vln_memory", make_vln_memory, MemoryOptions, help="localises a VLN instruction's last landmark "
               "in the keyframe memory, then the PointNav policy", prepare=prebuild_memories, scene_files=_memory_files,
-              scene_option="memory_root", level_camera=True, run_files=_checkpoint_file),
+              scene_option="memory_root", level_camera=True, run_files=_checkpoint_file, goals=("instruction",)),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}
@@ -276,11 +279,28 @@ def check_conditions(agent: str | None, task: str, env: Any) -> None:
     if spec is None:
         return
     if not env.gps_compass and not spec.gps_free:
+        given = {s.uuid for s in TASKS[task].sensors(env)} if task in TASKS else set()
+        free = [n for n, s in AGENTS.items() if s.gps_free and (not s.goals or set(s.goals) & given or not given)]
         raise ValueError(f"agent {agent!r} knows its pose from GPS+compass, which this configuration does not "
-                         f"give (gps_compass = false); run it under one that does, or use --agent pointnav")
+                         f"give (gps_compass = false); run it under one that does, or use --agent "
+                         f"{' or '.join(free)}")
     if env.camera_pitch_deg != 0.0 and spec.level_camera:
         raise ValueError(f"agent {agent!r} maps depth with a level camera: it cannot run with camera_pitch_deg "
                          f"{env.camera_pitch_deg:g}")
+
+
+def check_task(agent: str | None, task: str, env: Any) -> None:
+    """A one-line ValueError when built-in ``agent`` navigates to none of the goals ``task`` gives under ``env``
+    (an EnvConfig). Plug-ins and remote agents are not checked."""
+    spec = AGENTS.get(agent) if agent is not None else None
+    if spec is None or not spec.goals or task not in TASKS:
+        return
+    given = [s.uuid for s in TASKS[task].sensors(env)]
+    if not set(spec.goals) & set(given):
+        fits = [t.name for t in TASKS.values() if set(spec.goals) & {s.uuid for s in t.goal_sensors}]
+        raise ValueError(f"agent {agent!r} reads its goal from {' or '.join(spec.goals)}; task {task!r} gives "
+                         f"{', '.join(given) or 'none'}: run it with --task {' or '.join(fits)}, or choose "
+                         f"another agent ({task}'s own: {TASKS[task].default_agent})")
 
 
 def agent_spec(name: str) -> AgentSpec:

@@ -241,7 +241,6 @@ class NavEnv(gym.Env):
         self._done = False
         self._tilt = 0.0
         # per-episode goal observations (goal images) are computed once, here, at the start pose
-        self._episode_goals = {}
         self._episode_goals = {s.uuid: s.observe(self) for s in self.goal_sensors if s.per_episode}
         return self._observe(), self._info()
 
@@ -464,14 +463,16 @@ class NavEnv(gym.Env):
         return obs
 
     def _goal_observation(self) -> dict[str, np.ndarray]:
-        """The task's goal observations: per-episode ones as computed at reset, the others now."""
-        return {s.uuid: self._episode_goals[s.uuid] if s.per_episode else s.observe(self) for s in self.goal_sensors}
+        """The task's goal observations: per-episode ones as computed at reset (a copy: what a caller is given is
+        its own), the others now."""
+        return {s.uuid: self._episode_goals[s.uuid].copy() if s.per_episode else s.observe(self)
+                for s in self.goal_sensors}
 
     def _info(self) -> dict[str, Any]:
         d = self.distance_to_goal()
         m = episode_metrics(self._stop_called, d, self._d0, self._path_length, self.success_distance)
         assert self.episode is not None  # set by reset()
-        return {
+        info = {
             "episode_id": self.episode.episode_id,
             "scene_id": self.episode.scene_id,
             "distance_to_goal": d,
@@ -484,3 +485,6 @@ class NavEnv(gym.Env):
             "stop_called": self._stop_called,
             "geodesic_distance": self._d0,
         }
+        if self.task_def.extra_info is not None:
+            info.update(self.task_def.extra_info(self, info))
+        return info

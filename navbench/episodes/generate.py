@@ -250,6 +250,7 @@ class SplitPlan:
     pointnav_val_per_scene: int = 50
     objectnav_train_per_scene: int = 60
     objectnav_val_per_scene: int = 40
+    imagenav_val_per_scene: int = 100  # 400 episodes over the 4 val houses: SR within about +-5 points
 
 
 def scene_files(scene_dir: Path, split: str, dataset: str = "houses") -> list[Path]:
@@ -261,15 +262,24 @@ def scene_files(scene_dir: Path, split: str, dataset: str = "houses") -> list[Pa
 
 
 def write_pointnav_split(out_dir: Path, split: str, scene_paths: list[Path], scene_dir: Path, per_scene: int,
-                         rng: np.random.Generator, log=print) -> int:
-    """``per_scene`` PointNav episodes in each scene, in order, to ``out_dir/pointnav/{split}/{split}.json.gz``."""
+                         rng: np.random.Generator, log=print, task: str = "pointnav") -> int:
+    """``per_scene`` PointNav-v1 episodes in each scene, in order, to ``out_dir/{task}/{split}/{split}.json.gz``
+    (ImageNav's splits are PointNav-v1 files too)."""
     eps: list[Episode] = []
     for path in scene_paths:
         eps += pointnav_episodes(path, scene_dir, per_scene, rng, id_offset=len(eps))
     ds = EpisodeDataset(episodes=eps, extra={"split_version": SPLIT_VERSION})
-    save_dataset(ds, out_dir / "pointnav" / split / f"{split}.json.gz")
-    log(f"pointnav/{split}: {len(eps)} episodes")
+    save_dataset(ds, out_dir / task / split / f"{split}.json.gz")
+    log(f"{task}/{split}: {len(eps)} episodes")
     return len(eps)
+
+
+def write_imagenav_split(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCENES_DIR, seed: int = 0,
+                         per_scene: int = SplitPlan().imagenav_val_per_scene, log=print) -> int:
+    """ImageNav ``val``: PointNav-v1 episodes in the val houses (Habitat's ImageNav reads PointNav's files), from
+    a generator stream of its own, so the other splits are unchanged by it."""
+    return write_pointnav_split(out_dir, "val", scene_files(scene_dir, "val"), scene_dir, per_scene,
+                                np.random.default_rng([seed, 2, 0]), log, task="imagenav")
 
 
 def objectnav_split(scenes: list[tuple[SceneGoals, int]], categories, synonyms: bool, rng: np.random.Generator,
@@ -316,6 +326,7 @@ def generate_bundled_splits(out_dir: Path = EPISODES_DIR, scene_dir: Path = SCEN
         counts[f"objectnav/{split}"] = len(ds.episodes)
         log(f"objectnav/{split}: {len(ds.episodes)} episodes over {len(ds.category_to_task_category_id)} categories")
     (out_dir / "objectnav" / "categories.json").write_text(json.dumps(categories_table(), indent=1) + "\n")
+    counts["imagenav/val"] = write_imagenav_split(out_dir, scene_dir, seed, plan.imagenav_val_per_scene, log)
     return counts
 
 

@@ -29,7 +29,7 @@ class RunConfig:
     """A run as ``config.json`` records it: everything its records depend on, and the batch width its
     agent is built for (``envs_per_worker``, which records do not depend on, so a run may resume with
     another). Agent factories read it (``agent_options``, ``envs_per_worker``, ``env_config(sensors)``)."""
-    task: str  # "pointnav" | "objectnav"
+    task: str  # a task of navbench.tasks.TASKS ("pointnav", "objectnav", "imagenav"...)
     split: str | None  # bundled split name, or None for a user's file
     agent: str
     episodes: str  # dataset file

@@ -35,7 +35,7 @@ from navbench.eval.rundir import RunError
 from navbench.eval.trace import Trace
 from navbench.policy.workers import share_cores
 from navbench.scene.asset import SceneError
-from navbench.tasks import get_task
+from navbench.tasks import TASKS, get_task
 
 Key = tuple[str, str]  # (scene_id, episode_id)
 AgentFactory = Callable[[RunConfig], Any]
@@ -174,6 +174,12 @@ def failed_record(record: dict[str, Any], reason: str, d0: float, distance: floa
     return _nan_to_null(record)
 
 
+def _extra_measures(record: dict[str, Any]) -> tuple[str, ...]:
+    """The measures of the record's task beyond Habitat's four (none for a task no longer registered)."""
+    task = TASKS.get(str(record.get("task")))
+    return task.extra_measures if task is not None else ()
+
+
 def _begin(env: NavEnv, episode: Episode, cfg: RunConfig, tracker: Tracker = _NO_TRACKER,
            slot: int = 0) -> tuple[dict[str, Any], dict | None, float, float]:
     """Reset ``env`` to ``episode``: (record so far, first observation or None if skipped, start time, d0).
@@ -207,14 +213,14 @@ _SCORES = ("success", "spl", "soft_spl", "distance_to_goal", "geodesic_distance"
 
 
 def _task_measures(record: dict[str, Any], info: dict[str, Any] | None, failed: bool = False) -> dict[str, Any]:
-    """The task's measures beyond the four every task reports (VLN-CE's oracle_success, ndtw...), from the
-    env's ``info``, and the path VLN-CE's leaderboard files are written from (``vlnce_path``). A measure the
-    env could not take (NaN: an episode without a goal, a split without gt paths) is recorded as null; a failed
-    episode's measures that only its end gives (nDTW) count as a failure's, 0."""
+    """The task's measures beyond Habitat's four (VLN-CE's oracle_success, ndtw...), from the env's ``info``,
+    and the path VLN-CE's leaderboard files are written from (``vlnce_path``). A measure the env could not take
+    (NaN: an episode without a goal, a split without gt paths) is recorded as null; a failed episode's measures
+    that only its end gives (nDTW) count as a failure's, 0."""
     info = info or {}
     out: dict[str, Any] = {}
-    for m in get_task(record["task"]).measures:
-        if m in ("success", "spl", "soft_spl", "distance_to_goal", "path_length"):
+    for m in _extra_measures(record):
+        if m == "path_length":  # a standard field, set from the same info
             continue
         v = float(info.get(m, math.nan))
         out[m] = v if v == v else (0.0 if failed else None)

@@ -92,7 +92,11 @@ class Task:
         read_episodes: ``read_episodes(path, select)`` -> EpisodeDataset; ``select`` as
             :func:`navbench.episodes.io.load_dataset` takes it. Bad input: EpisodeError naming file and field.
         actions: the action names, by id, when the EnvConfig does not give its own ``actions``.
-        measures: what each record and the summary report (the env's ``info`` keys).
+        measures: what each record and the summary report (the env's ``info`` keys): Habitat's four
+            (:data:`MEASURES`) and any of the task's own, which ``extra_info`` computes; a record holds each
+            from the episode's last ``info`` (0 for a failed episode) and the summary their means.
+        extra_info: optional ``extra_info(context, info)`` -> the task's own ``info`` entries, computed after
+            each reset and step from the env (:class:`GoalContext`) and its standard ``info``.
         distance_to: ``"POINT"`` (goal positions) or ``"VIEW_POINTS"`` (the goals' view points, falling
             back on an object's centre when it has none), Habitat's DistanceToGoal ``distance_to``.
         success_distance: Habitat's ``success.success_distance`` for the task.
@@ -118,6 +122,7 @@ class Task:
     read_episodes: Callable[..., EpisodeDataset] = default_reader
     actions: tuple[str, ...] = NAV_ACTIONS
     measures: tuple[str, ...] = MEASURES
+    extra_info: Callable[[GoalContext, dict[str, Any]], dict[str, Any]] | None = None
     distance_to: str = "POINT"
     success_distance: float = 0.2
     success_rule: Callable[[str | None, EpisodeDataset | None], float | None] | None = None
@@ -146,6 +151,11 @@ class Task:
                 return sd
         return self.success_distance
 
+    @property
+    def extra_measures(self) -> tuple[str, ...]:
+        """The task's measures beyond Habitat's four (:data:`MEASURES`)."""
+        return tuple(m for m in self.measures if m not in MEASURES)
+
     def goal_points(self, episode: Episode) -> np.ndarray:
         """The points distance-to-goal is measured to (``distance_to``); EpisodeError without goals."""
         if self.distance_to == "VIEW_POINTS":
@@ -159,7 +169,7 @@ class Task:
         """What a run's summary averages (with intervals): navbench's SR / SPL / SoftSPL / DTG where the task
         measures them, in that order, then the task's other measures."""
         from navbench.metrics import METRIC_KEYS
-        return (*(k for k in METRIC_KEYS if k in self.measures), *(k for k in self.measures if k not in METRIC_KEYS))
+        return (*(k for k in METRIC_KEYS if k in self.measures), *self.extra_measures)
 
     def sensors(self, config: Any) -> tuple[GoalSensor, ...]:
         """The goal sensors this EnvConfig enables."""

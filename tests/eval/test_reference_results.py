@@ -73,7 +73,8 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
                                   "pointnav/val/pointnav-pointnav_2h", "pointnav/val/pointnav-pointnav_v2",
                                   "pointnav/val/optimistic", "objectnav/val_unseen/memory-pointnav_v2",
                                   "objectnav/val_unseen/oracle", "objectnav/val_unseen/memory",
-                                  "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier"])
+                                  "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier",
+                                  "imagenav/val/oracle"])
 def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     monkeypatch.chdir(RESULTS_DIR.parent)  # a --checkpoint in a run's config is relative to the project root
     cfg = ref_config(RUNS / name)

@@ -17,7 +17,8 @@ COUNTS = [(["run", "--split", "val_unseen"], "--limit"), (["run", "--split", "va
           (["generate", "benchmark"], "--houses"), (["generate", "benchmark"], "--episodes-per-split")]
 POSITIVE = [(["run", "--split", "val_unseen"], "--success-distance"), (["bench"], "--seconds")]
 SEEDS = [(["run", "--split", "val_unseen"], "--seed"), (["generate", "episodes"], "--seed")]
-CHOICES = [["run", "--task"], ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
+CHOICES = [["run", "--task"], ["serve-agent", "x", "--task"], ["check-agent", "http://x", "--task"],
+           ["run", "--decoding"], ["run", "--video"], ["run", "--rerank"], ["run", "--keyframe-res"],
            ["table", "x", "--format"], ["table", "x", "--by"], ["compare", "x", "y", "--metric"], ["generate"],
            ["memory"], ["memory", "build", "--scene", "x", "--keyframe-res"],
            ["localize", "--rerank"]]
@@ -28,7 +29,7 @@ bad_numbers = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0", "1e999", "
 def test_parser_covers_every_subcommand():
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     assert set(sub.choices) == {"run", "table", "generate", "train", "memory", "localize", "bench", "merge", "viz",
-                                "report", "agents", "serve-agent", "compare", "check-agent"}
+                                "report", "agents", "tasks", "serve-agent", "compare", "check-agent", "export"}
 
 
 @given(case=st.sampled_from(COUNTS + POSITIVE + SEEDS), value=bad_numbers)
@@ -52,8 +53,8 @@ def test_unknown_choices(prefix):
 
 @pytest.mark.parametrize("argv", [[], ["nosuch"], ["run", "--nosuch"], ["table"], ["memory", "build"], ["merge"],
                                   ["merge", "x"], ["compare"], ["compare", "x"], ["viz"], ["report"], ["serve-agent"],
-                                  ["check-agent"],
-                                  ["agents", "extra"],
+                                  ["check-agent"], ["export"], ["export", "x"], ["export", "x", "--format", "r2r"],
+                                  ["agents", "extra"], ["tasks", "extra"],
                                   ["run", "--limit"], ["run", "--split", "val_unseen", "extra-positional"]],
                          ids=repr)
 def test_usage_errors(argv):

@@ -19,9 +19,14 @@ def test_every_task_has_a_gym_id_a_bundled_default_split_and_a_known_default_age
     assert {"pointnav", "objectnav"} <= set(TASKS)
     for t in TASKS.values():
         assert t.gym_id.startswith("navbench/") and t.gym_id.endswith("-v0") and t.gym_id in gym.registry
-        assert t.default_split in t.splits and t.split_file(t.default_split).is_file(), t.name
+        # a task that bundles no split (rxr_ce: RxR-CE's files are the user's) runs on the user's files only
+        assert not t.splits or (t.default_split in t.splits and t.split_file(t.default_split).is_file()), t.name
         assert t.default_agent in AGENTS and t.goal_sensors and t.actions[0] == "STOP"
-    assert len({t.gym_id for t in TASKS.values()}) == len(TASKS)
+    # tasks may share a Gymnasium id (navbench/VLNCE-v0: r2r_ce, and rxr_ce with task="rxr_ce") only with one env
+    envs: dict[str, set[str]] = {}
+    for t in TASKS.values():
+        envs.setdefault(t.gym_id, set()).add(t.env_class)
+    assert all(len(v) == 1 for v in envs.values()) and sum(bool(t.splits) for t in TASKS.values()) >= 4
 
 
 def test_unknown_task_is_one_line_naming_the_known_ones():
@@ -70,8 +75,16 @@ def _distance_space(dataset, config) -> spaces.Box:
     return spaces.Box(0, np.inf, (1,), np.float32)
 
 
+def _straight_line(ctx, info) -> dict:
+    """A measure of the toy's own: the straight-line distance left, and whether STOP came within 1 m of it."""
+    left = float(_distance(ctx)[0])
+    return {"straight_line": left, "near_stop": float(info["stop_called"] and left < 1.0)}
+
+
 TOY = Task(name="toydistance", gym_id="navbench/ToyDistance-v0", title="a toy", reference="none",
            goal_sensors=(GoalSensor("goal_distance", _distance_space, _distance),),
+           measures=("distance_to_goal", "success", "spl", "soft_spl", "straight_line", "near_stop"),
+           extra_info=_straight_line,
            success_distance=0.3, max_steps=40, splits=("val",), default_split="val", default_agent="oracle")
 
 
@@ -92,9 +105,31 @@ def test_a_registered_task_runs_through_env_worker_and_runner_unchanged(toy_task
     assert summary["task"] == cfg["task"] == "toydistance" and cfg["success_distance"] == 0.3
     assert cfg["env"] == {"max_steps": 40}  # the task's step limit, recorded
     assert summary["success"] == 1.0 and summary["num_episodes"] > 0
+    # the task's own measures: in every record (from the last info) and averaged in the summary
+    records = [json.loads(line) for line in (tmp_path / "run" / "episodes.jsonl").read_text().splitlines()]
+    assert all(r["near_stop"] == 1.0 and 0 <= r["straight_line"] < 0.3 for r in records)
+    assert summary["near_stop"] == 1.0
+    assert summary["straight_line"] == pytest.approx(sum(r["straight_line"] for r in records) / len(records))
 
 
 def test_env_takes_its_action_list_and_limit_from_the_task(pointnav_file):
     env = task_env("pointnav", pointnav_file)
     assert env.actions == ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT") and env.action_space.n == 4
     env.close()
+
+
+@pytest.mark.parametrize("agent, task, fits", [("memory", "imagenav", "objectnav"),
+                                               ("frontier", "pointnav", "objectnav"),
+                                               ("pointnav", "objectnav", "pointnav")])
+def test_a_builtin_agent_is_refused_a_task_whose_goal_it_cannot_read(agent, task, fits, capsys):
+    assert main(["run", "--task", task, "--agent", agent, "--limit", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"task '{task}' gives" in err[0] and f"--task {fits}" in err[0]
+
+
+def test_the_oracle_and_the_random_agent_run_any_task():
+    from navbench.agents.registry import check_task
+    from navbench.env.config import EnvConfig
+    for name in TASKS:
+        for agent in ("oracle", "random"):
+            check_task(agent, name, EnvConfig())
