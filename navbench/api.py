@@ -104,6 +104,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
              progress: Callable[[EpisodeRecord, int, int], None] | None = None, video: str = "none",
              on_run_dir: Callable[[Path], None] | None = None, device: str = "cpu", precision: str = "fp32",
              habitat_config: Any = None,
+             gt: str | Path | None = None,
              _episodes: tuple[str, str | None, Path, float] | None = None) -> RunSummary:
     """Run ``agent`` over a bundled ``split`` (or an ``episodes`` file) and return the summary; what
     ``navbench run`` does, flag for flag.
@@ -160,6 +161,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
             holding one; or what :func:`navbench.eval.habitat_config.read_habitat_config` read from it) that
             sets the task, the env, the success distance and, where its files exist, the episodes and scenes;
             the other arguments override it. Not with ``env_config``.
+        gt: a VLN-CE task's gt paths file (``{split}_gt.json.gz``), when it is not beside the episode file.
 
     Returns:
         The summary, as ``summary.json`` holds it.
@@ -206,7 +208,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                     seed=seed, limit=limit, per_scene=per_scene, envs_per_worker=resolved.envs_per_worker,
                     agent_options=resolved.options, shard=shard, device=resolved.device, precision=precision,
                     env={} if env is None else env.overrides(), env_config_name=env_name,
-                    habitat_config=None if habitat is None else habitat.record())
+                    habitat_config=None if habitat is None else habitat.record(),
+                    gt=None if gt is None else str(gt))
     cfg.label = label or (resolved.label + (f"-{env_name}" if env_name else ""))
     parsed_shard = parse_shard(shard)
     if out is None:
@@ -220,7 +223,8 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
         from navbench.eval.ray_backend import require_ray
         require_ray()
     if resolved.prepare is not None:
-        resolved.prepare(cfg, run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard, cfg.task).episodes)
+        selected = run_dataset(episodes_path, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt)
+        resolved.prepare(cfg, selected.episodes)
     summary = run(cfg, resolved.factory, out, resume=resume, progress=progress, overwrite=overwrite,
                   execution=execution)
     if video != "none":  # drawn from the finished records, so the run itself is the same without
@@ -243,11 +247,14 @@ def _env_config(env_config: Any) -> tuple[Any, str | None]:
 
 
 def _task_env(task: str) -> Any:
-    """None (navbench's EnvConfig), or for a task whose step limit is not EnvConfig's, EnvConfig with it (the
-    run's config.json records it as an ``env`` override)."""
+    """None (navbench's EnvConfig); for a task with a named configuration of its own (``Task.env_config``),
+    that; for a task whose step limit is not EnvConfig's, EnvConfig with it (the run's config.json records
+    either as ``env`` overrides)."""
     from navbench.env.config import EnvConfig
-    limit = get_task(task).max_steps
-    return None if limit == EnvConfig().max_steps else EnvConfig(max_steps=limit)
+    t = get_task(task)
+    if t.env_config is not None:
+        return EnvConfig.load(t.env_config)
+    return None if t.max_steps == EnvConfig().max_steps else EnvConfig(max_steps=t.max_steps)
 
 
 def warn_failed(summary: RunSummary, out: Path) -> None:

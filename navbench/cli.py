@@ -85,7 +85,7 @@ def cmd_run(args) -> int:
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, env_config=args.env_config,
             progress=None if args.quiet else Progress(),
             video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
-            habitat_config=habitat, _episodes=episodes)
+            habitat_config=habitat, gt=args.gt, _episodes=episodes)
     out = where[0]
     print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
@@ -207,6 +207,12 @@ def cmd_table(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from navbench.eval.export import export_run
+    print(export_run(args.run_dir, args.format, args.out))
+    return 0
+
+
 def cmd_compare(args) -> int:
     from navbench.eval.stats import compare_runs, format_comparison
     results = compare_runs(args.base, args.others, tuple(dict.fromkeys(args.metric or ())) or METRIC_NAMES,
@@ -250,6 +256,9 @@ def cmd_generate(args) -> int:
     elif args.what == "imagenav":  # ImageNav's val only (`episodes` writes it with every other split)
         from navbench.episodes.generate import write_imagenav_split
         write_imagenav_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+    elif args.what == "vlnce":
+        from navbench.episodes.vlnce_generate import generate_vlnce_split
+        generate_vlnce_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
     else:
         from navbench.episodes.generate import generate_bundled_splits
         generate_bundled_splits(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
@@ -383,6 +392,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "null, [1,2]) or else kept as a string. A plug-in class gets them as constructor "
                         "keywords; a remote agent takes timeout=SECONDS (per request, default 30)")
     r.add_argument("--episodes", help="a Habitat-format episode file (.json/.json.gz) instead of a bundled split")
+    r.add_argument("--gt", help="VLN-CE: the gt paths file, when it is not beside the episodes as {split}_gt.json.gz")
     r.add_argument("--scene-dir", help="where episode scene_id paths are resolved (default: bundled envs/)")
     r.add_argument("--limit", type=_count, help="first N episodes only")
     r.add_argument("--per-scene", type=_count, help="first K episodes of each scene only (before --limit)")
@@ -454,6 +464,12 @@ def build_parser() -> argparse.ArgumentParser:
                                                                 "protocol column and a note mark the table")
     t.set_defaults(func=cmd_table)
 
+    ex = sub.add_parser("export", help="write a VLN-CE run's leaderboard file (R2R-CE JSON, RxR-CE JSON Lines)")
+    ex.add_argument("run_dir")
+    ex.add_argument("--format", required=True, choices=("r2r-ce", "rxr-ce"))
+    ex.add_argument("-o", "--out", help="the file to write (default: RUN/predictions.json or .jsonl)")
+    ex.set_defaults(func=cmd_export)
+
     c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
                        description="Pairs OTHER with BASE on the episodes both scored and, per metric, prints "
                        "both means, the difference OTHER - BASE, its 95% interval (two-stage bootstrap: scenes, "
@@ -487,8 +503,10 @@ def build_parser() -> argparse.ArgumentParser:
                                         "extra training houses and episodes (policy-train) or its houses and "
                                         "episodes for choosing among policies (policy-select); or a larger "
                                         "ObjectNav benchmark with houses of its own and checksums (benchmark "
-                                        "--out DIR)")
-    g.add_argument("what", choices=("scenes", "episodes", "imagenav", "policy-train", "policy-select", "benchmark"))
+                                        "--out DIR); or ImageNav's val split (imagenav), or the R2R-CE-style val split "
+                                        "(vlnce)")
+    g.add_argument("what", choices=("scenes", "episodes", "imagenav", "policy-train", "policy-select", "benchmark",
+                                    "vlnce"))
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
     g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")

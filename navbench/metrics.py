@@ -69,9 +69,9 @@ METRIC_KEYS = ("success", "spl", "soft_spl", "distance_to_goal")
 
 
 def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None,
-              keys: tuple[str, ...] = METRIC_KEYS) -> dict[str, Any]:
-    """Mean of each metric (``keys``: Habitat's four, and a task's own) over scored records (skipped episodes
-    excluded, and counted).
+              keys: Iterable[str] = METRIC_KEYS) -> dict[str, Any]:
+    """Mean of each metric (``keys``: a task's measures) over scored records (skipped episodes excluded, and
+    counted); a plain mean, as VLN-CE's and Habitat's evaluations take it (an infinite distance makes it inf).
 
     With ``by`` (e.g. ``"object_category"``) also returns ``{"by_<by>": {value: {...means...}}}``.
     Records are sorted by episode id first so floating-point sums do not depend on finishing order.
@@ -79,9 +79,14 @@ def aggregate(records: Iterable[Mapping[str, Any]], by: str | None = None,
     rows = sorted(records, key=lambda r: (str(r.get("scene_id", "")), str(r.get("episode_id", ""))))
     scored = [r for r in rows if not r.get("skipped")]
     out: dict[str, Any] = {"num_episodes": len(scored), "num_skipped": len(rows) - len(scored)}
+    keys = tuple(keys)
     for k in keys:
-        # a measure undefined for an episode (None: GOAT's success of a goal type the episode lacks) is left out
+        # a measure undefined for an episode (None: GOAT's success of a goal type the episode lacks) is left
+        # out; one measured for none (a split without goals or gt paths) has no mean
         vals = [float(r[k]) for r in scored if r[k] is not None]
+        if scored and not vals:
+            out[k] = None
+            continue
         out[k] = math.fsum(vals) / len(vals) if vals else float("nan")
     if by is not None:
         groups: dict[str, list[Mapping[str, Any]]] = {}
@@ -194,4 +199,146 @@ def goat_metrics(subtask_types: Sequence[str], steps: Sequence[tuple[int | None,
         "stop_called": stopped,
         "distance_to_goal": d,
     })
+
+
+# ------------------------------------------------------------------------------------------- VLN-CE
+# The measures of VLN-CE (R2R-CE, RxR-CE) as its reference code computes them: jacobkrantz/VLN-CE
+# habitat_extensions/measures.py (PathLength, OracleSuccess, StepsTaken, NDTW, SDTW) and habitat-lab v0.1.7
+# habitat/tasks/nav/nav.py (DistanceToGoal, Success, SPL). An episode is its positions p_0 (at reset) ..
+# p_T (after each of its T actions, STOP included) and the geodesic distances d_t from p_t to the goal point.
+# Habitat holds positions as float32; the functions below take them through float32 as it does.
+
+VLNCE_SUCCESS_DISTANCE = 3.0  # TASK.SUCCESS.SUCCESS_DISTANCE, ORACLE_SUCCESS and NDTW's, in both task yamls
+VLNCE_METRIC_KEYS = ("distance_to_goal", "success", "oracle_success", "spl", "path_length", "steps_taken",
+                     "ndtw", "sdtw", "ndtw_exact")
+
+
+def habitat_positions(positions: Iterable[Any]) -> list[list[float]]:
+    """Positions as ``sim.get_agent_state().position.tolist()`` gives them: float32 values as Python floats."""
+    import numpy as np
+    return np.asarray(list(positions), np.float32).reshape(-1, 3).tolist()
+
+
+def ndtw_points(positions: Iterable[Any]) -> list[list[float]]:
+    """The agent path nDTW compares: the start, then each position that differs exactly from the previous
+    one kept (consecutive repeats dropped; a revisit of an earlier position is kept), as NDTW.update_metric."""
+    out: list[list[float]] = []
+    for p in habitat_positions(positions):
+        if not out or p != out[-1]:
+            out.append(p)
+    return out
+
+
+def vlnce_path_length(positions: Iterable[Any]) -> float:
+    """PathLength: the sum of the 3-D Euclidean step lengths (the reference's docstring says geodesic; its code
+    is Euclidean). Each step's norm is taken in float32 as numpy does for habitat's float32 positions, and
+    summed in float64 (Python 3.6 / NumPy 1.x, the reference's, promotes ``0.0 + float32`` to float64)."""
+    import numpy as np
+    pts = np.asarray(list(positions), np.float32).reshape(-1, 3)
+    total = 0.0
+    for a, b in zip(pts[:-1], pts[1:]):
+        total += vlnce_step_length(a, b)
+    return total
+
+
+def vlnce_step_length(a: Any, b: Any) -> float:
+    """One step's length as PathLength and SPL take it: the float32 norm of the float32 difference."""
+    import numpy as np
+    return float(np.linalg.norm(np.asarray(b, np.float32) - np.asarray(a, np.float32), ord=2))
+
+
+def _euclidean(a: Any, b: Any) -> float:
+    import numpy as np
+    return np.linalg.norm(np.array(b) - np.array(a), ord=2)  # measures.py: euclidean_distance
+
+
+def fastdtw_distance(path: list[list[float]], reference: list[list[float]]) -> float:
+    """The DTW distance the reference's nDTW uses: ``fastdtw.fastdtw`` (its default radius 1, the library and
+    version VLN-CE's requirements.txt pins, 0.3.4) with 3-D Euclidean point distances. An approximation of
+    DTW; :func:`dtw_distance` is the exact value."""
+    try:
+        from fastdtw import fastdtw
+    except ImportError:
+        raise ImportError("nDTW as VLN-CE scores it needs fastdtw (pip install fastdtw==0.3.4)") from None
+    return float(fastdtw(path, reference, dist=_euclidean)[0])
+
+
+def dtw_distance(path: Iterable[Any], reference: Iterable[Any]) -> float:
+    """Exact dynamic time warping distance (3-D Euclidean point distances, steps (1,0), (0,1), (1,1))."""
+    import numpy as np
+    a = np.asarray(list(path), np.float64).reshape(-1, 3)
+    b = np.asarray(list(reference), np.float64).reshape(-1, 3)
+    if not len(a) or not len(b):
+        raise ValueError("DTW of an empty path")
+    cost = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2)
+    prev = np.cumsum(cost[0])
+    for i in range(1, len(a)):
+        row = np.empty(len(b))
+        row[0] = prev[0] + cost[i, 0]
+        diag = np.minimum(prev[1:], prev[:-1])  # from (i-1, j) and (i-1, j-1)
+        for j in range(1, len(b)):
+            row[j] = cost[i, j] + min(diag[j - 1], row[j - 1])
+        prev = row
+    return float(prev[-1])
+
+
+def ndtw(path: list[list[float]], reference: list[list[float]], success_distance: float = VLNCE_SUCCESS_DISTANCE,
+         exact: bool = False) -> float:
+    """``exp(-DTW(path, reference) / (len(reference) * success_distance))`` (Ilharco et al. 2019, as NDTW
+    computes it); ``path`` as :func:`ndtw_points` makes it, ``reference`` the gt file's ``locations``.
+    fastdtw as the reference, or exact DTW with ``exact``."""
+    d = dtw_distance(path, reference) if exact else fastdtw_distance(path, reference)
+    return float(math.exp(-d / (len(reference) * success_distance)))
+
+
+def habitat_distances(positions: Iterable[Any], geodesic: Any) -> list[float]:
+    """d_t for each position as DistanceToGoal gives it: ``geodesic(p)`` recomputed only when the position
+    moved beyond ``np.allclose(previous, p, atol=1e-4)`` since the last computation, else the last value."""
+    import numpy as np
+    out: list[float] = []
+    last = None
+    for p in np.asarray(list(positions), np.float32).reshape(-1, 3):
+        if last is None or not np.allclose(last, p, atol=1e-4):
+            d, last = float(geodesic(p)), p
+        out.append(d)
+    return out
+
+
+def vlnce_episode_metrics(positions: Iterable[Any], distances: Iterable[float], stop_called: bool,
+                          gt_locations: list[list[float]] | None,
+                          success_distance: float = VLNCE_SUCCESS_DISTANCE) -> dict[str, float]:
+    """An episode's final VLN-CE measures, as the reference reports them (the ``infos`` after its last action).
+
+    Args:
+        positions: p_0 (at reset), then the position after each action (STOP included): T + 1 of them.
+        distances: d_0 .. d_T, as :func:`habitat_distances` gives them.
+        stop_called: whether the last action was STOP (an episode cut at the step limit did not stop).
+        gt_locations: the gt file's ``locations``; None: ``ndtw``, ``sdtw`` and ``ndtw_exact`` are NaN.
+    Returns:
+        distance_to_goal (d_T), success (STOP and d_T < 3.0, strict), oracle_success (any d_t < 3.0, the start
+        included), spl (success * d_0 / max(d_0, TL), d_0 at reset), path_length (TL), steps_taken (T), ndtw
+        (fastdtw), sdtw (success * ndtw) and ndtw_exact (exact DTW). SPL's d_0 == 0 case, which the reference
+        divides by zero on, is :func:`path_ratio`'s.
+    """
+    pts = list(positions)
+    d = [float(x) for x in distances]
+    if len(d) != len(pts) or not pts:
+        raise ValueError(f"{len(pts)} positions but {len(d)} distances")
+    tl = vlnce_path_length(pts)
+    s = bool(stop_called) and d[-1] < success_distance
+    out = {
+        "distance_to_goal": d[-1],
+        "success": float(s),
+        "oracle_success": float(any(x < success_distance for x in d)),
+        "spl": float(s) * path_ratio(d[0], tl),
+        "path_length": tl,
+        "steps_taken": float(len(pts) - 1),
+    }
+    if gt_locations is None:
+        out.update(ndtw=float("nan"), sdtw=float("nan"), ndtw_exact=float("nan"))
+    else:
+        path = ndtw_points(pts)
+        out["ndtw"] = ndtw(path, gt_locations, success_distance)
+        out["sdtw"] = float(s) * out["ndtw"]
+        out["ndtw_exact"] = ndtw(path, gt_locations, success_distance, exact=True)
     return out

@@ -20,7 +20,8 @@ def _run(*flags):
 
 def test_each_policy_agent_has_its_reported_decoding_by_default_and_records_it():
     # pointnav: its table's headline row is least-tried; the ObjectNav tables are argmax
-    assert DEFAULT_DECODING == {"pointnav": "least-tried", "memory": "argmax", "frontier": "argmax"}
+    assert DEFAULT_DECODING == {"pointnav": "least-tried", "memory": "argmax", "frontier": "argmax",
+                                "vln_memory": "argmax"}
     opts, label = _run("--task", "pointnav", "--agent", "pointnav")
     assert opts == {"decoding": "least-tried"} and label == "pointnav"
     for agent in ("memory", "frontier"):
@@ -116,7 +117,8 @@ def test_the_seed_names_a_run_only_when_the_agent_draws():
 
 
 def test_registry_lookup_and_run_directory():
-    assert set(AGENTS) == {"oracle", "optimistic", "random", "pointnav", "memory", "frontier"}
+    assert set(AGENTS) == {"oracle", "optimistic", "random", "pointnav", "memory", "frontier", "vln_random",
+                           "vln_forward", "vln_oracle", "vln_memory"}
     assert agent_factory("memory") is AGENTS["memory"]
     with pytest.raises(ValueError, match="unknown agent 'nope': choose from oracle"):
         agent_factory("nope")

@@ -51,6 +51,26 @@ def make_optimistic(cfg):
     return OptimisticOracleAgent(cfg.scene_dir, cfg.success_distance, cfg.env_config(("depth",)))
 
 
+def make_vln_random(cfg):
+    from navbench.agents.vlnce import VLNRandomAgent
+    return VLNRandomAgent(seed=cfg.seed)
+
+
+def make_vln_forward(cfg):
+    from navbench.agents.vlnce import VLNForwardAgent
+    return VLNForwardAgent(seed=cfg.seed)
+
+
+def make_vln_oracle(cfg):
+    from navbench.agents.vlnce import ReferencePathOracle
+    return ReferencePathOracle(cfg.scene_dir, cfg.env_config(()))
+
+
+def make_vln_memory(cfg):
+    from navbench.agents.vlnce import InstructionMemoryAgent
+    return InstructionMemoryAgent(make_memory(cfg))  # one episode at a time (envs_per_worker 1)
+
+
 def make_random(cfg):
     from navbench.agents.random_agent import RandomAgent
     return RandomAgent(cfg.success_distance, seed=cfg.seed)
@@ -236,6 +256,14 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
               goals=_OBJECT_GOALS, **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
               explores=True, level_camera=True, goals=_OBJECT_GOALS, **_POLICY_FILES),
+    AgentSpec("vln_random", make_vln_random, RandomOptions, help="VLN-CE's RandomAgent: actions drawn from the "
+              "R2R training set's oracle distribution", gps_free=True),
+    AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "
+              "37 steps forward, STOP", gps_free=True),
+    AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path (an upper bound)"),
+    AgentSpec("vln_memory", make_vln_memory, MemoryOptions, help="localises a VLN instruction's last landmark "
+              "in the keyframe memory, then the PointNav policy", prepare=prebuild_memories, scene_files=_memory_files,
+              scene_option="memory_root", level_camera=True, run_files=_checkpoint_file, goals=("instruction",)),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}

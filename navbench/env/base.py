@@ -76,7 +76,10 @@ class NavEnv(gym.Env):
                  config: EnvConfig | None = None, render_mode: str | None = None, task: str | None = None):
         self.task = task or type(self).task
         self.task_def = get_task(self.task)
-        self.config = config or EnvConfig(max_steps=self.task_def.max_steps)
+        if config is None:
+            config = EnvConfig.load(self.task_def.env_config) if self.task_def.env_config else \
+                EnvConfig(max_steps=self.task_def.max_steps)
+        self.config = config
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.render_mode = render_mode

@@ -275,11 +275,12 @@ EpisodeStream = Callable[..., Iterator[Episode]]
 
 def load_dataset(path: str | Path,
                  select: Callable[[EpisodeStream], list[Episode]] | None = None,
-                 cap: int | None = None) -> EpisodeDataset:
+                 cap: int | None = None, require_goals: bool = True) -> EpisodeDataset:
     """Load a dataset file (and its ``content/`` per-scene files when present), streamed: only the
     episodes kept are held in memory. ``select(stream)`` picks them: ``stream()`` reads the file (again)
     and yields its episodes in file order, ``stream(keys=True)`` only their ``(scene_id, episode_id)``;
-    it may stop early. Each file is read at most ``cap`` bytes decompressed (see :mod:`navbench.safeio`)."""
+    it may stop early. Each file is read at most ``cap`` bytes decompressed (see :mod:`navbench.safeio`).
+    ``require_goals=False`` accepts episodes without goals (a VLN-CE test split has none)."""
     path = Path(path)
     if not path.is_file():
         raise EpisodeError(f"{path}: file not found")
@@ -299,7 +300,7 @@ def load_dataset(path: str | Path,
         pass
     for p in opened:
         p.close()
-    return _finish(last, episodes, path)
+    return _finish(last, episodes, path, require_goals)
 
 
 def episode_keys(path: str | Path, cap: int | None = None) -> set[tuple[str, str]]:
@@ -347,11 +348,11 @@ def _episode_id(raw: Any) -> str:
     return str(raw.get("episode_id", "?"))[:40] if isinstance(raw, dict) else "?"
 
 
-def _finish(p: _Pass, episodes: list[Episode], path: Path) -> EpisodeDataset:
+def _finish(p: _Pass, episodes: list[Episode], path: Path, require_goals: bool = True) -> EpisodeDataset:
     dataset = p.dataset
     dataset.episodes = episodes
     for ep in dataset.episodes:
-        if ep.object_category is None and not ep.goals:
+        if ep.object_category is None and not ep.goals and require_goals:
             raise EpisodeError(f"{path}: episode {ep.episode_id}: no goals and no object_category")
         if ep.object_category is not None and not ep.goals:
             key = goals_key(ep.scene_id, ep.object_category)

@@ -60,6 +60,8 @@ class RunConfig:
     # A Habitat configuration the run's settings were read from (--habitat-config): its file, sha256, each
     # value used by its full key and the keys ignored (navbench.eval.habitat_config); None: none.
     habitat_config: dict[str, Any] | None = None
+    # VLN-CE: the gt paths file given with --gt (None: the one beside the episode file, as VLN-CE finds it).
+    gt: str | None = None
 
     def env_config(self, sensors: tuple[str, ...]) -> EnvConfig:
         base = EnvConfig(success_distance=self.success_distance, **self.env)

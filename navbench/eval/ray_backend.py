@@ -183,7 +183,7 @@ def warm_scene(cfg: RunConfig) -> str:
     ``NavEnv.reset`` draws without one (gymnasium's seeded generator)."""
     from gymnasium.utils import seeding
 
-    episodes = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task).episodes
+    episodes = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt).episodes
     rng, _ = seeding.np_random(cfg.seed)
     return episodes[int(rng.integers(len(episodes)))].scene_id
 
@@ -333,7 +333,7 @@ def run_ray(cfg: RunConfig, make_agent: AgentFactory, keys: list[Key],
     from ray.util.queue import Queue as RayQueue
 
     dying = _death_errors(ray)
-    selected = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task).episodes
+    selected = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt).episodes
     by_key = {(e.scene_id, e.episode_id): e for e in selected}
     slots: list[_Slot] = []
     try:

@@ -51,7 +51,7 @@ from navbench.eval.records import EpisodeRecord, RunSummary
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.stats import add_intervals
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
-from navbench.metrics import METRIC_KEYS, aggregate
+from navbench.metrics import aggregate
 from navbench.safeio import read_input
 from navbench.tasks import get_task
 
@@ -63,7 +63,7 @@ __all__ = ["Execution", "RunConfig", "RunError", "comparable", "parse_shard", "r
 _RESUME_FREE_KEYS = ("limit", "workers", "envs_per_worker", "navbench_version", "device", "benchmark_dir")
 # RunConfig fields config.json leaves out at these values: a default run's config.json has none of them.
 _DEFAULT_OMITTED = {"shard": None, "env_config_name": None, "device": "cpu", "precision": "fp32",
-                    "habitat_config": None}
+                    "habitat_config": None, "gt": None}
 
 
 # -------------------------------------------------------------------------------------------- files
@@ -84,9 +84,9 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
     """The run's summary: metric means over scored episodes (failed ones count as failures) and the
     failed episodes with their reasons."""
     task = get_task(cfg.task)
-    by = task.group_by
-    summary = aggregate(records, by=by, keys=METRIC_KEYS + task.extra_measures)
-    add_intervals(summary, records, by)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
+    by, keys = task.group_by, task.summary_keys
+    summary = aggregate(records, by=by, keys=keys)
+    add_intervals(summary, records, by, keys)  # ci95 of each mean: the two-stage bootstrap of navbench.eval.stats
     failed = sorted((r for r in records if r.get("failed")), key=lambda r: (str(r["scene_id"]), str(r["episode_id"])))
     summary.update(task=cfg.task, split=cfg.split, agent=cfg.label or cfg.agent, success_distance=cfg.success_distance,
                    seed=cfg.seed, protocol_id=protocol_id(config_protocol(cfg)), complete=complete,
@@ -229,7 +229,8 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
     if not resume and not overwrite and (old or (out / "config.json").is_file()):
         raise RunError(f"{out} already holds a run ({len(old)} records): --resume to continue it, --overwrite to "
                        f"replace it, or another --out")
-    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task)  # streamed: the selection only
+    # streamed: the selection only
+    dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt)
     if resume:
         _check_resume(out, cfg_json, bool(old))
         records = _repair(old, jsonl, dataset, cfg.episodes, notes)

@@ -96,17 +96,19 @@ def intervals(records: Iterable[Mapping[str, Any]], metrics: Sequence[str] = MET
     return {m: [float(ci[0, j]), float(ci[1, j])] for j, m in enumerate(metrics)}
 
 
-def add_intervals(summary: dict[str, Any], records: Iterable[Mapping[str, Any]], by: str | None = None) -> None:
+def add_intervals(summary: dict[str, Any], records: Iterable[Mapping[str, Any]], by: str | None = None,
+                  metrics: Sequence[str] = METRICS) -> None:
     """Put ``ci95`` and ``ci_method`` beside the means of a summary (see :func:`navbench.metrics.aggregate`),
     and ``ci95`` into each group of its ``by_<by>`` breakdown."""
     rows = _scored(records)
-    summary["ci95"], summary["ci_method"] = intervals(rows), CI_METHOD
+    metrics = [m for m in metrics if all(r.get(m) is not None for r in rows)]  # null: not measured
+    summary["ci95"], summary["ci_method"] = intervals(rows, metrics), CI_METHOD
     groups: dict[str, list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault(str(r.get(by)), []).append(r)
     for g, entry in (summary.get(f"by_{by}") or {}).items() if by else ():
         if isinstance(entry, dict):
-            entry["ci95"] = intervals(groups.get(g, []))
+            entry["ci95"] = intervals(groups.get(g, []), metrics)
 
 
 # --------------------------------------------------------------------------------------- comparison

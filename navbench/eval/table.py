@@ -25,6 +25,7 @@ import pandas as pd
 
 from navbench.safeio import read_input
 from navbench.tasks import TASKS
+from navbench.tasks.base import COLUMNS
 
 FORMATS = ("markdown", "csv", "latex")
 
@@ -34,6 +35,20 @@ class TableError(ValueError):
 
 
 METRICS = ("success", "spl", "soft_spl", "distance_to_goal")
+METRE_COLUMNS = ("DTG", "NE", "TL")  # shown with two decimals
+
+
+def task_metrics(task: Any) -> tuple[str, ...]:
+    """The measures a run of ``task`` summarises (:attr:`navbench.tasks.base.Task.summary_keys`); navbench's
+    four for a task this checkout does not know."""
+    t = TASKS.get(task) if isinstance(task, str) else None
+    return t.summary_keys if t is not None else METRICS
+
+
+def task_columns(task: Any) -> dict[str, tuple[str, float]]:
+    """``{header: (measure, scale)}`` of a run of ``task``'s table row (:attr:`navbench.tasks.base.Task.columns`)."""
+    t = TASKS.get(task) if isinstance(task, str) else None
+    return {h: (m, k) for h, m, k in (t.columns if t is not None else COLUMNS)}
 
 
 def _read_object(path: Path, what: str) -> dict[str, Any]:
@@ -52,8 +67,10 @@ def _read_object(path: Path, what: str) -> dict[str, Any]:
 def load_summary(run_dir: str | Path) -> dict[str, Any]:
     path = Path(run_dir) / "summary.json"
     s = _read_object(path, "summary")
-    for k in METRICS:
+    for k in task_metrics(s.get("task")):
         v = s.get(k)
+        if v is None and k in s:  # a measure the run could not take (a split without goals or gt paths)
+            continue
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise TableError(f"{path}: corrupt summary ({k!r} must be a number, got {v!r})"[:300])
     for k in ("agent", "task", "split"):
@@ -123,7 +140,7 @@ def first_summary(run_dir: str | Path, first: int) -> dict[str, Any]:
     summary = load_summary(run_dir)
     task = TASKS.get(str(summary.get("task")))
     by = task.group_by if task is not None else None
-    return {**summary, **aggregate(first_records(run_dir, first), by=by)}
+    return {**summary, **aggregate(first_records(run_dir, first), by=by, keys=task_metrics(summary.get("task")))}
 
 
 IDENTITY = ("checkpoint", "decoding", "seed", "perception")
@@ -157,13 +174,12 @@ def run_identity(run_dir: str | Path) -> dict[str, Any]:
     return ident
 
 
-COLUMNS = {"SR": ("success", 100), "SPL": ("spl", 100), "SoftSPL": ("soft_spl", 100), "DTG": ("distance_to_goal", 1)}
 
 
-def _valid_ci(ci: Any) -> bool:
+def _valid_ci(ci: Any, metrics: tuple[str, ...] = METRICS) -> bool:
     return isinstance(ci, dict) and all(
         isinstance(ci.get(m), list) and len(ci[m]) == 2
-        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in ci[m]) for m in METRICS)
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in ci[m]) for m in metrics)
 
 
 def summary_row(s: dict[str, Any], identity: dict[str, Any] | None = None,
@@ -171,9 +187,9 @@ def summary_row(s: dict[str, Any], identity: dict[str, Any] | None = None,
     """A table row of a summary; with ``ci`` (``{metric: [lo, hi]}``) each figure's ``lo`` and ``hi`` too."""
     row = {"agent": s.get("agent"), **(identity or {}), "task": s.get("task"), "split": s.get("split") or "custom",
            "episodes": s.get("num_episodes")}
-    for col, (m, scale) in COLUMNS.items():
-        row[col] = scale * s[m]
-        if ci is not None:
+    for col, (m, scale) in task_columns(s.get("task")).items():
+        row[col] = None if s[m] is None else scale * s[m]
+        if ci is not None and m in ci:
             row[f"{col} lo"], row[f"{col} hi"] = scale * ci[m][0], scale * ci[m][1]
     return row
 
@@ -192,11 +208,12 @@ def run_intervals(run_dir: str | Path, summary: dict[str, Any], first: int | Non
     """summary.json's ``ci95`` (all episodes), else the two-stage bootstrap of the records the row scores."""
     from navbench.eval.stats import StatsError, intervals
 
-    if first is None and _valid_ci(summary.get("ci95")):
+    metrics = tuple(m for m in task_metrics(summary.get("task")) if summary.get(m) is not None)
+    if first is None and _valid_ci(summary.get("ci95"), metrics):
         return summary["ci95"]
     recs = run_records(run_dir, first)
     try:
-        return intervals(recs) if recs else None
+        return intervals(recs, metrics) if recs else None
     except StatsError as exc:
         raise TableError(f"{Path(run_dir) / 'episodes.jsonl'}: {exc}") from None
 
@@ -258,14 +275,16 @@ def group_frame(run_dirs: list[str | Path], by: str, first: int | None = None,
         ident = {**run_identity(d), **({"protocol": protocols[i]} if protocols else {})}
         split = run_split(d, s)
         for g, rs in sorted(groups.items()):
-            agg = aggregate(rs)
+            metrics = task_metrics(s.get("task"))
+            agg = aggregate(rs, keys=metrics)
             if not agg["num_episodes"]:
                 continue
-            row = summary_row({**s, **agg, "split": split}, ident, intervals(rs))
+            row = summary_row({**s, **agg, "split": split}, ident, intervals(rs, metrics))
             rows.append({**{k: v for k, v in row.items() if k != "task"}, by: g})
     df = pd.DataFrame(rows)
-    cols = [c for c in df.columns if c not in (by, "episodes") and c not in COLUMNS and not c.endswith((" lo", " hi"))]
-    df = df[[*cols, by, "episodes", *[c for c in df.columns if c in COLUMNS or c.endswith((" lo", " hi"))]]]
+    shown = {h for s in summaries for h in task_columns(s.get("task"))}
+    cols = [c for c in df.columns if c not in (by, "episodes") and c not in shown and not c.endswith((" lo", " hi"))]
+    df = df[[*cols, by, "episodes", *[c for c in df.columns if c in shown or c.endswith((" lo", " hi"))]]]
     if protocols:
         df.attrs["note"] = f"mixed protocols ({', '.join(dict.fromkeys(protocols))}): figures are not comparable"
     return df
@@ -284,7 +303,7 @@ def _with_intervals(df: pd.DataFrame) -> pd.DataFrame:
     df = df.copy()
     for c in list(df.columns):
         if f"{c} lo" in df.columns and f"{c} hi" in df.columns:
-            df[c] = [_cell(v, lo, hi, 2 if str(c).endswith("DTG") else 1)
+            df[c] = [_cell(v, lo, hi, 2 if str(c).endswith(METRE_COLUMNS) else 1)
                      for v, lo, hi in zip(df[c], df[f"{c} lo"], df[f"{c} hi"])]
             df = df.drop(columns=[f"{c} lo", f"{c} hi"])
     return df
@@ -311,10 +330,11 @@ def render(df: pd.DataFrame, fmt: str = "markdown") -> str:
 def summary_markdown(summary: dict[str, Any]) -> str:
     """The table ``navbench run`` prints: the overall row, then per-category rows for ObjectNav, each
     figure with its 95% interval when the summary has one."""
-    ci = summary.get("ci95") if _valid_ci(summary.get("ci95")) else None
+    metrics = tuple(m for m in task_metrics(summary.get("task")) if summary.get(m) is not None)
+    ci = summary.get("ci95") if _valid_ci(summary.get("ci95"), metrics) else None
     rows = [dict(summary_row(summary, ci=ci), category="all")]
     for cat, m in (summary.get("by_object_category") or {}).items():
-        cat_ci = m.get("ci95") if _valid_ci(m.get("ci95")) else None
+        cat_ci = m.get("ci95") if _valid_ci(m.get("ci95"), metrics) else None
         rows.append(dict(summary_row({**summary, **m}, ci=cat_ci), category=cat))
     df = pd.DataFrame(rows).set_index("category").drop(columns=["task"])
     return _with_intervals(df).to_markdown(floatfmt=".1f")

@@ -15,6 +15,7 @@ SceneError) is bad input and is raised.
 from __future__ import annotations
 
 import enum
+import inspect
 import math
 import time
 import warnings
@@ -45,17 +46,23 @@ _DATASET: dict[tuple, EpisodeDataset] = {}
 
 
 def run_dataset(path: str | Path, limit: int | None = None, per_scene: int | None = None,
-                shard: str | None = None, task: str | None = None) -> EpisodeDataset:
+                shard: str | None = None, task: str | None = None, gt: str | None = None) -> EpisodeDataset:
     """The run's episode file, parsed once per process (the driver and an in-process worker share it) by
     ``task``'s reader (Habitat's PointNav/ObjectNav JSON without one); read again when the file changed.
     With a selection (see :func:`~navbench.eval.config.select_episodes`) the file is streamed and the
-    dataset holds only the episodes selected. Callers must not modify it."""
+    dataset holds only the episodes selected. ``gt``: a VLN-CE task's gt paths file, read instead of the one
+    beside the episodes. Callers must not modify it."""
     st = Path(path).stat()
-    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard, task)
+    key = (str(Path(path).resolve()), st.st_mtime_ns, st.st_size, limit, per_scene, shard, task, gt)
     if key not in _DATASET:
         select = None if limit is None and per_scene is None and shard is None else \
             selector(limit, per_scene, shard)
-        dataset = get_task(task).read_episodes(path, select) if task is not None else load_dataset(path, select)
+        if gt is not None:  # a VLN-CE task's gt paths, given instead of found beside the episodes
+            if task is None or "gt" not in inspect.signature(get_task(task).read_episodes).parameters:
+                raise ValueError(f"--gt applies to the VLN-CE tasks (r2r_ce, rxr_ce), not {task}")
+            dataset = get_task(task).read_episodes(path, select, gt=gt)
+        else:
+            dataset = get_task(task).read_episodes(path, select) if task is not None else load_dataset(path, select)
         _DATASET.clear()
         _DATASET[key] = dataset
     return _DATASET[key]
@@ -144,6 +151,8 @@ def start_distance(episode: Episode) -> float:
     d = episode.info.get("geodesic_distance") if isinstance(episode.info, dict) else None
     if isinstance(d, (int, float)) and math.isfinite(d):
         return float(d)
+    if not episode.goals and episode.object_category is None:
+        return math.nan  # a VLN-CE test split's episode: no goal, not scored
     pts = episode.goal_positions()
     start = np.asarray(episode.start_position, np.float64)
     return float(np.min(np.hypot(pts[:, 0] - start[0], pts[:, 2] - start[2]))) if len(pts) else 0.0
@@ -161,8 +170,8 @@ def failed_record(record: dict[str, Any], reason: str, d0: float, distance: floa
         stop_called=bool(info.get("stop_called", False)), collisions=int(info.get("collisions", 0)),
         elapsed_s=round(elapsed, 4), failed=True, failure_reason=reason,
     )
-    record.update({m: 0.0 for m in _extra_measures(record)})
-    return record
+    record.update(_task_measures(record, info, failed=True))
+    return _nan_to_null(record)
 
 
 def _extra_measures(record: dict[str, Any]) -> tuple[str, ...]:
@@ -186,7 +195,7 @@ def _begin(env: NavEnv, episode: Episode, cfg: RunConfig, tracker: Tracker = _NO
     except Exception as exc:
         raise _EnvFailure(failed_record(record, failure_reason(exc), start_distance(episode), None, 0,
                                         time.perf_counter() - t0)) from None
-    if not math.isfinite(info["geodesic_distance"]):
+    if info["geodesic_distance"] == math.inf:  # NaN: an episode without a goal runs, unscored
         record.update(skipped=True, skip_reason="unreachable: no goal on the start's navigable island",
                       geodesic_distance=None, elapsed_s=round(time.perf_counter() - t0, 4))
         return record, None, t0, math.inf
@@ -200,6 +209,35 @@ class _EnvFailure(Exception):
         self.record = record
 
 
+_SCORES = ("success", "spl", "soft_spl", "distance_to_goal", "geodesic_distance")
+
+
+def _task_measures(record: dict[str, Any], info: dict[str, Any] | None, failed: bool = False) -> dict[str, Any]:
+    """The task's measures beyond Habitat's four (VLN-CE's oracle_success, ndtw...), from the env's ``info``,
+    and the path VLN-CE's leaderboard files are written from (``vlnce_path``). A measure the env could not take
+    (NaN: an episode without a goal, a split without gt paths) is recorded as null; a failed episode's measures
+    that only its end gives (nDTW) count as a failure's, 0."""
+    info = info or {}
+    out: dict[str, Any] = {}
+    for m in _extra_measures(record):
+        if m == "path_length":  # a standard field, set from the same info
+            continue
+        v = float(info.get(m, math.nan))
+        out[m] = v if v == v else (0.0 if failed else None)
+    if "vlnce_path" in info:
+        out["vlnce_path"] = info["vlnce_path"]
+    return out
+
+
+def _nan_to_null(record: dict[str, Any]) -> dict[str, Any]:
+    """Scores an env reports as NaN (nothing to measure against) as null: records are strict JSON."""
+    for k in _SCORES:
+        v = record.get(k)
+        if isinstance(v, float) and v != v:
+            record[k] = None
+    return record
+
+
 def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str, Any],
          trace: Trace | None = None) -> dict[str, Any]:
     record.update(
@@ -208,9 +246,10 @@ def _end(record: dict[str, Any], info: dict[str, Any], t0: float, log: dict[str,
         path_length=info["path_length"], num_steps=info["num_steps"], stop_called=info["stop_called"],
         collisions=info["collisions"], elapsed_s=round(time.perf_counter() - t0, 4),
     )
-    record.update({m: _plain(info[m]) for m in _extra_measures(record)})
+    record.update(_task_measures(record, info))
     task = TASKS.get(str(record.get("task")))
     record.update({f: _plain(info[f]) for f in (task.record_fields if task is not None else ()) if f in info})
+    _nan_to_null(record)
     if log:
         record["log"] = log
     if trace is not None:
@@ -379,7 +418,7 @@ class EpisodeWorker:
         if single_thread:
             share_cores(1)
         self.cfg = cfg
-        self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task)
+        self.dataset = run_dataset(cfg.episodes, cfg.limit, cfg.per_scene, cfg.shard, cfg.task, cfg.gt)
         self.agent = make_agent(cfg)
         self.envs: list[NavEnv] = []
         try:  # an env that fails to start (a bad first episode, a bad scene) still closes the agent

@@ -206,3 +206,60 @@ class GreedyFollower:
             if best[0] is not None:
                 return best[0][2]
         return None
+
+
+class WaypointFollower:
+    """Drives through ``waypoints`` in order with a :class:`GreedyFollower` to each, and STOPs within
+    ``stop_radius`` of the last: a VLN reference-path follower (VLN-CE's gt paths are a shortest-path follower's
+    rollout through the reference path that ends within 0.5 m of the goal, jacobkrantz/VLN-CE
+    ``habitat_extensions/config/default.py``).
+
+    A waypoint counts as passed within ``waypoint_radius`` (xz) or when its follower would STOP; one that is off
+    the navigable space (no finite distance) is dropped, and one not reached within ``max_waypoint_steps``
+    actions is given up."""
+
+    def __init__(self, navgrid: NavGrid, waypoints, forward_step: float = 0.25, turn_angle_deg: float = 30.0,
+                 sliding: bool = False, waypoint_radius: float = 0.5, stop_radius: float = 0.5,
+                 max_waypoint_steps: int = 80):
+        self.navgrid = navgrid
+        self.waypoints = [np.asarray(w, np.float64).reshape(3) for w in waypoints]
+        self.forward_step, self.turn_angle_deg, self.sliding = forward_step, turn_angle_deg, sliding
+        self.waypoint_radius, self.stop_radius = waypoint_radius, stop_radius
+        self.max_waypoint_steps = max_waypoint_steps
+        self._follower: GreedyFollower | None = None
+        self._steps_on = 0
+
+    def _next(self, position: np.ndarray) -> GreedyFollower | None:
+        while self.waypoints:
+            last = len(self.waypoints) == 1
+            wp = self.waypoints[0]
+            if not last and math.hypot(position[0] - wp[0], position[2] - wp[2]) < self.waypoint_radius:
+                self.waypoints.pop(0)
+                continue
+            f = GreedyFollower(self.navgrid, wp.reshape(1, 3), self.stop_radius if last else self.waypoint_radius,
+                               forward_step=self.forward_step, turn_angle_deg=self.turn_angle_deg,
+                               sliding=self.sliding)
+            if not math.isfinite(f.distance(position)):
+                self.waypoints.pop(0)  # not on this navigable space
+                continue
+            self._steps_on = 0
+            return f
+        return None
+
+    def next_action(self, position, rotation_xyzw) -> int:
+        p = np.asarray(position, np.float64)
+        for _ in range(len(self.waypoints) + 1):
+            if self._follower is None:
+                self._follower = self._next(p)
+                if self._follower is None:
+                    return STOP
+            last = len(self.waypoints) == 1
+            action = int(self._follower.next_action(p, rotation_xyzw))
+            self._steps_on += 1
+            if action != STOP and self._steps_on <= self.max_waypoint_steps:
+                return action
+            if last:
+                return STOP
+            self.waypoints.pop(0)  # reached (or given up): on to the next one
+            self._follower = None
+        return STOP

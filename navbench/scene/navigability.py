@@ -500,11 +500,14 @@ class NavGrid:
     # ------------------------------------------------------------------ persistence
 
     def save(self, path: str | Path) -> None:
-        """Write the grid to an ``.npz`` file (geodesic fields are not saved)."""
+        """Write the grid to an ``.npz`` file (geodesic fields are not saved; the build's wall clearance, which
+        sliding steps along, is, so a grid read back slides exactly as the one built)."""
+        extra = {} if self._clearance is None else {"clearance": self._clearance}
         np.savez_compressed(
             Path(path), free=self.free, navigable=self.navigable, origin=self.origin,
             cell_size=np.float64(self.cell_size), floor_height=np.float64(self.floor_height),
-            storey_top=np.float64(self.storey_top), config=np.array(json.dumps(dataclasses.asdict(self.config))))
+            storey_top=np.float64(self.storey_top), config=np.array(json.dumps(dataclasses.asdict(self.config))),
+            **extra)
 
     @classmethod
     def load(cls, path: str | Path) -> NavGrid:
@@ -512,8 +515,14 @@ class NavGrid:
         try:
             with np.load(path, allow_pickle=False) as data:
                 config = NavGridConfig(**json.loads(str(data["config"])))
-                return cls(data["free"], data["navigable"], data["origin"], float(data["cell_size"]),
+                grid = cls(data["free"], data["navigable"], data["origin"], float(data["cell_size"]),
                            float(data["floor_height"]), config, float(data["storey_top"]))
+                if "clearance" in data.files:
+                    clearance = np.asarray(data["clearance"], np.float64)
+                    if clearance.shape != grid.free.shape:
+                        raise ValueError(f"clearance {clearance.shape} does not match the grid {grid.free.shape}")
+                    grid._clearance = clearance
+                return grid
         except FileNotFoundError:
             raise SceneError(f"{path}: navigation grid file not found") from None
         except (OSError, ValueError, KeyError, TypeError) as exc:

@@ -1,7 +1,7 @@
 """The navigation tasks navbench runs: :data:`TASKS`, one :class:`~navbench.tasks.base.Task` each.
 
     >>> sorted(TASKS)
-    ['goat', 'imagenav', 'instance_imagenav', 'objectnav', 'pointnav']
+    ['goat', 'imagenav', 'instance_imagenav', 'objectnav', 'pointnav', 'r2r_ce', 'rxr_ce']
     >>> get_task("pointnav").gym_id
     'navbench/PointNav-v0'
 
@@ -13,13 +13,13 @@ definition; none of them names a task.
 
 from __future__ import annotations
 
-from navbench.tasks import goat, imagenav, instance_imagenav, objectnav, pointnav
+from navbench.tasks import goat, imagenav, instance_imagenav, objectnav, pointnav, vlnce
 from navbench.tasks.base import GoalContext, GoalSensor, Task
 
 __all__ = ["TASKS", "GoalContext", "GoalSensor", "Task", "get_task", "task_names"]
 
 TASKS: dict[str, Task] = {t.name: t for t in (pointnav.TASK, objectnav.TASK, imagenav.TASK, instance_imagenav.TASK,
-                                              goat.TASK)}
+                                              goat.TASK, vlnce.R2R_TASK, vlnce.RXR_TASK)}
 
 
 def task_names() -> tuple[str, ...]:

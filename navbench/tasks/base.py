@@ -24,6 +24,8 @@ from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 # HabitatSimActions: stop 0, move_forward 1, turn_left 2, turn_right 3, look_up 4, look_down 5).
 NAV_ACTIONS = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
 MEASURES = ("distance_to_goal", "success", "spl", "soft_spl")
+# A table's columns: (header, measure, scale): SR and SPL in percent, distances in metres.
+COLUMNS = (("SR", "success", 100), ("SPL", "spl", 100), ("SoftSPL", "soft_spl", 100), ("DTG", "distance_to_goal", 1))
 
 
 class GoalContext(Protocol):
@@ -110,6 +112,9 @@ class Task:
         default_agent: what ``navbench run`` runs without ``--agent``.
         group_by: the episode field tables break results down by (``object_category``), or None.
         env_class: the env's ``module:Class`` (the Gymnasium entry point); it takes ``task=NAME``.
+        columns: ``navbench table``'s columns for the task's runs: (header, measure, scale).
+        env_config: the named configuration (``configs/env/NAME.toml``) the task runs under when a run or an
+            env is given none; None: navbench's EnvConfig with ``max_steps``.
     """
     name: str
     gym_id: str
@@ -132,6 +137,8 @@ class Task:
     default_agent: str = "oracle"
     group_by: str | None = None
     env_class: str = "navbench.env.base:NavEnv"
+    columns: tuple[tuple[str, str, float], ...] = COLUMNS
+    env_config: str | None = None
 
     def __post_init__(self) -> None:
         if self.distance_to not in ("POINT", "VIEW_POINTS"):
@@ -160,6 +167,13 @@ class Task:
         if not episode.goals:
             raise EpisodeError(f"episode {episode.episode_id}: has no goals")
         return np.array([g.position for g in episode.goals], np.float64).reshape(-1, 3)
+
+    @property
+    def summary_keys(self) -> tuple[str, ...]:
+        """What a run's summary averages (with intervals): navbench's SR / SPL / SoftSPL / DTG where the task
+        measures them, in that order, then the task's other measures."""
+        from navbench.metrics import METRIC_KEYS
+        return (*(k for k in METRIC_KEYS if k in self.measures), *self.extra_measures)
 
     def sensors(self, config: Any) -> tuple[GoalSensor, ...]:
         """The goal sensors this EnvConfig enables."""

@@ -291,3 +291,19 @@ def test_what_is_rendered_never_changes_the_noisy_motion(pointnav_file):
         depths.append(frames)
     assert paths[0] == paths[1]
     assert all(np.array_equal(a, b) for a, b in zip(*depths))
+
+
+def test_vlnce_configurations_are_the_task_yamls():
+    # jacobkrantz/VLN-CE habitat_extensions/config/vlnce_task.yaml and rxr_vlnce_english_task.yaml
+    r2r, rxr = EnvConfig.load("r2r-ce"), EnvConfig.load("rxr-ce")
+    assert (r2r.turn_angle_deg, r2r.allow_sliding, r2r.agent_height, r2r.agent_radius) == (15.0, True, 1.5, 0.1)
+    assert (r2r.width, r2r.height, r2r.hfov_deg, r2r.min_depth, r2r.max_depth) == (224, 224, 90.0, 0.0, 10.0)
+    assert r2r.actions == ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
+    assert (rxr.turn_angle_deg, rxr.tilt_angle_deg, rxr.allow_sliding, rxr.agent_height, rxr.agent_radius) == \
+        (30.0, 30.0, False, 0.88, 0.18)
+    assert (rxr.width, rxr.height, rxr.hfov_deg, rxr.min_depth, rxr.max_depth) == (640, 480, 79.0, 0.5, 5.0)
+    assert rxr.actions[4:] == ("LOOK_UP", "LOOK_DOWN")
+    for c in (r2r, rxr):
+        assert (c.max_steps, c.forward_step, c.success_distance, c.gps_compass) == (500, 0.25, 3.0, False)
+    for name in ("r2r-ce", "rxr-ce"):  # navbench's, for baselines that know their pose: the same plus GPS+compass
+        assert EnvConfig.load(f"navbench-{name}") == dataclasses.replace(EnvConfig.load(name), gps_compass=True)

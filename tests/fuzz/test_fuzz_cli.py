@@ -30,7 +30,8 @@ bad_numbers = st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0", "1e999", "
 def test_parser_covers_every_subcommand():
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     assert set(sub.choices) == {"run", "table", "generate", "train", "memory", "localize", "bench", "merge", "viz",
-                                "report", "agents", "tasks", "serve-agent", "compare", "check-agent", "protocol"}
+                                "report", "agents", "tasks", "serve-agent", "compare", "check-agent", "protocol",
+                                "export"}
 
 
 @given(case=st.sampled_from(COUNTS + POSITIVE + SEEDS), value=bad_numbers)
@@ -55,6 +56,7 @@ def test_unknown_choices(prefix):
 @pytest.mark.parametrize("argv", [[], ["nosuch"], ["run", "--nosuch"], ["table"], ["memory", "build"], ["merge"],
                                   ["merge", "x"], ["compare"], ["compare", "x"], ["viz"], ["report"], ["serve-agent"],
                                   ["check-agent"], ["protocol"], ["protocol", "x", "y"],
+                                  ["export"], ["export", "x"], ["export", "x", "--format", "r2r"],
                                   ["agents", "extra"], ["tasks", "extra"],
                                   ["run", "--limit"], ["run", "--split", "val_unseen", "extra-positional"]],
                          ids=repr)

@@ -292,6 +292,11 @@ def test_save_load_round_trip(wall_grid, tmp_path):
     assert g.storey_top == wall_grid.storey_top
     a, b = P(1.5, 1.5), P(4.5, 1.5)
     assert g.geodesic_distance(a, b) == pytest.approx(wall_grid.geodesic_distance(a, b))
+    # the build's wall clearance comes back too: a grid read from the cache slides along walls exactly as the
+    # one built (an exact distance transform of `free` would differ from it near walls)
+    assert np.array_equal(g._clearance_map(), wall_grid._clearance_map())
+    for start, target in ((P(2.5, 1.0), P(3.4, 1.6)), (P(2.6, 3.0), P(3.5, 2.1)), (P(2.7, 3.9), P(3.2, 4.6))):
+        assert np.array_equal(g.try_step(start, target, sliding=True)[0], wall_grid.try_step(start, target, True)[0])
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"not an npz file")
     with pytest.raises(SceneError, match="corrupt.npz"):
