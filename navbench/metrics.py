@@ -199,6 +199,7 @@ def goat_metrics(subtask_types: Sequence[str], steps: Sequence[tuple[int | None,
         "stop_called": stopped,
         "distance_to_goal": d,
     })
+    return out
 
 
 # ------------------------------------------------------------------------------------------- VLN-CE
