@@ -11,7 +11,8 @@ with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one l
 ``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``. With the
 goal-image tasks (:mod:`navbench.bench.goal_tasks`): ``{pointnav,imagenav,instance_imagenav,goat}_steps_per_s``
 (the four stepped in turns), ``..._goal_obs_us`` (the goal observations' cost per step), ``..._reset_ms`` and
-``{imagenav,instance_imagenav,goat}_goal_image_ms`` (one goal image, made once per episode or image subtask). ``cpu``
+``{imagenav,instance_imagenav,goat}_goal_image_ms`` (one goal image, made once per episode or image subtask),
+``goat_measures_ms_at_5000`` (GOAT's measures late in a long episode: they grow with its steps). ``cpu``
 names the processor (model, family, widest vector extension) and, with the policy, ``native_bf16``
 says whether it has AVX512-BF16 or AMX: the figures depend strongly on the vector extensions, so a
 number means little without the CPU it was measured on.
@@ -221,6 +222,7 @@ def format_report(r: dict) -> str:
         **{f"{t}_goal_image_ms": f"goal image, {name} (ms, once per {per})" for t, name, per in (
             ("imagenav", "ImageNav", "episode"), ("instance_imagenav", "InstanceImageNav", "episode"),
             ("goat", "GOAT", "image subtask"))},
+        "goat_measures_ms_at_5000": "GOAT measures per step, at step 5000 (ms)",
         "geodesic_cached_us": "geodesic query, cached field (us)",
         "geodesic_field_ms": "geodesic field for a new goal set (ms)",
         "geodesic_field_ms_20x20m": "geodesic field, 20x20 m floor at 5 cm (ms)",

@@ -121,6 +121,7 @@ def test_the_bench_reports_each_goal_tasks_figures(scene_path, grid):
     for t in TASKS:
         assert r[f"{t}_steps_per_s"] > 0 and r[f"{t}_reset_ms"] > 0 and r[f"{t}_goal_obs_us"] > 0
     assert all(r[f"{t}_goal_image_ms"] > 0 for t in TASKS[1:]) and "pointnav_goal_image_ms" not in r
+    assert r["goat_measures_ms_at_5000"] > 0
     report = format_report({"scene": "s.glb", "scene_triangles": 3, "grid_shape": "2x2", "cpu": "x", **r})
     assert sum(line.startswith("goal image, ") for line in report.splitlines()) == 3
     assert any(line.startswith("env steps/s, RGB-D, GOAT") for line in report.splitlines())
