@@ -18,7 +18,7 @@
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
     navbench localize --split goat_val --perception oracle [--noise default] [--no-fusion] [-k 5]
-    navbench bench [--json] [--scan DIR]
+    navbench bench [--json] [--seconds S] [--no-policy] [--no-tasks] [--scan DIR]
 
 Bad input (missing scene, corrupt JSON, unknown category, bad checkpoint...) prints one line naming
 the file and the problem and exits with code 2. `navbench run` exits with code 3 when it finished but
@@ -321,7 +321,7 @@ def cmd_bench(args) -> int:
         return 0
     from navbench.device import resolve_device
     result = run_bench(BenchConfig(scene=args.scene, seconds=args.seconds, policy=not args.no_policy,
-                                   device=resolve_device(args.device)))
+                                   tasks=not args.no_tasks, device=resolve_device(args.device)))
     print(json.dumps(result) if args.json else format_report(result))
     return 0
 
@@ -582,6 +582,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scene", help="scene file (default: first bundled val scene)")
     b.add_argument("--seconds", type=_positive, default=3.0, help="time per measurement")
     b.add_argument("--no-policy", action="store_true", help="skip the policy inference figures")
+    b.add_argument("--no-tasks", action="store_true", help="skip the goal-image tasks' figures (ImageNav, "
+                                                          "InstanceImageNav, GOAT beside PointNav)")
     add_device_flags(b)
     b.add_argument("--scan", metavar="DIR", help="scan-scale figures on the HM3D-layout scan fixture in DIR "
                                                 "(made there first if missing; benchmarks/scan_fixture.py)")

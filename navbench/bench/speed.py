@@ -8,7 +8,11 @@ with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one l
 ``geodesic_cached_us`` (a geodesic query whose goal set's field is cached), ``geodesic_field_ms``
 (building the field for a new goal set), ``scene_load_s`` (mesh load + navigability build, no cache),
 ``geodesic_field_ms_20x20m`` (the same on a 20 x 20 m floor with walls, 400 x 400 cells),
-``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``. ``cpu``
+``peak_rss_mb``, and with the policy ``policy_steps_per_s_b1`` / ``policy_frames_per_s_b8``. With the
+goal-image tasks (:mod:`navbench.bench.goal_tasks`): ``{pointnav,imagenav,instance_imagenav,goat}_steps_per_s``
+(the four stepped in turns), ``..._goal_obs_us`` (the goal observations' cost per step), ``..._reset_ms`` and
+``{imagenav,instance_imagenav,goat}_goal_image_ms`` (one goal image, made once per episode or image subtask),
+``goat_measures_ms_at_5000`` (GOAT's measures late in a long episode: they grow with its steps). ``cpu``
 names the processor (model, family, widest vector extension) and, with the policy, ``native_bf16``
 says whether it has AVX512-BF16 or AMX: the figures depend strongly on the vector extensions, so a
 number means little without the CPU it was measured on.
@@ -62,6 +66,7 @@ class BenchConfig:
     scene: str | None = None  # default: the first bundled val scene
     seconds: float = 3.0
     policy: bool = True
+    tasks: bool = True  # the goal-image tasks' figures (navbench.bench.goal_tasks)
     device: str = "cpu"  # where the policy figures are measured (resolved: "cpu" or "cuda:N")
 
 
@@ -184,6 +189,9 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str | bool]
     result["rgbd_ids_steps_per_s"] = env_steps_per_s(scene, dataclasses.replace(rgbd, semantic=True), cfg.seconds)
     result["rgbd_steps_per_s_2proc"] = multiprocess_steps_per_s(scene, rgbd, cfg.seconds)
     result["scaling_2proc"] = result["rgbd_steps_per_s_2proc"] / result["rgbd_steps_per_s"]
+    if cfg.tasks:
+        from navbench.bench.goal_tasks import goal_task_figures
+        result.update(goal_task_figures(scene, _bench_dataset(scene, grid), rgbd, cfg.seconds))
     if cfg.policy:
         from navbench.policy.precision import native_bf16
         from navbench.policy.speed import measure_policy_speed
@@ -192,6 +200,10 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str | bool]
         result["policy_device"] = cfg.device
     result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
+
+
+TASK_NAMES = {"pointnav": "PointNav", "imagenav": "ImageNav", "instance_imagenav": "InstanceImageNav",
+              "goat": "GOAT"}
 
 
 def format_report(r: dict) -> str:
@@ -204,6 +216,13 @@ def format_report(r: dict) -> str:
         "rgbd_ids_steps_per_s": "env steps/s, RGB-D + instance ids",
         "rgbd_steps_per_s_2proc": "env steps/s, RGB-D, 2 processes (total)",
         "scaling_2proc": "2-process scaling (x)",
+        **{f"{t}_steps_per_s": f"env steps/s, RGB-D, {name} (in turns)" for t, name in TASK_NAMES.items()},
+        **{f"{t}_goal_obs_us": f"goal observations per step, {name} (us)" for t, name in TASK_NAMES.items()},
+        **{f"{t}_reset_ms": f"reset, {name} (ms)" for t, name in TASK_NAMES.items()},
+        **{f"{t}_goal_image_ms": f"goal image, {name} (ms, once per {per})" for t, name, per in (
+            ("imagenav", "ImageNav", "episode"), ("instance_imagenav", "InstanceImageNav", "episode"),
+            ("goat", "GOAT", "image subtask"))},
+        "goat_measures_ms_at_5000": "GOAT measures per step, at step 5000 (ms)",
         "geodesic_cached_us": "geodesic query, cached field (us)",
         "geodesic_field_ms": "geodesic field for a new goal set (ms)",
         "geodesic_field_ms_20x20m": "geodesic field, 20x20 m floor at 5 cm (ms)",
@@ -212,7 +231,7 @@ def format_report(r: dict) -> str:
         "policy_frames_per_s_b8": "policy frames/s, batch 8",
         "peak_rss_mb": "peak RSS (MB)",
     }
-    return "\n".join(lines + labelled_figures(r, labels, 44))
+    return "\n".join(lines + labelled_figures(r, labels, 56))
 
 
 def labelled_figures(r: dict, labels: dict[str, str], width: int) -> list[str]:

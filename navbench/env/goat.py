@@ -74,10 +74,11 @@ class GoatEnv(NavEnv):
         self._field_subtask = k
 
     def goal_image(self, camera: ImageGoal) -> np.ndarray:
-        """The active image subtask's goal image, rendered once per subtask."""
+        """The active image subtask's goal image, rendered once per subtask; a copy, as per-episode goal
+        observations are (what a caller is given is its own: writing into it changes no later step)."""
         assert self.episode is not None and self.asset is not None and self.goat_progress is not None
         key = (self.episode.scene_id, self.episode.episode_id, self.goat_progress.active)
-        return self._images.get(key, self.asset, camera)
+        return self._images.get(key, self.asset, camera).copy()
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
