@@ -2,7 +2,8 @@
 
 ``OUT/provenance.json`` holds
 
-- ``protocol``: the task, success distance, step limit, action set and step sizes, sensor size, HFOV and
+- ``protocol``: the task, success distance, step limit, action set and step sizes, how goal images are
+  rendered (a task's ``goal_images``: ImageNav, InstanceImageNav, GOAT-Bench), sensor size, HFOV and
   depth range, the agent's body (height, radius, climb), the start snapping, the navigability grid's
   cell size and the version of its rules (``navigability``: the grid's for an episode file whose scenes
   each stand the agent on one storey, the storeys' and their joined surfaces' when some scene's starts and
@@ -88,6 +89,8 @@ def protocol(task: str, success_distance: float | None, env: dict[str, Any] | No
     actions = cfg.actions or (known.actions if known is not None else ACTION_NAMES)
     if not any(a.startswith("LOOK_") for a in actions):
         fields.pop("tilt_angle_deg", None)  # nothing tilts the camera: its angle changes no score
+    if known is not None and known.goal_images:
+        fields["goal_images"] = known.goal_images  # what the agent is shown of its goal
     return {"task": task, "actions": list(actions), **dict(sorted(fields.items()))}
 
 

@@ -79,6 +79,11 @@ def default_reader(path: str | Path, select: Callable[..., list[Episode]] | None
     return load_dataset(path, select)
 
 
+# How InstanceImageNav's and GOAT-Bench's image goals are rendered (navbench.render.goal_images), as a protocol
+# states it (Task.goal_images).
+IMAGE_GOAL_RULE = "a pinhole camera at the file's image goal pose (pitch and roll too), its hfov and size; no noise"
+
+
 @dataclass(frozen=True)
 class Task:
     """One navigation task, as every part of navbench reads it.
@@ -115,6 +120,8 @@ class Task:
         columns: ``navbench table``'s columns for the task's runs: (header, measure, scale).
         env_config: the named configuration (``configs/env/NAME.toml``) the task runs under when a run or an
             env is given none; None: navbench's EnvConfig with ``max_steps``.
+        goal_images: how the task's goal images are rendered, in a line (camera, pose, size), or "" for a task
+            without them: it changes what an agent is shown, so the protocol carries it.
     """
     name: str
     gym_id: str
@@ -139,6 +146,7 @@ class Task:
     env_class: str = "navbench.env.base:NavEnv"
     columns: tuple[tuple[str, str, float], ...] = COLUMNS
     env_config: str | None = None
+    goal_images: str = ""
 
     def __post_init__(self) -> None:
         if self.distance_to not in ("POINT", "VIEW_POINTS"):

@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.episodes.types import EpisodeDataset, EpisodeError
-from navbench.tasks.base import MEASURES, NAV_ACTIONS, GoalContext, GoalSensor, Task
+from navbench.tasks.base import IMAGE_GOAL_RULE, MEASURES, NAV_ACTIONS, GoalContext, GoalSensor, Task
 
 # goat-bench config/tasks/goat_stretch_hm3d.yaml: success.success_distance, environment.max_episode_steps; the
 # reader and GoatProgress (navbench.episodes.goat) state the same. current_subtask is 0..2, DONE past the last.
@@ -113,4 +113,5 @@ TASK = Task(
     default_split="val",
     default_agent="oracle",
     env_class="navbench.env.goat:GoatEnv",
+    goal_images=IMAGE_GOAL_RULE,
 )

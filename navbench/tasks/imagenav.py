@@ -85,4 +85,5 @@ TASK = Task(
     splits=("val",),
     default_split="val",
     default_agent="oracle",
+    goal_images="the episode's RGB sensor at goals[0].position, yaw drawn from sha256(episode_id) (goal_yaw)",
 )

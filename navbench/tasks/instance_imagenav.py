@@ -8,7 +8,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
-from navbench.tasks.base import NAV_ACTIONS, GoalContext, GoalSensor, Task
+from navbench.tasks.base import IMAGE_GOAL_RULE, NAV_ACTIONS, GoalContext, GoalSensor, Task
 
 # habitat-lab config/habitat/task/instance_imagenav.yaml (success.success_distance) and the benchmark yamls
 # (environment.max_episode_steps); the reader and measures (navbench.episodes.instance_imagenav) state the same.
@@ -72,4 +72,5 @@ TASK = Task(
     default_agent="oracle",
     group_by="object_category",
     env_class="navbench.env.base:NavEnv",
+    goal_images=IMAGE_GOAL_RULE,
 )

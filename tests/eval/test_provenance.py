@@ -199,3 +199,11 @@ def test_provenance_names_torchs_build_and_the_dataset_releases_its_paths_tell(t
     assert dataset_versions(iin, []) == {"episodes": "instance_imagenav/hm3d/v3"}
     assert dataset_versions(tmp_path / "data/datasets/goat_bench/hm3d/v1/val_seen/val_seen.json.gz", []) == \
         {"episodes": "goat_bench/hm3d/v1"}
+
+
+def test_how_goal_images_are_rendered_is_part_of_an_image_tasks_protocol():
+    from navbench.tasks import TASKS
+    assert "goal_images" not in protocol("pointnav", None) and "goal_images" not in protocol("objectnav", None)
+    for task in ("imagenav", "instance_imagenav", "goat"):
+        assert protocol(task, None)["goal_images"] == TASKS[task].goal_images != ""
+    assert "sha256(episode_id)" in protocol("imagenav", None)["goal_images"]  # not Python's salted hash
