@@ -12,7 +12,7 @@ LIMIT_ARG = $(if $(LIMIT),--limit $(LIMIT),)
 BENCH ?= runs/benchmark_h36
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
-	figures wheel-check lint results-benchmark results-realistic results-instance-imagenav results-goat
+	figures wheel-check lint results-benchmark results-realistic
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 osmesa:  # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing
@@ -40,13 +40,6 @@ results-oracle: setup
 	$(NB) table $(RUNS)/objectnav/*/oracle > results/oracle_objectnav.md
 	for t in pointnav imagenav; do $(RUN) --task $$t --split val --agent oracle $(LIMIT_ARG) && \
 	  $(NB) table --long $(RUNS)/$$t/val/oracle > results/oracle_$$t.md || exit 1; done
-results-instance-imagenav: setup  # the oracle and the memory agent (frontier reads category goals only: refused)
-	for a in oracle memory; do $(RUN) --task instance_imagenav --split val --agent $$a $(LIMIT_ARG) || exit 1; done
-	i=$(RUNS)/instance_imagenav/val; $(NB) table --long $$i/oracle $$i/memory > results/instance_imagenav.md
-results-goat: setup  # the same on GOAT-Bench val, then goat-bench's measures and SR/SPL by subtask position and type
-	for a in oracle memory; do $(RUN) --task goat --split val --agent $$a $(LIMIT_ARG) || exit 1; done
-	g=$(RUNS)/goat/val; { $(NB) table --long $$g/oracle $$g/memory; echo; \
-	  $(BIN)/python -m navbench.eval.goat_table $$g/oracle $$g/memory; } > results/goat.md
 results-localize: setup
 	for n in none default heavy; do \
 	  $(NB) localize --split goat_val --noise $$n --out results/localize/oracle_$${n}_fusion || exit 1; \

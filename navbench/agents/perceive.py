@@ -29,7 +29,7 @@ from navbench.localize.benchmark import PERCEPTION, ModelDirs
 from navbench.localize.describe import parse
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import GeometryConfig, backproject, keep_view
-from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality
+from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality, query_prompt
 from navbench.localize.route import KeyframeRoutes
 from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
@@ -73,6 +73,10 @@ def _stack(scene_path: Path, cfg: PerceptionConfig) -> Perception:
         raise ValueError(f"unknown perception {cfg.perception!r} (choose from {', '.join(PERCEPTION)})")
     return _shared(("stack", scene_path, cfg), lambda: PERCEPTION[cfg.perception](
         load_scene(scene_path), noise_profile(cfg.noise), cfg.models))
+
+
+def _scene(scene_path: Path) -> Any:
+    return _shared(("scene", scene_path), lambda: load_scene(scene_path))
 
 
 def scene_memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
@@ -167,7 +171,7 @@ class SceneLocalizer:
                 self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
             self.routes = KeyframeRoutes(self.memory.store, self.memory.config.camera_height)
             self._path = path
-        query, positions = goal_query(episode, subtask, lambda: _shared(("scene", path), lambda: load_scene(path)))
+        query, positions = goal_query(episode, subtask, lambda: _scene(path))
         self.prompt = self._localizer.prompt(query)  # what the detector then checks targets for
         _teach_goals(_stack(path, self.cfg), episode, path, self.prompt, positions)
         t0 = time.perf_counter()
@@ -216,14 +220,20 @@ class LiveDetector:
         return ("semantic",) if self.cfg.perception == "oracle" else ("rgb",)
 
     def reset(self, episode: Episode, query: str | None = None) -> None:
-        """Detect the episode's category, or ``query`` (the localiser's prompt for an image or a description:
-        taught by :class:`SceneLocalizer`)."""
+        """Detect the episode's category (an InstanceImageNav episode's: its goal image's caption, as the
+        localiser prompts with it), or ``query`` (the localiser's prompt, taught by :class:`SceneLocalizer`)."""
+        from navbench.episodes.instance_imagenav import InstanceImageEpisode
+
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        stack = _stack(path, self.cfg)
         if path != self._path:
-            self.segmenter = _stack(path, self.cfg).segmenter
+            self.segmenter = stack.segmenter
             self._path = path
-        if query is None:
-            _teach_goals(_stack(path, self.cfg), episode, path)
+        if query is None and isinstance(episode, InstanceImageEpisode):
+            query = query_prompt(goal_query(episode, 0, lambda: _scene(path))[0], stack.captioner)
+            _teach_goals(stack, episode, path, query)
+        elif query is None:
+            _teach_goals(stack, episode, path)
         self.query = (episode.object_category or "") if query is None else query
 
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray:

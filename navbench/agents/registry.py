@@ -239,7 +239,7 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
               prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", level_camera=True,
               goals=_MEMORY_GOALS, **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
-              explores=True, level_camera=True, goals=_OBJECT_GOALS, **_POLICY_FILES),
+              explores=True, level_camera=True, goals=(*_OBJECT_GOALS, "instance_imagegoal"), **_POLICY_FILES),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}
