@@ -12,7 +12,7 @@ LIMIT_ARG = $(if $(LIMIT),--limit $(LIMIT),)
 BENCH ?= runs/benchmark_h36
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
-	figures wheel-check lint results-benchmark results-realistic results-vlnce
+	figures wheel-check lint results-benchmark results-realistic results-vlnce results-tasks
 $(BIN)/python:
 	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 osmesa:  # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing
@@ -92,10 +92,9 @@ results-benchmark: setup  # the generated 36-house benchmark's val_unseen (docs/
 	  echo; $(NB) table $$h/*; echo; echo '```'; $(NB) compare $$h/frontier $$h/memory; echo '```'; } > results/benchmark_h36.md
 results-realistic: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/realistic.sh all  # docs/realistic.md; resumable
 results-vlnce: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/vlnce.sh > results/vlnce.md  # R2R-CE baselines, ~15 min
+results-tasks: setup ; NB="$(NB)" PY=$(BIN)/python RUNS=$(RUNS) bash results/tasks.sh all  # InstanceImageNav, GOAT
 figures: setup  # docs/img/topdown.png and docs/img/report.png, the README's pictures
 	NB=$(NB) bash docs/figures.sh
 # The shipped PointNav checkpoints' recipes (policies/MODEL_CARD.md); outputs under runs/pointnav/.
-train-pointnav: setup
-	$(NB) train --config configs/pointnav/full.toml
-train-pointnav-2h: setup
-	$(NB) train --config configs/pointnav/2h.toml
+train-pointnav: setup ; $(NB) train --config configs/pointnav/full.toml
+train-pointnav-2h: setup ; $(NB) train --config configs/pointnav/2h.toml

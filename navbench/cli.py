@@ -12,7 +12,7 @@
     navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
     navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
     navbench protocol RUN_DIR [--format markdown|latex|json]
-    navbench generate scenes|episodes|imagenav|policy-train|policy-select [--seed 0]
+    navbench generate scenes|episodes|imagenav|instance_imagenav|goat|vlnce|policy-train|policy-select [--seed 0]
     navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
@@ -259,9 +259,19 @@ def cmd_generate(args) -> int:
     elif args.what == "vlnce":
         from navbench.episodes.vlnce_generate import generate_vlnce_split
         generate_vlnce_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+    elif args.what == "instance_imagenav":  # InstanceImageNav's val only (`episodes` writes it too)
+        from navbench.localize.nav_splits import write_instance_imagenav_split
+        write_instance_imagenav_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+    elif args.what == "goat":  # GOAT-Bench's val only (`episodes` writes it too)
+        from navbench.localize.nav_splits import write_goat_split
+        write_goat_split(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
     else:
         from navbench.episodes.generate import generate_bundled_splits
-        generate_bundled_splits(Path(args.out or EPISODES_DIR), SCENES_DIR, seed=args.seed)
+        from navbench.localize.nav_splits import write_goat_split, write_instance_imagenav_split
+        out = Path(args.out or EPISODES_DIR)
+        generate_bundled_splits(out, SCENES_DIR, seed=args.seed)
+        write_instance_imagenav_split(out, SCENES_DIR, seed=args.seed)
+        write_goat_split(out, SCENES_DIR, seed=args.seed)
     return 0
 
 
@@ -503,10 +513,10 @@ def build_parser() -> argparse.ArgumentParser:
                                         "extra training houses and episodes (policy-train) or its houses and "
                                         "episodes for choosing among policies (policy-select); or a larger "
                                         "ObjectNav benchmark with houses of its own and checksums (benchmark "
-                                        "--out DIR); or ImageNav's val split (imagenav), or the R2R-CE-style val split "
-                                        "(vlnce)")
-    g.add_argument("what", choices=("scenes", "episodes", "imagenav", "policy-train", "policy-select", "benchmark",
-                                    "vlnce"))
+                                        "--out DIR); or one val split: ImageNav's (imagenav), InstanceImageNav's "
+                                        "(instance_imagenav), GOAT-Bench's (goat), the R2R-CE-style one (vlnce)")
+    g.add_argument("what", choices=("scenes", "episodes", "imagenav", "instance_imagenav", "goat", "policy-train",
+                                    "policy-select", "benchmark", "vlnce"))
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
     g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")

@@ -38,11 +38,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import fov_leave_distance, log_value, nearest_to_height, xz_dist, xz_dists
+from navbench.agents.base import episode_seed, fov_leave_distance, log_value, nearest_to_height, xz_dist, xz_dists
 from navbench.agents.common import Detector, ObjectNavAgentBase, ObjectNavAgentConfig, StepPolicy, StuckWatch, subsample
 from navbench.agents.storeys import Storeys
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
+from navbench.episodes.goat import SUBTASK_STOP, GoatEpisode
+from navbench.episodes.instance_imagenav import InstanceImageEpisode
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.grouping import nearest_distances
@@ -193,28 +195,46 @@ class MemoryAgent(ObjectNavAgentBase):
 
     # ----------------------------------------------------------------------------------- episode
     def reset(self, episode: Episode) -> None:
-        cfg = self.config
         start = np.asarray(episode.start_position, np.float64)
-        cands = self.localize(episode)
+        self._episode = episode
+        self.subtask = 0  # a GOAT-Bench episode's active subtask (each answered from the same memory)
+        self._subtasks = len(episode.tasks) if isinstance(episode, GoatEpisode) else 0
+        found, unjoined = self._localize(start)
+        if self._subtasks:
+            log = {"subtasks": [{"subtask": 0, **found}], "events": []}
+        else:
+            log = {"candidates": found.pop("candidates"), "routes": found.pop("routes"), "events": [], **found}
+        self._begin(episode, log)
+        self._start_target(start, unjoined)
+
+    def _localize(self, position: np.ndarray) -> tuple[dict, int]:
+        """Candidates for the active goal, nearest first from ``position``: what the log keeps of them, and how
+        many stand on a storey nothing joins to this one."""
+        cfg = self.config
+        episode = self._episode
+        cands = self.localize(episode, self.subtask) if self._subtasks else self.localize(episode)
         nav = self.surfaces(self.env_config.nav_grid_config()) if self.surfaces is not None else None
-        self.storeys = None if nav is None else Storeys(nav, start, self.env_config.forward_step,
+        self.storeys = None if nav is None else Storeys(nav, position, self.env_config.forward_step,
                                                         self.env_config.turn_angle_deg)
         self.climbing = False
-        self.floor = float(start[1]) if self.storeys is None else self.storeys.height
+        self.floor = float(position[1]) if self.storeys is None else self.storeys.height
         unjoined = 0
         if self.storeys is not None and cands:
             # Over the joined surfaces a route length is exact: a candidate they do not reach stands on a storey
             # nothing joins to the start's, and is no goal of this episode.
-            reach = np.isfinite(self.storeys.lengths(start, cands))
+            reach = np.isfinite(self.storeys.lengths(position, cands))
             unjoined = int((~reach).sum())
             cands = [c for c, r in zip(cands, reach) if r]
-        order, route = nearest_first(cands, start, self._route())
+        order, route = nearest_first(cands, position, self._route())
         self.candidates = [cands[j] for j in order]
         rng = np.random.default_rng(0)  # deterministic subsample of each cloud
         self._clouds = [subsample(c.points, cfg.max_projected_points, rng) for c in self.candidates]
-        self._begin(episode, {"candidates": [[round(float(v), 3) for v in c.centre] for c in self.candidates],
-                              "routes": [log_route(route[j]) for j in order], "events": [],
-                              **getattr(self.localize, "last", {})})
+        return ({"candidates": [[round(float(v), 3) for v in c.centre] for c in self.candidates],
+                 "routes": [log_route(route[j]) for j in order], **getattr(self.localize, "last", {})}, unjoined)
+
+    def _start_target(self, position: np.ndarray, unjoined: int) -> None:
+        """Forget the previous goal's state: drive to the nearest candidate from ``position``."""
+        cfg = self.config
         self.current = 0
         self.switches = 0
         self.rejected: set[int] = set()  # id() of candidates that failed verification
@@ -223,13 +243,29 @@ class MemoryAgent(ObjectNavAgentBase):
         self.watch = StuckWatch(cfg.stuck_window, cfg.stuck_progress, cfg.oscillation_window)
         self.recovery = Recovery()
         self._new_target()
-        self.goal = self._initial_goal(start) if self.candidates else None
+        self.goal = self._initial_goal(position) if self.candidates else None
         # no candidate on the agent's surface while the memory holds some elsewhere: look round this storey
-        self.tour = self.storeys.tour(start) if self.storeys is not None and unjoined and not self.candidates else []
+        self.tour = self.storeys.tour(position) if self.storeys is not None and unjoined and not self.candidates else []
         if unjoined:
             self._event("unjoined_candidates", count=unjoined, explore=len(self.tour))
         if self.verify is not None:
-            self.verify.reset(episode)
+            episode = self._episode
+            if self._subtasks or isinstance(episode, InstanceImageEpisode):  # check for what the localiser asked
+                self.verify.reset(episode, getattr(self.localize, "prompt", None))
+            else:
+                self.verify.reset(episode)
+
+    def _next_subtask(self, position: np.ndarray) -> int:
+        """Where the agent would STOP on a GOAT-Bench subtask: SUBTASK_STOP, then the next subtask's goal from
+        the same memory, with the per-goal state reset and the policy reseeded."""
+        self._event("subtask_stop", subtask=self.subtask)
+        self.subtask += 1
+        if self.subtask < self._subtasks:
+            self.policy.reset(seed=[*episode_seed(self.seed, self._episode), self.subtask])
+            found, unjoined = self._localize(position)
+            self.log["subtasks"].append({"subtask": self.subtask, "step": self.step, **found})
+            self._start_target(position, unjoined)
+        return SUBTASK_STOP
 
     def decision(self) -> list | None:
         """What the agent drives to now, for the run's trace: [mode, candidate, x, z] (dm), mode one of
@@ -276,12 +312,20 @@ class MemoryAgent(ObjectNavAgentBase):
 
     # -------------------------------------------------------------------------------------- act
     def act(self, observations: dict[str, np.ndarray]) -> int:
-        """One step: look, then the first phase with an action decides (module docstring)."""
+        """One step: look, then the first phase with an action decides (module docstring); on a GOAT-Bench
+        episode a STOP closes the subtask (SUBTASK_STOP) and the next one starts."""
+        action = self._act(observations)
+        if action == STOP and self._subtasks:
+            return self._next_subtask(self._position)
+        return action
+
+    def _act(self, observations: dict[str, np.ndarray]) -> int:
         self.step += 1
         position, yaw = self._pose(observations)
         if self.storeys is not None:
             position = self.storeys.track(position)
             self.floor = self.storeys.height
+        self._position = position
         if self.watch.positions and xz_dist(position, self.watch.positions[-1]) > 0.05:
             self.move_yaw = yaw_towards(self.watch.positions[-1], position)
         self.watch.add(position)

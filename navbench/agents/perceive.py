@@ -29,7 +29,7 @@ from navbench.localize.benchmark import PERCEPTION, ModelDirs
 from navbench.localize.describe import parse
 from navbench.localize.fusion import GoalCandidate
 from navbench.localize.geometry import GeometryConfig, backproject, keep_view
-from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality
+from navbench.localize.pipeline import Localizer, LocalizerConfig, Perception, Query, modality, query_prompt
 from navbench.localize.route import KeyframeRoutes
 from navbench.memory.prescan import Memory, PrescanConfig, load_or_build_memory
 from navbench.paths import SCENES_DIR
@@ -63,7 +63,7 @@ def _shared(key: tuple, build: Callable[[], Any]) -> Any:
         _SHARED.move_to_end(key)
         return _SHARED[key]
     value = _SHARED[key] = build()
-    while len(_SHARED) > 2 * _SHARED_SCENES:  # a stack and a memory per scene
+    while len(_SHARED) > 3 * _SHARED_SCENES:  # a stack, a memory and (for goal images) the scene per scene
         _SHARED.popitem(last=False)
     return value
 
@@ -73,6 +73,10 @@ def _stack(scene_path: Path, cfg: PerceptionConfig) -> Perception:
         raise ValueError(f"unknown perception {cfg.perception!r} (choose from {', '.join(PERCEPTION)})")
     return _shared(("stack", scene_path, cfg), lambda: PERCEPTION[cfg.perception](
         load_scene(scene_path), noise_profile(cfg.noise), cfg.models))
+
+
+def _scene(scene_path: Path) -> Any:
+    return _shared(("scene", scene_path), lambda: load_scene(scene_path))
 
 
 def scene_memory(scene_path: Path, cfg: PerceptionConfig) -> Memory:
@@ -103,15 +107,48 @@ def is_bundled(scene_path: str | Path, scene_id: str) -> bool:
     return not mine.is_file() or mine.read_bytes() == theirs.read_bytes()
 
 
-def _teach_goals(stack: Perception, episode: Episode, scene_path: Path) -> None:
-    """The episode's goals say which instances its goal name means, except in the bundled houses (see
-    :func:`is_bundled`), which are annotated in navbench's own vocabulary: there that vocabulary grounds
-    every name it knows."""
-    name = episode.object_category
+def _teach_goals(stack: Perception, episode: Episode, scene_path: Path, name: str | None = None,
+                 positions: Sequence[Sequence[float]] | None = None) -> None:
+    """The episode's goals say which instances its goal name (``name``: the localiser's prompt; by default the
+    episode's category) means, except in the bundled houses (see :func:`is_bundled`), which are annotated in
+    navbench's own vocabulary: there that vocabulary grounds every name it knows."""
+    name = episode.object_category if name is None else name
     if not name:
         return
     if not is_bundled(scene_path, episode.scene_id) or parse(name) is None:
-        teach(stack, name, [g.position for g in episode.goals])
+        teach(stack, name, [g.position for g in episode.goals] if positions is None else positions)
+
+
+def goal_query(episode: Episode, subtask: int = 0, asset: Callable[[], Any] | None = None,
+               platform: str = "auto") -> tuple[Query, list[list[float]] | None]:
+    """The localiser's :class:`Query` for the goal an agent is given, and the positions of the instances it
+    names (for :func:`_teach_goals`; None: the episode's goals). ObjectNav: the category text. InstanceImageNav:
+    the goal image (``instance_imagegoal``). GOAT-Bench's ``subtask``: its category (object), its description
+    text (description) or its goal image (image). A goal image is rendered in the scene ``asset()`` gives, at
+    the file's camera, with its instance ids, which only oracle perception reads (as it reads the keyframes')."""
+    from navbench.episodes.goat import MAX_DESCRIPTION_WORDS, GoatEpisode
+    from navbench.episodes.instance_imagenav import InstanceImageEpisode
+    from navbench.render.goal_images import render_image_goal_ids
+
+    if isinstance(episode, GoatEpisode):
+        task = episode.tasks[subtask]
+        kept = [k for k, t in enumerate(episode.tasks)  # the subtasks the reader kept goals for
+                if t.type != "description" or len((episode.descriptions[k] or "").split(" ")) <= MAX_DESCRIPTION_WORDS]
+        goals = episode.subtask_goals[kept.index(subtask)] if subtask in kept else []
+        positions = [list(g.position) for g in goals]
+        if task.type == "object":
+            return Query("object", text=task.category), positions
+        if task.type == "description":
+            return Query("language", text=episode.descriptions[subtask]), positions
+        camera = episode.image_goals[subtask]
+    elif isinstance(episode, InstanceImageEpisode):
+        camera, positions = episode.image_goal, None
+    else:
+        return Query("object", text=episode.object_category), None
+    if asset is None:
+        raise ValueError(f"episode {episode.episode_id}: an image goal needs its scene to render the image in")
+    rgb, ids = render_image_goal_ids(asset(), camera, platform)
+    return Query("image", image=rgb, image_ids=ids), positions
 
 
 class SceneLocalizer:
@@ -121,8 +158,11 @@ class SceneLocalizer:
         self.scene_dir, self.cfg = Path(scene_dir), cfg
         self._path: Path | None = None
         self.last: dict[str, Any] = {}
+        self.prompt = ""
 
-    def __call__(self, episode: Episode) -> list[GoalCandidate]:
+    def __call__(self, episode: Episode, subtask: int = 0) -> list[GoalCandidate]:
+        """Candidates for the episode's goal (:func:`goal_query`; a GOAT-Bench episode's ``subtask``), from the
+        scene's memory, built once and kept for every episode and subtask in the scene."""
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
         if path != self._path:
             stack = _stack(path, self.cfg)
@@ -131,9 +171,11 @@ class SceneLocalizer:
                 self.memory, stack, LocalizerConfig(rerank=self.cfg.rerank, fusion=self.cfg.fusion))
             self.routes = KeyframeRoutes(self.memory.store, self.memory.config.camera_height)
             self._path = path
-        _teach_goals(_stack(path, self.cfg), episode, path)
+        query, positions = goal_query(episode, subtask, lambda: _scene(path))
+        self.prompt = self._localizer.prompt(query)  # what the detector then checks targets for
+        _teach_goals(_stack(path, self.cfg), episode, path, self.prompt, positions)
         t0 = time.perf_counter()
-        candidates = self._localizer.localize(Query("object", text=episode.object_category))
+        candidates = self._localizer.localize(query)
         st = self.memory.stats
         self.last = {"query_ms": round(1000 * (time.perf_counter() - t0), 2), "memory_keyframes": st.keyframes,
                      "memory_frames": st.frames, "memory_bytes": st.bytes,
@@ -177,13 +219,22 @@ class LiveDetector:
         """The image the segmenter reads: the renderer's instance ids for the oracle, else RGB."""
         return ("semantic",) if self.cfg.perception == "oracle" else ("rgb",)
 
-    def reset(self, episode: Episode) -> None:
+    def reset(self, episode: Episode, query: str | None = None) -> None:
+        """Detect the episode's category (an InstanceImageNav episode's: its goal image's caption, as the
+        localiser prompts with it), or ``query`` (the localiser's prompt, taught by :class:`SceneLocalizer`)."""
+        from navbench.episodes.instance_imagenav import InstanceImageEpisode
+
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        stack = _stack(path, self.cfg)
         if path != self._path:
-            self.segmenter = _stack(path, self.cfg).segmenter
+            self.segmenter = stack.segmenter
             self._path = path
-        _teach_goals(_stack(path, self.cfg), episode, path)
-        self.query = episode.object_category or ""
+        if query is None and isinstance(episode, InstanceImageEpisode):
+            query = query_prompt(goal_query(episode, 0, lambda: _scene(path))[0], stack.captioner)
+            _teach_goals(stack, episode, path, query)
+        elif query is None:
+            _teach_goals(stack, episode, path)
+        self.query = (episode.object_category or "") if query is None else query
 
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray:
         c = self.env_config

@@ -244,6 +244,9 @@ class AgentSpec:
 _POLICY_FILES = dict(run_files=_checkpoint_file, envs_per_worker=8)
 _POINT_GOALS = ("pointgoal_with_gps_compass", "pointgoal")
 _OBJECT_GOALS = ("objectgoal",)
+# the memory agent localises an image or a description as it does a category (navbench.agents.perceive.goal_query)
+_MEMORY_GOALS = (*_OBJECT_GOALS, "instance_imagegoal", "current_subtask", "subtask_category", "subtask_description",
+                 "subtask_image")
 AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path (an upper bound)"),
     AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)",
@@ -253,9 +256,9 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
               "dead-reckons from its own actions)", gps_free=True, goals=_POINT_GOALS, **_POLICY_FILES),
     AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory, localisation, then the PointNav policy",
               prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", level_camera=True,
-              goals=_OBJECT_GOALS, **_POLICY_FILES),
+              goals=_MEMORY_GOALS, **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
-              explores=True, level_camera=True, goals=_OBJECT_GOALS, **_POLICY_FILES),
+              explores=True, level_camera=True, goals=(*_OBJECT_GOALS, "instance_imagegoal"), **_POLICY_FILES),
     AgentSpec("vln_random", make_vln_random, RandomOptions, help="VLN-CE's RandomAgent: actions drawn from the "
               "R2R training set's oracle distribution", gps_free=True),
     AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "
@@ -297,9 +300,10 @@ def check_task(agent: str | None, task: str, env: Any) -> None:
     given = [s.uuid for s in TASKS[task].sensors(env)]
     if not set(spec.goals) & set(given):
         fits = [t.name for t in TASKS.values() if set(spec.goals) & {s.uuid for s in t.goal_sensors}]
+        able = [name for name, s in AGENTS.items() if set(s.goals) & set(given)] or [TASKS[task].default_agent]
         raise ValueError(f"agent {agent!r} reads its goal from {' or '.join(spec.goals)}; task {task!r} gives "
                          f"{', '.join(given) or 'none'}: run it with --task {' or '.join(fits)}, or choose "
-                         f"another agent ({task}'s own: {TASKS[task].default_agent})")
+                         f"another agent ({task}'s: {', '.join(dict.fromkeys([TASKS[task].default_agent, *able]))})")
 
 
 def agent_spec(name: str) -> AgentSpec:

@@ -199,6 +199,20 @@ class SceneGoals:
         assert isinstance(self.grid, NavGrid)
         return self.grid.sample_navigable_point(rng)
 
+    def draw_start(self, points: np.ndarray, rng: np.random.Generator, cfg: GeneratorConfig = GeneratorConfig(),
+                   what: str = "episode") -> tuple[np.ndarray, float, float]:
+        """(start, geodesic, euclidean) of a start the generator accepts for goals at ``points`` (view points):
+        drawn until its geodesic to the nearest lies in range (:func:`_accept`); RuntimeError naming ``what``
+        after ``cfg.max_tries``."""
+        field = self.grid.distance_field(points)
+        for _ in range(cfg.max_tries):
+            start = self.sample_start(rng)
+            geo = float(field.distance(start))
+            euc = self.euclidean(start, points)
+            if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
+                return start, geo, euc
+        raise RuntimeError(f"{self.scene_id}: no {what} after {cfg.max_tries} tries")
+
     def euclidean(self, start: np.ndarray, points: np.ndarray) -> float:
         """Straight distance to the nearest of ``points``: in xz on one storey, in 3-D on several."""
         d = points - start if self.layered else (points - start)[:, [0, 2]]
@@ -219,15 +233,7 @@ def objectnav_episodes(sg: SceneGoals, categories: list[str], n: int, rng: np.ra
         name = names.get(cat, cat)
         goals = sg.goals(cat)
         vps = np.concatenate([g.view_point_positions() for g in goals])
-        field = sg.grid.distance_field(vps)
-        for _ in range(cfg.max_tries):
-            start = sg.sample_start(rng)
-            geo = float(field.distance(start))
-            euc = sg.euclidean(start, vps)
-            if math.isfinite(geo) and _accept(rng, geo, euc, cfg):
-                break
-        else:
-            raise RuntimeError(f"{sg.scene_id}: no ObjectNav episode for '{cat}' after {cfg.max_tries} tries")
+        start, geo, euc = sg.draw_start(vps, rng, cfg, f"ObjectNav episode for '{cat}'")
         key = goals_key(sg.scene_id, name)
         if key not in table:
             table[key] = [ObjectGoal(position=g.position, object_id=g.object_id, object_category=name,

@@ -572,9 +572,15 @@ def split_version(path: str | Path) -> int | None:
 
 def save_dataset(dataset: EpisodeDataset, path: str | Path) -> Path:
     """Write ``.json`` or ``.json.gz`` (by suffix); gzip output carries no timestamp so it is byte-stable."""
+    return write_json(dataset_to_json(dataset), path)
+
+
+def write_json(doc: Any, path: str | Path) -> Path:
+    """``doc`` as compact JSON, gzipped by a ``.gz`` suffix, without a timestamp (byte-stable), written
+    through a temporary file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(dataset_to_json(dataset), separators=(",", ":")).encode()
+    text = json.dumps(doc, separators=(",", ":")).encode()
     tmp = path.with_name(path.name + ".tmp")
     if path.suffix == ".gz":
         tmp.write_bytes(gzip.compress(text, mtime=0))

@@ -105,6 +105,24 @@ def modality(backend: object) -> str:
     return getattr(backend, "modality", "rgb")
 
 
+def query_image(query: Query, backend: object) -> np.ndarray:
+    """The query's image as ``backend`` reads it: its instance ids for an ``instance_ids`` backend, else RGB."""
+    image = query.image_ids if modality(backend) == "instance_ids" else query.image
+    if image is None:
+        raise LocalizeError(f"{type(backend).__name__} needs the query's "
+                            f"{'instance ids' if modality(backend) == 'instance_ids' else 'RGB image'}")
+    return image
+
+
+def query_prompt(query: Query, captioner: Captioner | None) -> str:
+    """The text the re-ranker and segmenter look for: a text query's own, an image query's caption."""
+    if query.type != "image":
+        return query.text.strip()
+    if captioner is None:
+        raise LocalizeError("image queries need a captioner to prompt the re-ranker and segmenter")
+    return captioner.describe(query_image(query, captioner))
+
+
 @dataclass
 class LocalizationTrace:
     """What one call did, for logs and tests."""
@@ -153,18 +171,10 @@ class Localizer:
         return self.memory.images(keyframe_id, modality(backend))
 
     def _query_image(self, query: Query, backend: object) -> np.ndarray:
-        image = query.image_ids if modality(backend) == "instance_ids" else query.image
-        if image is None:
-            raise LocalizeError(f"{type(backend).__name__} needs the query's "
-                                f"{'instance ids' if modality(backend) == 'instance_ids' else 'RGB image'}")
-        return image
+        return query_image(query, backend)
 
     def prompt(self, query: Query) -> str:
-        if query.type != "image":
-            return query.text.strip()
-        if self.captioner is None:
-            raise LocalizeError("image queries need a captioner to prompt the re-ranker and segmenter")
-        return self.captioner.describe(self._query_image(query, self.captioner))
+        return query_prompt(query, self.captioner)
 
     def query_vector(self, query: Query, prompt: str | None = None) -> np.ndarray:
         """Retrieval vector: the text embedding for text queries; for image queries the image's

@@ -36,14 +36,26 @@ def image_goal_camera(goal: CameraGoal) -> CameraConfig:
 
 def render_image_goal(asset: SceneAsset, goal: CameraGoal, platform: str = "auto") -> np.ndarray:
     """The (H, W, 3) uint8 RGB image a camera at the goal's full world pose sees in ``asset``."""
+    return _render(asset, goal, platform, ids=False)[0]
+
+
+def render_image_goal_ids(asset: SceneAsset, goal: CameraGoal, platform: str = "auto") -> tuple[np.ndarray, np.ndarray]:
+    """The goal image and its (H, W) int32 instance ids (-1: no object), from one frame: what oracle perception
+    reads of a goal image, as it reads the keyframes' id images."""
+    rgb, ids = _render(asset, goal, platform, ids=True)
+    assert ids is not None
+    return rgb, ids
+
+
+def _render(asset: SceneAsset, goal: CameraGoal, platform: str, ids: bool) -> tuple[np.ndarray, np.ndarray | None]:
     from navbench.render.renderer import Renderer  # binds the GL platform: only when an image is drawn
 
     # one frame: building a scan's occlusion sets costs more than they save (a 200k-triangle scan on 2 shared
     # cores: 0.7 s a goal image with them, 0.35 s without; the images are equal)
     with Renderer(asset, image_goal_camera(goal), platform=platform, occlusion_culling=False) as renderer:
-        out = renderer.render(np.asarray(goal.position), np.asarray(goal.rotation), rgb=True, depth=False)
+        out = renderer.render(np.asarray(goal.position), np.asarray(goal.rotation), rgb=True, depth=False, ids=ids)
     assert out.rgb is not None  # rendered when asked for
-    return np.ascontiguousarray(out.rgb[:, :, :3], dtype=np.uint8)
+    return np.ascontiguousarray(out.rgb[:, :, :3], dtype=np.uint8), out.ids
 
 
 class GoalImageCache:

@@ -25,6 +25,7 @@ from navbench.scene.navigability import NavGrid
 from navbench.scene.pose import wrap_angle, yaw_from_quat
 
 STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
+_NUDGES = tuple((dx, dz) for dx in (-1e-4, 0.0, 1e-4) for dz in (-1e-4, 0.0, 1e-4) if dx or dz)  # metres
 
 # Metres of progress one extra turn is worth when two headings are nearly as good (tie-break only).
 _TURN_PENALTY = 0.002
@@ -86,6 +87,9 @@ class GreedyFollower:
         yaw = yaw_from_quat(rotation_xyzw)
         x, z = float(p[0]), float(p[2])
         d = self.field._distance_xz(x, z)
+        if d == math.inf:  # on a cell's edge, read a hair off it: a float32 GPS reading rounds across the edge
+            x, z = min(((x + dx, z + dz) for dx, dz in _NUDGES), key=lambda q: self.field._distance_xz(*q))
+            d = self.field._distance_xz(x, z)
         self.turns_ahead = 0
         if d < self.success_distance or d == math.inf:
             return STOP

@@ -110,6 +110,7 @@ TASK = Task(
     success_distance=SUCCESS_DISTANCE,
     success_rule_text="per subtask, at its SUBTASK_STOP (6); STOP ends the episode",
     max_steps=MAX_EPISODE_STEPS,
+    splits=("val",),
     default_split="val",
     default_agent="oracle",
     env_class="navbench.env.goat:GoatEnv",

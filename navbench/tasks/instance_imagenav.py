@@ -68,6 +68,7 @@ TASK = Task(
     distance_to="VIEW_POINTS",
     success_distance=SUCCESS_DISTANCE,
     max_steps=MAX_EPISODE_STEPS,
+    splits=("val",),
     default_split="val",
     default_agent="oracle",
     group_by="object_category",

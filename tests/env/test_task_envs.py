@@ -126,9 +126,13 @@ def test_goat_snapshot_restores_the_active_subtask(files):
 
 @pytest.mark.parametrize("gym_id,task", [("navbench/GOAT-v0", "goat"), ("navbench/InstanceImageNav-v0",
                                                                          "instance_imagenav")])
-def test_a_task_without_bundled_splits_asks_for_a_file(gym_id, task):
-    from navbench.api import resolve_episodes
+def test_a_task_without_bundled_splits_asks_for_a_file(gym_id, task, monkeypatch):
+    import dataclasses
 
+    from navbench.api import resolve_episodes
+    from navbench.tasks import TASKS
+
+    monkeypatch.setitem(TASKS, task, dataclasses.replace(TASKS[task], splits=()))  # as a task bundling none
     with pytest.raises(ValueError, match="bundles no split: pass dataset="):
         gym.make(gym_id)
     with pytest.raises(ValueError, match="bundles no split: give a file of its episodes with --episodes FILE"):

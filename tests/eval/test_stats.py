@@ -264,3 +264,12 @@ def test_compare_pairs_a_subset_on_the_common_episodes_and_names_both_checkpoint
     assert main(["compare", str(a), str(b)]) == 2
     err = capsys.readouterr().err
     assert "episode file eps.json.gz (sha256 abababababab) vs other.json.gz (sha256 cdcdcdcdcdcd)" in err
+
+
+def test_first_per_scene_reads_a_run_s_file_with_its_task_s_reader():
+    """An InstanceImageNav split (goals in content/ files, not ObjectNav's goals_by_category) pairs per house."""
+    from navbench.eval.stats import first_per_scene
+    from navbench.paths import RESULTS_DIR
+
+    keys = first_per_scene(RESULTS_DIR / "runs" / "instance_imagenav" / "val" / "memory", 2)
+    assert len(keys) == 8 and len({s for s, _ in keys}) == 4

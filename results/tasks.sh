@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# InstanceImageNav and GOAT-Bench val (docs/tasks.md): `bash results/tasks.sh run` runs the oracle and the memory
+# agent on both bundled val splits and the frontier agent on InstanceImageNav's first FK episodes of each house (it
+# explores: about 15 s an episode on 2 cores; it is refused on GOAT), `... tables` writes results/instance_imagenav.md
+# and results/goat.md, `... all` does both (`make results-tasks`). NB: the navbench command; PY: the Python that runs
+# navbench.eval.goat_table; RUNS: the runs' root; LIMIT=N: the first N episodes of each split only (a quick look).
+set -eu
+NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-25}
+runs_all() {
+  for t in instance_imagenav goat; do for a in oracle memory; do
+    $NB run --runs-dir "$RUNS" --overwrite -q --task $t --split val --agent $a ${LIMIT:+--limit $LIMIT}
+  done; done
+  $NB run --runs-dir "$RUNS" --overwrite -q --task instance_imagenav --split val --agent frontier --per-scene "$FK" \
+    ${LIMIT:+--limit $LIMIT}
+}
+shown() {  # shown COMMAND...: the command, then what it prints
+  echo "\`$*\`" | sed "s#^\`$NB #\`navbench #; s#^\`$PY #\`python #"; echo; "$@"
+}
+tables() {
+  local i=$RUNS/instance_imagenav/val g=$RUNS/goat/val
+  { echo "# InstanceImageNav val (\`make results-tasks\`)"; echo
+    shown $NB table "$i/oracle" "$i/memory" "$i/frontier"; echo
+    echo "Paired on the episodes both ran (the first $FK of each house): \`navbench compare --per-scene $FK" \
+      "$i/frontier $i/memory\`"; echo; echo '```'; $NB compare --per-scene "$FK" "$i/frontier" "$i/memory"
+    echo '```'; echo
+    shown $NB table --long "$i/oracle" "$i/memory"; } > results/instance_imagenav.md
+  { echo "# GOAT-Bench val (\`make results-tasks\`)"; echo
+    shown $NB table --long "$g/oracle" "$g/memory"; echo
+    shown $PY -m navbench.eval.goat_table "$g/oracle" "$g/memory"; } > results/goat.md
+}
+case "${1:-tables}" in
+  run) runs_all ;;
+  tables) tables ;;
+  all) runs_all; tables ;;
+  *) echo "usage: bash results/tasks.sh [run|tables|all]" >&2; exit 2 ;;
+esac

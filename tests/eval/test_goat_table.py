@@ -1,0 +1,36 @@
+"""python -m navbench.eval.goat_table: GOAT-Bench runs by subtask position and goal type."""
+
+import json
+
+import navbench
+from navbench.episodes.goat import load_goat
+from navbench.eval.goat_table import main, subtask_rows
+from navbench.paths import split_file
+
+
+def test_rows_follow_the_episodes_tasks_and_a_subtask_never_reached_fails(tmp_path, capsys):
+    run = tmp_path / "oracle"
+    navbench.evaluate("oracle", task="goat", limit=2, out=run)
+    lines = (run / "episodes.jsonl").read_text().splitlines()
+    recs = [json.loads(line) for line in lines]
+    recs[1]["subtask_success"] = recs[1]["subtask_success"][:2]  # as if it had stopped after two subtasks
+    recs[1]["spl_by_subtask"] = recs[1]["spl_by_subtask"][:2]
+    (run / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    label, rows = subtask_rows(run)
+    episodes = load_goat(split_file("goat", "val")).episodes
+    tasks = {(e.scene_id, e.episode_id): e.tasks for e in episodes}
+    expected = [t.type for r in recs for t in tasks[(r["scene_id"], r["episode_id"])]]
+    assert label == "oracle" and [r["type"] for r in rows] == expected
+    n0 = len(tasks[(recs[0]["scene_id"], recs[0]["episode_id"])])
+    assert [r["success"] for r in rows] == [1.0] * (n0 + 2) + [0.0] * (len(rows) - n0 - 2)
+    assert main([str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "| 1st | 2 | 100.0 [100.0, 100.0] |" in out and "| `partial_success` |" in out
+    assert "| object |" in out or "| description |" in out
+
+
+def test_a_run_of_another_task_is_refused_in_one_line(tmp_path, capsys):
+    (tmp_path / "config.json").write_text(json.dumps({"task": "objectnav", "split": "val_unseen"}))
+    assert main([str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a GOAT-Bench run" in err[0]
