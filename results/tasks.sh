@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # InstanceImageNav and GOAT-Bench val (docs/tasks.md): `bash results/tasks.sh run` runs the oracle and the memory
 # agent on both bundled val splits and the frontier agent on InstanceImageNav's first FK episodes of each house (it
-# explores: about a minute of CPU an episode; it is refused on GOAT), `... tables` writes results/instance_imagenav.md
+# explores: about 15 s an episode on 2 cores; it is refused on GOAT), `... tables` writes results/instance_imagenav.md
 # and results/goat.md, `... all` does both (`make results-tasks`). NB: the navbench command; PY: the Python that runs
 # navbench.eval.goat_table; RUNS: the runs' root; LIMIT=N: the first N episodes of each split only (a quick look).
 set -eu
-NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-5}
+NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-25}
 runs_all() {
   for t in instance_imagenav goat; do for a in oracle memory; do
     $NB run --runs-dir "$RUNS" --overwrite -q --task $t --split val --agent $a ${LIMIT:+--limit $LIMIT}

@@ -190,15 +190,16 @@ def first_per_scene(run_dir: Path, k: int) -> set[tuple[str, str]]:
     order; a bundled split is read where this checkout keeps it)."""
     import json
 
-    from navbench.episodes.io import load_dataset
     from navbench.eval.config import recorded_paths, select_episodes
     from navbench.paths import split_file
+    from navbench.tasks import get_task
 
     cfg = json.loads((run_dir / "config.json").read_text())
     bundled = split_file(cfg["task"], cfg["split"]) if cfg.get("split") else None
     path = bundled if bundled is not None and bundled.is_file() else \
         Path(recorded_paths(cfg)[0])
-    return {(e.scene_id, e.episode_id) for e in select_episodes(load_dataset(path), None, per_scene=k)}
+    dataset = get_task(cfg["task"]).read_episodes(path)  # the task's own reader (an InstanceImageNav file's goals)
+    return {(e.scene_id, e.episode_id) for e in select_episodes(dataset, None, per_scene=k)}
 
 
 def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequence[str] = METRICS,

@@ -60,11 +60,12 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
     compare each record with the committed one (floats exactly on the recording CPU class)."""
     cfg.limit = n
     run(cfg, AGENTS[cfg.agent], out)
-    ref = {r["episode_id"]: r for r in read_records(ref_dir / "episodes.jsonl")}
+    key = lambda r: (r["scene_id"], r["episode_id"])  # noqa: E731  (GOAT-Bench numbers episodes per file)
+    ref = {key(r): r for r in read_records(ref_dir / "episodes.jsonl")}
     got = read_records(out / "episodes.jsonl")
     assert len(got) == n
     exact = same_cpu_class(ref_dir)
-    diffs = {r["episode_id"]: d for r in got if (d := record_differences(r, ref[r["episode_id"]], exact))}
+    diffs = {key(r): d for r in got if (d := record_differences(r, ref[key(r)], exact))}
     assert not diffs, f"floats compared {'exactly' if exact else f'to {FLOAT_TOLERANCE}'}: {diffs}"
 
 
@@ -74,7 +75,9 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
                                   "pointnav/val/optimistic", "objectnav/val_unseen/memory-pointnav_v2",
                                   "objectnav/val_unseen/oracle", "objectnav/val_unseen/memory",
                                   "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier",
-                                  "imagenav/val/oracle"])
+                                  "imagenav/val/oracle", "instance_imagenav/val/oracle",
+                                  "instance_imagenav/val/memory", "instance_imagenav/val/frontier", "goat/val/oracle",
+                                  "goat/val/memory"])
 def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     monkeypatch.chdir(RESULTS_DIR.parent)  # a --checkpoint in a run's config is relative to the project root
     cfg = ref_config(RUNS / name)

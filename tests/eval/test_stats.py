@@ -199,3 +199,12 @@ def test_a_run_with_provenance_pairs_with_one_written_before_it(copy_run, capsys
     (new / "provenance.json").write_text(json.dumps({**doc, "files": {"episodes": {"sha256": "0" * 64}}}))
     assert main(["compare", str(old), str(new)]) == 2
     assert "another episode file" in capsys.readouterr().err
+
+
+def test_first_per_scene_reads_a_run_s_file_with_its_task_s_reader():
+    """An InstanceImageNav split (goals in content/ files, not ObjectNav's goals_by_category) pairs per house."""
+    from navbench.eval.stats import first_per_scene
+    from navbench.paths import RESULTS_DIR
+
+    keys = first_per_scene(RESULTS_DIR / "runs" / "instance_imagenav" / "val" / "memory", 2)
+    assert len(keys) == 8 and len({s for s, _ in keys}) == 4
