@@ -36,7 +36,9 @@ tables() {
     echo "The memory agent ran the first $IK episodes of each house only (\`--per-scene $IK\`), the oracle all 400."
     echo; shown $NB table "$m/oracle" "$m/memory"; echo
     echo "Paired on the episodes both ran: \`navbench compare --per-scene $IK $m/memory $m/oracle\`"; echo
-    echo '```'; $NB compare --per-scene "$IK" "$m/memory" "$m/oracle"; echo '```'; } > results/imagenav.md
+    echo '```'; $NB compare --per-scene "$IK" "$m/memory" "$m/oracle"; echo '```'; echo
+    echo "How far the memory agent's goal-camera estimates fell from where the goal images were taken (xz):"; echo
+    shown $PY -m navbench.eval.imagegoal_errors "$m/memory"; } > results/imagenav.md
 }
 case "${1:-tables}" in
   run) runs_all ;;
