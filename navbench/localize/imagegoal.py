@@ -6,8 +6,8 @@ localiser's object candidates do not answer it. Under oracle perception (instanc
 1. **Retrieve** the keyframes most like the goal image: histogram intersection of their instance-id pixel counts.
 2. **Render from memory**: the keyframes' depth, back-projected with their ids (every ``stride``-th pixel), is a
    labelled point cloud; a candidate camera (level, at the keyframes' camera height, position x z and yaw) sees
-   the nearest point at each pixel of a small image. A pose scores the fraction of its pixels whose id equals the
-   goal image's (structure, -1, counts too).
+   the nearest point at each pixel of a small image. A pose scores the intersection over union of the object
+   pixels its view and the goal image agree on (:func:`match_score`; structure, -1, looks alike from many places).
 3. **Search** the pose: a coarse grid round each retrieved keyframe, then two finer grids round the best pose.
 
 With real embedding models the memory holds no instance ids: the estimate is the camera position of the keyframe
@@ -134,11 +134,22 @@ def _goal_at(goal_ids: np.ndarray, side: int) -> np.ndarray:
     return goal_ids[np.ix_(rows, cols)]
 
 
+def match_score(shown: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """How well each rendered id image (P, h, w) matches ``target`` (h, w): the intersection over union of their
+    object pixels with equal ids (walls and floors look alike from many places); for a goal image showing no
+    object, the share of all pixels with equal ids."""
+    obj = target >= 0
+    if not obj.any():
+        return (shown == target).mean(axis=(1, 2))
+    same = ((shown == target) & obj).sum(axis=(1, 2))
+    return same / (obj.sum() + ((shown >= 0) & ~obj).sum(axis=(1, 2)))
+
+
 @dataclass
 class CameraEstimate:
     position: np.ndarray  # (3,) camera position (world)
     yaw: float
-    score: float  # share of the rendered pixels matching the goal's ids
+    score: float  # match_score of the chosen pose (oracle) or the retrieved keyframe's cosine (real models)
     keyframes: list[tuple[int, float]]  # retrieved keyframes and their similarity, best first
 
 
@@ -171,7 +182,7 @@ def estimate_camera(memory: Memory, goal_ids: np.ndarray, hfov_deg: float,
         scores = np.empty(len(cams))
         for i in range(0, len(cams), 256):
             shown = render_ids(pts, pid, cams[i:i + 256], hfov_deg, side, aspect)
-            scores[i:i + 256] = (shown == target).mean(axis=(1, 2))
+            scores[i:i + 256] = match_score(shown, target)
         j = int(np.argmax(scores))
         best = (float(cams[j, 0]), float(cams[j, 2]), float(cams[j, 3]), float(scores[j]))
         starts = [best[:3]]

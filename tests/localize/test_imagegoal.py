@@ -36,3 +36,13 @@ def test_voxel_downsample_keeps_one_point_per_cube():
     pts = np.array([[0.01, 0.0, 0.0], [0.02, 0.0, 0.0], [0.3, 0.0, 0.0]])
     kept, ids = voxel_downsample(pts, np.array([1, 2, 3]), 0.1)
     assert len(kept) == 2 and ids.tolist() == [1, 3]
+
+
+def test_match_score_counts_object_pixels_not_walls():
+    from navbench.localize.imagegoal import match_score
+    target = np.array([[-1, -1], [3, 3]])
+    walls_only = np.array([[[-1, -1], [-1, -1]]])  # every wall pixel agrees, the object is missed
+    object_seen = np.array([[[4, -1], [3, 3]]])  # the object, and one more object where the goal sees a wall
+    assert match_score(walls_only, target)[0] == 0.0
+    assert match_score(object_seen, target)[0] == 2 / 3
+    assert match_score(walls_only, np.full((2, 2), -1))[0] == 1.0  # a goal image without objects: all pixels
