@@ -189,6 +189,7 @@ class MemoryAgent(ObjectNavAgentBase):
         self.localize, self.verify, self.route, self.route_path = localize, verify, route, route_path
         self.surfaces = surfaces
         self.storeys: Storeys | None = None
+        self.point: np.ndarray | None = None  # ImageNav: the estimated goal camera's floor point
         self.floor = 0.0  # height of the surface the agent stands on (the camera is agent_height above it)
         # The policy and the visibility test read depth only; the detector adds the image it segments.
         self.sensors: tuple[str, ...] = ("depth",) + (tuple(verify.sensors) if verify is not None else ())
@@ -197,6 +198,16 @@ class MemoryAgent(ObjectNavAgentBase):
     def reset(self, episode: Episode) -> None:
         start = np.asarray(episode.start_position, np.float64)
         self._episode = episode
+        self.point: np.ndarray | None = None
+        if self._is_imagenav(episode):
+            # ImageNav: the goal is where the image was taken; drive there with the policy and take its STOP
+            est = self.localize.image_goal(episode)
+            self.point = np.array([est.position[0], start[1], est.position[2]])
+            self._subtasks, self.goal = 0, self.point
+            self._begin(episode, {"goal_camera": [round(float(v), 3) for v in est.position],
+                                  "goal_yaw": round(est.yaw, 3), "match": round(est.score, 3),
+                                  "keyframes": est.keyframes, "events": [], **getattr(self.localize, "last", {})})
+            return
         self.subtask = 0  # a GOAT-Bench episode's active subtask (each answered from the same memory)
         self._subtasks = len(episode.tasks) if isinstance(episode, GoatEpisode) else 0
         found, unjoined = self._localize(start)
@@ -206,6 +217,23 @@ class MemoryAgent(ObjectNavAgentBase):
             log = {"candidates": found.pop("candidates"), "routes": found.pop("routes"), "events": [], **found}
         self._begin(episode, log)
         self._start_target(start, unjoined)
+
+    def _is_imagenav(self, episode: Episode) -> bool:
+        """A PointNav-v1 episode without a category, given to a localiser that estimates goal cameras: ImageNav
+        (the memory agent reads no point goals)."""
+        return (not isinstance(episode, (GoatEpisode, InstanceImageEpisode)) and episode.object_category is None
+                and hasattr(self.localize, "image_goal"))
+
+    def _drive_to_point(self, observations: dict[str, np.ndarray]) -> int:
+        """ImageNav: the policy's action towards the estimated goal camera's floor point, its STOP taken."""
+        self.step += 1
+        position, yaw = self._pose(observations)
+        assert self.point is not None
+        goal = pointgoal_polar(self.point, position, yaw)
+        action = int(self.policy.act(observations["depth"][None], goal[None])[0])
+        if action == STOP:
+            self._event("stop", distance=xz_dist(position, self.point))
+        return action
 
     def _localize(self, position: np.ndarray) -> tuple[dict, int]:
         """Candidates for the active goal, nearest first from ``position``: what the log keeps of them, and how
@@ -272,6 +300,8 @@ class MemoryAgent(ObjectNavAgentBase):
         goal | detour | route | recover."""
         if self.goal is None:
             return None
+        if self.point is not None:
+            return ["goal", 0, round(float(self.point[0]), 1), round(float(self.point[2]), 1)]
         if self.recovery.queue or self.recovery.probes_left:
             mode, point = "recover", self.goal
         elif self.detour.goal is not None:
@@ -314,6 +344,8 @@ class MemoryAgent(ObjectNavAgentBase):
     def act(self, observations: dict[str, np.ndarray]) -> int:
         """One step: look, then the first phase with an action decides (module docstring); on a GOAT-Bench
         episode a STOP closes the subtask (SUBTASK_STOP) and the next one starts."""
+        if self.point is not None:
+            return self._drive_to_point(observations)
         action = self._act(observations)
         if action == STOP and self._subtasks:
             return self._next_subtask(self._position)

@@ -154,8 +154,10 @@ def goal_query(episode: Episode, subtask: int = 0, asset: Callable[[], Any] | No
 class SceneLocalizer:
     """``episode -> goal candidates`` over the episode scene's cached keyframe memory."""
 
-    def __init__(self, scene_dir: str | Path, cfg: PerceptionConfig = PerceptionConfig()):
+    def __init__(self, scene_dir: str | Path, cfg: PerceptionConfig = PerceptionConfig(),
+                 camera: EnvConfig | None = None):
         self.scene_dir, self.cfg = Path(scene_dir), cfg
+        self.camera = camera  # the episode's RGB sensor: ImageNav's goal image is taken with it
         self._path: Path | None = None
         self.last: dict[str, Any] = {}
         self.prompt = ""
@@ -181,6 +183,33 @@ class SceneLocalizer:
                      "memory_frames": st.frames, "memory_bytes": st.bytes,
                      "memory_build_s": round(st.build_seconds, 3)}
         return candidates
+
+    def image_goal(self, episode: Episode) -> Any:
+        """Where an ImageNav episode's goal image was taken (a :class:`~navbench.localize.imagegoal.CameraEstimate`),
+        from the scene's memory: the image is rendered as ``imagegoal`` is (the episode's RGB sensor at
+        ``goals[0]``, facing :func:`~navbench.tasks.imagenav.goal_yaw`); oracle perception reads its instance ids
+        and searches the memory's labelled cloud for the pose, real models retrieve the keyframe nearest the
+        image's embedding."""
+        from navbench.episodes.instance_imagenav import ImageGoal
+        from navbench.localize.imagegoal import estimate_camera, retrieved_camera
+        from navbench.render.goal_images import render_image_goal_ids
+        from navbench.tasks.imagenav import goal_rotation
+
+        c = self.camera or EnvConfig()
+        path = resolve_scene_path(episode.scene_id, self.scene_dir)
+        stack, memory = _stack(path, self.cfg), _memory(path, self.cfg)
+        self.memory, self._path = memory, None  # the next object query rebuilds its localiser
+        eye = np.asarray(episode.goals[0].position, np.float64) + [0.0, c.agent_height, 0.0]
+        goal = ImageGoal(tuple(eye), tuple(goal_rotation(episode.episode_id)), c.hfov_deg, c.height, c.width)
+        rgb, ids = render_image_goal_ids(_scene(path), goal)
+        t0 = time.perf_counter()
+        if modality(stack.encoder) == "instance_ids":
+            estimate = estimate_camera(memory, ids, c.hfov_deg)
+        else:
+            estimate = retrieved_camera(memory, stack.encoder.encode_images([rgb])[0])
+        self.last = {"query_ms": round(1000 * (time.perf_counter() - t0), 2),
+                     "memory_keyframes": memory.stats.keyframes}
+        return estimate
 
     def surfaces(self, config: NavGridConfig) -> LayeredNav | None:
         """The joined walkable surfaces (storeys, stairs, ramps) of the scene last localised in when its

@@ -152,7 +152,7 @@ def make_memory(cfg):
     env_cfg = cfg.env_config(("depth",))
 
     def build(policy):
-        localizer = SceneLocalizer(cfg.scene_dir, pcfg)
+        localizer = SceneLocalizer(cfg.scene_dir, pcfg, env_cfg)
         return MemoryAgent(localizer, policy, agent_cfg, env_cfg, verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg),
                            route=localizer.route_lengths, route_path=localizer.route_path,
                            surfaces=localizer.surfaces, seed=cfg.seed)
@@ -244,9 +244,10 @@ class AgentSpec:
 _POLICY_FILES = dict(run_files=_checkpoint_file, envs_per_worker=8)
 _POINT_GOALS = ("pointgoal_with_gps_compass", "pointgoal")
 _OBJECT_GOALS = ("objectgoal",)
-# the memory agent localises an image or a description as it does a category (navbench.agents.perceive.goal_query)
-_MEMORY_GOALS = (*_OBJECT_GOALS, "instance_imagegoal", "current_subtask", "subtask_category", "subtask_description",
-                 "subtask_image")
+# the memory agent localises an image or a description as it does a category (navbench.agents.perceive.goal_query),
+# and an ImageNav goal image's camera (SceneLocalizer.image_goal)
+_MEMORY_GOALS = (*_OBJECT_GOALS, "imagegoal", "instance_imagegoal", "current_subtask", "subtask_category",
+                 "subtask_description", "subtask_image")
 AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
     AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path (an upper bound)"),
     AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)",

@@ -633,3 +633,25 @@ def test_a_switch_reorders_the_untried_candidates_by_route_from_where_the_agent_
     for _ in range(40):  # stuck turning in place, 1 m to the right of the start
         agent.act(obs_at(empty, right=1.0))
     assert agent.switches == 1 and agent.candidates[agent.current] is c
+
+
+def test_on_imagenav_it_drives_to_the_estimated_goal_camera_and_takes_the_policys_stop():
+    from navbench.localize.imagegoal import CameraEstimate
+
+    class Localiser:
+        def __call__(self, episode, subtask=0):
+            raise AssertionError("an ImageNav goal is not an object query")
+
+        def image_goal(self, episode):
+            return CameraEstimate(np.array([0.0, 0.88, -3.0]), 0.0, 0.9, [(4, 0.8)])
+
+    episode = Episode("1", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+    policy = ScriptedPolicy(MOVE_FORWARD)
+    agent = MemoryAgent(Localiser(), policy, MemoryAgentConfig(), ENV)
+    agent.reset(episode)
+    assert agent.act(obs_at(wall_depth(4.0))) == MOVE_FORWARD
+    assert policy.last_goal == pytest.approx([3.0, 0.0], abs=1e-6)  # 3 m straight ahead (the floor point)
+    assert agent.episode_log()["goal_camera"] == [0.0, 0.88, -3.0] and agent.decision() == ["goal", 0, 0.0, -3.0]
+    policy.action = STOP
+    assert agent.act(obs_at(wall_depth(4.0), forward=2.9)) == STOP  # no visibility test, no detector: its STOP
+    assert agent.episode_log()["events"][-1]["event"] == "stop"

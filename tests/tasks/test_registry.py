@@ -118,13 +118,21 @@ def test_env_takes_its_action_list_and_limit_from_the_task(pointnav_file):
     env.close()
 
 
-@pytest.mark.parametrize("agent, task, fits", [("memory", "imagenav", "objectnav"),
+@pytest.mark.parametrize("agent, task, fits", [("frontier", "imagenav", "objectnav"),
                                                ("frontier", "pointnav", "objectnav"),
                                                ("pointnav", "objectnav", "pointnav")])
 def test_a_builtin_agent_is_refused_a_task_whose_goal_it_cannot_read(agent, task, fits, capsys):
     assert main(["run", "--task", task, "--agent", agent, "--limit", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"task '{task}' gives" in err[0] and f"--task {fits}" in err[0]
+
+
+def test_frontier_is_refused_imagenav_naming_the_agents_that_run_it():
+    from navbench.agents.registry import check_task
+    from navbench.env.config import EnvConfig
+    check_task("memory", "imagenav", EnvConfig())  # the memory agent reads imagegoal
+    with pytest.raises(ValueError, match=r"\(imagenav's: oracle, memory\)"):
+        check_task("frontier", "imagenav", EnvConfig())
 
 
 def test_the_oracle_and_the_random_agent_run_any_task():
