@@ -142,13 +142,14 @@ def goal_image_ms(env: NavEnv, repeats: int) -> float | None:
 
 
 def goat_measures_ms(env: NavEnv, steps: int, repeats: int) -> float:
-    """GOAT's measures (``info``) on the last step of a ``steps``-step episode, from the env's first state on."""
+    """GOAT's measures (``info``) read on the last step of a ``steps``-step episode, from the env's first state
+    on (GoatProgress updates them as each step is recorded, in constant time; this is the read-out)."""
     from navbench.episodes.goat import GoatProgress
 
     live = env.goat_progress  # type: ignore[attr-defined]
     progress = GoatProgress(live.episode, steps + 1, live.success_distance)
     first = live.states[0]
-    progress.states = [first] + [(1, first[1], first[2])] * steps
+    progress.load([first] + [(1, first[1], first[2])] * steps, 0, False)
     return _median_ms(lambda i: progress.metrics(), repeats)
 
 

@@ -125,8 +125,7 @@ class GoatEnv(NavEnv):
         p, g = self.goat_progress, snap.get("goat")
         assert p is not None  # set by the reset restore makes
         if g is not None:
-            p.states = [(None if a is None else int(a), [float(v) for v in pos], float(d)) for a, pos, d in g["states"]]
-            p.active, p.stop_called = int(g["active"]), bool(g["stop_called"])
+            p.load(g["states"], g["active"], g["stop_called"])
             if p.active < p.episode.num_goals:
                 self._use_subtask(p.active)
         return self._observe()
