@@ -13,10 +13,7 @@ A goal is any object with ``position`` (3), ``rotation`` [x, y, z, w], ``hfov_de
 
 from __future__ import annotations
 
-import os
-import threading
-from collections import OrderedDict
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -50,48 +47,12 @@ def render_image_goal_ids(asset: SceneAsset, goal: CameraGoal, platform: str = "
     return rgb, ids
 
 
-# Renderers kept for goal images: making one (uploading the scene, a GL context) and its first frame cost
-# several times a frame on an existing one, and a split's goal images come scene by scene, camera by camera.
-# Keyed by the scene asset (the object itself, held here), the camera and the platform; the last few used
-# are kept, older ones closed. A renderer draws each frame from scratch from the pose and camera it is
-# given, so an image does not depend on what it drew before (tests/render/test_goal_images.py checks it).
-GOAL_RENDERERS_KEPT = 2
-_renderers: OrderedDict[tuple, Any] = OrderedDict()
-_lock = threading.Lock()
-
-
-def _goal_renderer(asset: SceneAsset, camera: CameraConfig, platform: str) -> Any:
-    """A renderer for ``asset`` and ``camera``: the one kept from an earlier goal image, or a new one."""
+def _render(asset: SceneAsset, goal: CameraGoal, platform: str, ids: bool) -> tuple[np.ndarray, np.ndarray | None]:
     from navbench.render.renderer import Renderer  # binds the GL platform: only when an image is drawn
 
-    key = (id(asset), camera, platform, os.getpid())
-    kept = _renderers.get(key)
-    if kept is not None and kept.asset is asset:
-        _renderers.move_to_end(key)
-        return kept
-    # one frame at a time: building a scan's occlusion sets costs more than they save (a 200k-triangle
-    # scan on 2 shared cores: 0.7 s a goal image with them, 0.35 s without; the images are equal)
-    renderer = Renderer(asset, camera, platform=platform, occlusion_culling=False)
-    _renderers[key] = renderer
-    while len(_renderers) > GOAL_RENDERERS_KEPT:
-        (_, _, _, pid), old = _renderers.popitem(last=False)
-        if pid == os.getpid():  # a forked child leaves its parent's contexts alone
-            old.close()
-    return renderer
-
-
-def close_goal_renderers() -> None:
-    """Close the renderers kept for goal images (this process's); the next goal image makes a new one."""
-    with _lock:
-        while _renderers:
-            (_, _, _, pid), old = _renderers.popitem()
-            if pid == os.getpid():
-                old.close()
-
-
-def _render(asset: SceneAsset, goal: CameraGoal, platform: str, ids: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    with _lock:
-        renderer = _goal_renderer(asset, image_goal_camera(goal), platform)
+    # one frame: building a scan's occlusion sets costs more than they save (a 200k-triangle scan on 2 shared
+    # cores: 0.7 s a goal image with them, 0.35 s without; the images are equal)
+    with Renderer(asset, image_goal_camera(goal), platform=platform, occlusion_culling=False) as renderer:
         out = renderer.render(np.asarray(goal.position), np.asarray(goal.rotation), rgb=True, depth=False, ids=ids)
     assert out.rgb is not None  # rendered when asked for
     return np.ascontiguousarray(out.rgb[:, :, :3], dtype=np.uint8), out.ids

@@ -10,8 +10,7 @@ from navbench.episodes.instance_imagenav import (
     instance_imagegoal_observations,
 )
 from navbench.episodes.types import AgentState, ViewPoint
-from navbench.render import goal_images
-from navbench.render.goal_images import GoalImageCache, image_goal_camera, render_image_goal, render_image_goal_ids
+from navbench.render.goal_images import GoalImageCache, render_image_goal
 from navbench.scene.asset import load_scene
 
 POS = (0.5, 1.3, 0.5)  # inside the smoke house (bounds x, z in +-6, y in [-0.1, 2.7])
@@ -87,43 +86,3 @@ def test_cache_renders_once_per_key(asset):
     assert cache.get(("scene", "1"), asset, g) is a and cache.renders == 1
     cache.get(("scene", "2"), asset, g)
     assert cache.renders == 2
-
-
-def fresh(asset, g, ids=False):
-    """The goal image from a renderer made for it alone and closed after (what a kept renderer must equal)."""
-    from navbench.render.renderer import Renderer
-
-    with Renderer(asset, image_goal_camera(g), occlusion_culling=False) as r:
-        out = r.render(np.asarray(g.position), np.asarray(g.rotation), rgb=True, depth=False, ids=ids)
-    return out.rgb[:, :, :3], out.ids
-
-
-def test_kept_renderers_draw_the_same_pixels_as_fresh_ones(asset, scene_path):
-    goal_images.close_goal_renderers()
-    goals = [goal(q(1, 0)), goal(qmul(q(1, 120), q(0, -25))), goal(q(1, 45), hfov=90.0, h=40, w=72),
-             goal(qmul(q(1, 200), q(2, 30))), goal(q(1, 0))]
-    other = load_scene(scene_path)  # the same scene as another asset object: its own renderer
-    seen = []
-    for i, g in enumerate(goals * 2):  # cameras interleaved: renderers reused, made anew and evicted
-        a = other if i % 3 == 2 else asset
-        rgb, ids = render_image_goal_ids(a, g)
-        ref_rgb, ref_ids = fresh(a, g, ids=True)
-        assert rgb.dtype == np.uint8 and np.array_equal(rgb, ref_rgb) and np.array_equal(ids, ref_ids), i
-        assert np.array_equal(render_image_goal(a, g), ref_rgb), i
-        seen.append(rgb)
-    assert not np.array_equal(seen[0], seen[1])  # the images do differ
-    assert len(goal_images._renderers) <= goal_images.GOAL_RENDERERS_KEPT
-    kept = list(goal_images._renderers.values())
-    goal_images.close_goal_renderers()
-    assert not goal_images._renderers and all(r._gl is None for r in kept)
-
-
-def test_a_goal_image_reuses_the_renderer_of_its_scene_and_camera(asset):
-    goal_images.close_goal_renderers()
-    render_image_goal(asset, goal(q(1, 0)))
-    (first,) = goal_images._renderers.values()
-    render_image_goal(asset, goal(q(1, 90)))
-    assert list(goal_images._renderers.values()) == [first]
-    render_image_goal(asset, goal(q(1, 90), h=40, w=72))  # another camera: another renderer
-    assert len(goal_images._renderers) == 2 and first in goal_images._renderers.values()
-    goal_images.close_goal_renderers()
