@@ -73,6 +73,12 @@ class GoatEnv(NavEnv):
         self._field = self._motion.distance_field(self._goals)
         self._field_subtask = k
 
+    def _start_field(self) -> Any:
+        """Subtask 0's field: all subtasks' view points choose the storeys the episode runs on, but distance is
+        only ever measured to the active subtask's (a field to all of them would go unused)."""
+        self._use_subtask(0)
+        return self._field
+
     def goal_image(self, camera: ImageGoal) -> np.ndarray:
         """The active image subtask's goal image, rendered once per subtask; a copy, as per-episode goal
         observations are (what a caller is given is its own: writing into it changes no later step)."""
