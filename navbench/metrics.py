@@ -202,6 +202,98 @@ def goat_metrics(subtask_types: Sequence[str], steps: Sequence[tuple[int | None,
     return out
 
 
+
+class GoatMeasures:
+    """:func:`goat_metrics` kept up to date one state at a time: ``GoatMeasures(subtask_types, num_goals,
+    success_distance, max_steps)``, then :meth:`reset` with the state at reset, :meth:`step` with each
+    later state, and :meth:`result` for the measures so far, O(1) per step where :func:`goat_metrics`
+    replays every state. Same arithmetic in the same order, so the values are identical to
+    ``goat_metrics(subtask_types, states, ...)`` on the states given (tests/test_goat_metrics.py)."""
+
+    def __init__(self, subtask_types: Sequence[str], num_goals: int | None = None,
+                 success_distance: float = 0.25, max_steps: int | None = None) -> None:
+        self.types = [str(t) for t in subtask_types]
+        n = len(self.types)
+        self.goals = n if num_goals is None else int(num_goals)
+        if n == 0 or not 0 < self.goals <= n or any(t not in GOAT_TYPES for t in self.types):
+            raise ValueError(f"goat_metrics: needs 1 <= num_goals <= len(subtask_types) and types in {GOAT_TYPES}")
+        self.success_distance, self.max_steps = success_distance, max_steps
+        self._started = False
+
+    def reset(self, state: tuple[int | None, Sequence[float], float]) -> None:
+        action, pos, d = state
+        if action is not None:
+            raise ValueError("goat_metrics: steps[0] must be the state at reset (action None)")
+        n = len(self.types)
+        self.success = [0.0] * n
+        self.spl_k = [0.0] * n
+        self.softspl_k = [0.0] * n
+        self.d0_k = [float("nan")] * n
+        self.k, self.stopped, self.ended, self.i = 0, False, False, 0
+        self.prev_pos = [float(v) for v in pos]
+        self.d = float(d)
+        self.d0_k[0] = self.d0 = self.d
+        self.walked = 0.0
+        self._started = True
+
+    def step(self, state: tuple[int | None, Sequence[float], float]) -> None:
+        if not self._started:
+            raise ValueError("goat_metrics: steps[0] must be the state at reset (action None)")
+        action, pos, dist = state
+        self.i += 1
+        if self.ended:
+            raise ValueError(f"goat_metrics: state {self.i} comes after the episode ended")
+        a = int(action)  # type: ignore[arg-type]
+        closing = a == GOAT_SUBTASK_STOP
+        if a == GOAT_STOP:
+            self.stopped = True
+        elif closing:
+            self.k += 1
+        d_prev = self.d
+        if self.k < self.goals:
+            self.d = float(dist)
+        pos = [float(v) for v in pos]
+        self.walked += math.sqrt(sum((p - q) ** 2 for p, q in zip(pos, self.prev_pos, strict=True)))
+        self.prev_pos = pos
+        if closing:
+            j = self.k - 1
+            self.success[j] = float(math.isfinite(d_prev) and d_prev < self.success_distance)
+            ratio = path_ratio(self.d0, self.walked)
+            self.spl_k[j] = self.success[j] * ratio
+            self.softspl_k[j] = soft_success(d_prev, self.d0) * ratio
+            if self.k < len(self.types):
+                self.d0_k[self.k] = self.d0 = self.d
+            self.walked = 0.0
+        self.ended = self.stopped or self.k >= self.goals or (self.max_steps is not None and self.i >= self.max_steps)
+
+    def result(self) -> dict[str, Any]:
+        if not self._started:
+            raise ValueError("goat_metrics: steps[0] must be the state at reset (action None)")
+        types, success, n = self.types, self.success, len(self.types)
+        out: dict[str, Any] = {
+            "partial_success": math.fsum(success) / n,
+            "composite_success": float(sum(success) == n),
+            "task_success": float(sum(success) == n and self.stopped),
+            "task_success_corrected": float(sum(success) == n),
+        }
+        for t in GOAT_TYPES:
+            count = types.count(t)
+            won = math.fsum(s for s, tt in zip(success, types, strict=True) if tt == t)
+            out[f"{t}_success"] = won / count if won else 0.0
+            out[f"{t}_success_corrected"] = won / count if count else float("nan")
+        out.update({
+            "composite_spl": math.fsum(self.spl_k) / n,
+            "composite_softspl": math.fsum(self.softspl_k) / n,
+            "subtask_success": list(success),
+            "spl_by_subtask": list(self.spl_k),
+            "softspl_by_subtask": list(self.softspl_k),
+            "d0_by_subtask": list(self.d0_k),
+            "subtasks_closed": min(self.k, n),
+            "stop_called": self.stopped,
+            "distance_to_goal": self.d,
+        })
+        return out
+
 # ------------------------------------------------------------------------------------------- VLN-CE
 # The measures of VLN-CE (R2R-CE, RxR-CE) as its reference code computes them: jacobkrantz/VLN-CE
 # habitat_extensions/measures.py (PathLength, OracleSuccess, StepsTaken, NDTW, SDTW) and habitat-lab v0.1.7

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from navbench.metrics import goat_metrics
+from navbench.metrics import GoatMeasures, goat_metrics
 
 sys.path.insert(0, str(Path(__file__).parent))
 import goat_reference as ref  # noqa: E402
@@ -182,3 +182,72 @@ def test_a_summary_leaves_undefined_corrected_type_success_out_of_its_mean():
             dict(base, episode_id="1", image_success=1.0, image_success_corrected=1.0)]
     out = aggregate(rows, keys=("success", "image_success", "image_success_corrected"))
     assert out["image_success"] == 0.5 and out["image_success_corrected"] == 1.0
+
+
+# ---------------------------------------------------------------- GoatMeasures: goat_metrics one state at a time
+
+def same(a, b):
+    """Equal measures, NaN equal to NaN (d0 of a subtask never started, a corrected rate of a missing type)."""
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) and math.isnan(a):
+        return isinstance(b, float) and math.isnan(b)
+    return type(a) is type(b) and a == b
+
+
+def assert_incremental_equal(subtask_types, states, **kw):
+    """GoatMeasures fed ``states`` one by one equals goat_metrics on every prefix, exactly."""
+    inc = GoatMeasures(subtask_types, kw.get("num_goals"), kw.get("success_distance", 0.25), kw.get("max_steps"))
+    inc.reset(states[0])
+    for i in range(len(states)):
+        if i:
+            inc.step(states[i])
+        ref_out, ours = goat_metrics(subtask_types, states[:i + 1], **kw), inc.result()
+        assert ref_out.keys() == ours.keys()
+        bad = [k for k in ref_out if not same(ref_out[k], ours[k])]
+        assert not bad, (i, {k: (ref_out[k], ours[k]) for k in bad})
+
+
+SCRIPTS = [
+    (ORACLE, TASKS, GOALS, {}),
+    ([F, F, R, F, F, L, F, SUB, F, F, SUB, SUB, F, F, F, SUB], TASKS, GOALS, {}),
+    ([F, F, F, F, SUB, R, F, STOP], TASKS, GOALS, {}),
+    ([F, UP, DOWN, F, F, F, SUB, R, R, F], TASKS, GOALS, {}),
+    (ORACLE, TASKS, GOALS, {"max_steps": 7}),
+    ([F, F, F, F, SUB, R, F, F, L, F, F, F, F, SUB, STOP], TASKS, [GOALS[0], GOALS[2], GOALS[3]], {}),
+]
+
+
+@pytest.mark.parametrize("actions,tasks,goals,kw", SCRIPTS)
+def test_incremental_measures_equal_goat_metrics_on_scripts(actions, tasks, goals, kw):
+    _, states = run(actions, tasks, goals, max_steps=kw.get("max_steps", 5000))
+    num_goals = len(goals) if len(goals) < len(tasks) else None
+    assert_incremental_equal(types(tasks), states, num_goals=num_goals, **kw)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_incremental_measures_equal_goat_metrics_on_random_sequences(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 8))
+    tasks = [str(t) for t in rng.choice(["object", "description", "image"], n)]
+    goals = int(rng.integers(1, n + 1))
+    pos = rng.normal(size=3)
+    states = [(None, pos.tolist(), float(rng.uniform(0, 5)))]
+    closed = 0
+    for i in range(int(rng.integers(1, 300))):
+        a = int(rng.choice([1, 2, 3, 4, 5, 6, 0], p=[.4, .15, .15, .05, .05, .18, .02]))
+        closed += a == SUB
+        if a == F:
+            pos = pos + rng.normal(scale=0.25, size=3)
+        d = float(rng.choice([rng.uniform(0, 0.3), rng.uniform(0, 5), 0.0])) if closed < goals else float("nan")
+        states.append((a, pos.tolist(), d))
+        if a == STOP or closed >= goals or i + 1 >= 250:
+            break
+    assert_incremental_equal(tasks, states, num_goals=goals, success_distance=0.25, max_steps=250)
+    inc = GoatMeasures(tasks, goals, 0.25, 250)
+    inc.reset(states[0])
+    for s in states[1:]:
+        inc.step(s)
+    with pytest.raises(ValueError, match="after the episode ended"):
+        inc.step(states[-1]) if inc.ended else goat_metrics(tasks, states + [states[-1]] * 251, num_goals=goals,
+                                                           max_steps=250)

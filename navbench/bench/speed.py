@@ -12,7 +12,7 @@ with 224x224 sensors), ``rgbd_steps_per_s_2proc`` (total of two processes, one l
 goal-image tasks (:mod:`navbench.bench.goal_tasks`): ``{pointnav,imagenav,instance_imagenav,goat}_steps_per_s``
 (the four stepped in turns), ``..._goal_obs_us`` (the goal observations' cost per step), ``..._reset_ms`` and
 ``{imagenav,instance_imagenav,goat}_goal_image_ms`` (one goal image, made once per episode or image subtask),
-``goat_measures_ms_at_5000`` (GOAT's measures late in a long episode: they grow with its steps). ``cpu``
+``goat_measures_ms_at_5000`` (GOAT's measures late in a long episode: constant, kept up to date step by step). ``cpu``
 names the processor (model, family, widest vector extension) and, with the policy, ``native_bf16``
 says whether it has AVX512-BF16 or AMX: the figures depend strongly on the vector extensions, so a
 number means little without the CPU it was measured on.

@@ -186,6 +186,11 @@ class NavEnv(gym.Env):
     def _goal_points(self, episode: Episode) -> np.ndarray:
         return self.task_def.goal_points(episode)
 
+    def _start_field(self) -> Any:
+        """The distance field success and SPL are measured with from the start (reset): to the goal points."""
+        assert self._motion is not None
+        return self._motion.distance_field(self._goals)
+
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -234,7 +239,7 @@ class NavEnv(gym.Env):
         declared = np.asarray(episode.start_position, np.float64)
         self._start_position = np.array([declared[0], self._position[1], declared[2]])
         self._start_yaw = self._yaw
-        self._field = self._motion.distance_field(self._goals)
+        self._field = self._start_field()
         self._d0 = float(self._field.distance(self._position))
         self._num_steps = 0
         self._collisions = 0

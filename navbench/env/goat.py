@@ -73,6 +73,12 @@ class GoatEnv(NavEnv):
         self._field = self._motion.distance_field(self._goals)
         self._field_subtask = k
 
+    def _start_field(self) -> Any:
+        """Subtask 0's field: all subtasks' view points choose the storeys the episode runs on, but distance is
+        only ever measured to the active subtask's (a field to all of them would go unused)."""
+        self._use_subtask(0)
+        return self._field
+
     def goal_image(self, camera: ImageGoal) -> np.ndarray:
         """The active image subtask's goal image, rendered once per subtask; a copy, as per-episode goal
         observations are (what a caller is given is its own: writing into it changes no later step)."""
@@ -125,8 +131,7 @@ class GoatEnv(NavEnv):
         p, g = self.goat_progress, snap.get("goat")
         assert p is not None  # set by the reset restore makes
         if g is not None:
-            p.states = [(None if a is None else int(a), [float(v) for v in pos], float(d)) for a, pos, d in g["states"]]
-            p.active, p.stop_called = int(g["active"]), bool(g["stop_called"])
+            p.load(g["states"], g["active"], g["stop_called"])
             if p.active < p.episode.num_goals:
                 self._use_subtask(p.active)
         return self._observe()

@@ -46,7 +46,7 @@ import numpy as np
 from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goal, select_episodes
 from navbench.episodes.io import _episode, _vec, read_json
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
-from navbench.metrics import GOAT_STOP, goat_metrics
+from navbench.metrics import GOAT_STOP, GoatMeasures
 from navbench.safeio import printable
 
 # goat-bench goat_bench/config.py GoatCurrentSubtaskSensorConfig.sub_task_type: current_subtask is the index
@@ -310,7 +310,8 @@ class GoatProgress:
     position, distance_to)`` after each action, the agent already moved, with ``distance_to(k)`` the
     distance from ``position`` to the goals of subtask ``k``. SUBTASK_STOP (6) closes the active subtask
     and the next one starts at once from the same pose; STOP (0) ends the episode; so does closing
-    ``num_goals`` subtasks or taking ``max_steps`` actions. :meth:`metrics` gives the measures."""
+    ``num_goals`` subtasks or taking ``max_steps`` actions. :meth:`metrics` gives the measures, kept up to
+    date state by state (:class:`~navbench.metrics.GoatMeasures`, equal to ``goat_metrics`` on ``states``)."""
 
     def __init__(self, episode: GoatEpisode, max_steps: int = MAX_EPISODE_STEPS,
                  success_distance: float = SUCCESS_DISTANCE) -> None:
@@ -318,11 +319,23 @@ class GoatProgress:
         self.states: list[tuple[int | None, list[float], float]] = []
         self.active = 0
         self.stop_called = False
+        self._measures = GoatMeasures([t.type for t in episode.tasks], episode.num_goals, success_distance,
+                                      max_steps)
 
     def reset(self, position: Sequence[float], distance: float) -> None:
         self.states = [(None, [float(v) for v in position], float(distance))]
         self.active = 0
         self.stop_called = False
+        self._measures.reset(self.states[0])
+
+    def load(self, states: Sequence[tuple[int | None, Sequence[float], float]], active: int,
+             stop_called: bool) -> None:
+        """Stand where ``states`` (as :attr:`states` holds them) leave the episode: a snapshot restored."""
+        self.states = [(None if a is None else int(a), [float(v) for v in pos], float(d)) for a, pos, d in states]
+        self.active, self.stop_called = int(active), bool(stop_called)
+        self._measures.reset(self.states[0])
+        for state in self.states[1:]:
+            self._measures.step(state)
 
     @property
     def num_steps(self) -> int:
@@ -342,6 +355,7 @@ class GoatProgress:
             self.active += 1
         d = float(distance_to(self.active)) if self.active < self.episode.num_goals else math.nan
         self.states.append((action, [float(v) for v in position], d))
+        self._measures.step(self.states[-1])
 
     @property
     def distance(self) -> float:
@@ -365,5 +379,4 @@ class GoatProgress:
         return self.episode.tasks[k].category, self.episode.descriptions[k] or "", self.episode.image_goals[k]
 
     def metrics(self) -> dict[str, Any]:
-        return goat_metrics([t.type for t in self.episode.tasks], self.states, self.episode.num_goals,
-                            self.success_distance, self.max_steps)
+        return self._measures.result()
