@@ -135,80 +135,20 @@ def goat_metrics(subtask_types: Sequence[str], steps: Sequence[tuple[int | None,
     Where the reference divides 0 by 0 (a subtask that starts on a view point and is closed without a
     move: a ZeroDivisionError there), :func:`path_ratio` and :func:`soft_success` decide (1 and 1).
     """
-    types = [str(t) for t in subtask_types]
-    n = len(types)
-    goals = n if num_goals is None else int(num_goals)
-    if n == 0 or not 0 < goals <= n or any(t not in GOAT_TYPES for t in types):
-        raise ValueError(f"goat_metrics: needs 1 <= num_goals <= len(subtask_types) and types in {GOAT_TYPES}")
-    if not steps or steps[0][0] is not None:
+    measures = GoatMeasures(subtask_types, num_goals, success_distance, max_steps)
+    if not steps:
         raise ValueError("goat_metrics: steps[0] must be the state at reset (action None)")
-    success = [0.0] * n
-    spl_k = [0.0] * n
-    softspl_k = [0.0] * n
-    d0_k = [float("nan")] * n
-    k, stopped, ended = 0, False, False
-    _, pos, d = steps[0]
-    prev_pos = [float(v) for v in pos]
-    d = float(d)
-    d0_k[0] = d0 = d
-    walked = 0.0
-    for i, (action, pos, dist) in enumerate(steps[1:], 1):
-        if ended:
-            raise ValueError(f"goat_metrics: state {i} comes after the episode ended")
-        a = int(action)
-        closing = a == GOAT_SUBTASK_STOP
-        if a == GOAT_STOP:
-            stopped = True
-        elif closing:
-            k += 1
-        d_prev = d
-        if k < goals:  # GoatDistanceToGoal: the active goal's distance; kept once the episode is over
-            d = float(dist)
-        pos = [float(v) for v in pos]
-        walked += math.sqrt(sum((p - q) ** 2 for p, q in zip(pos, prev_pos, strict=True)))
-        prev_pos = pos
-        if closing:
-            j = k - 1
-            success[j] = float(math.isfinite(d_prev) and d_prev < success_distance)
-            ratio = path_ratio(d0, walked)
-            spl_k[j] = success[j] * ratio
-            softspl_k[j] = soft_success(d_prev, d0) * ratio
-            if k < n:
-                d0_k[k] = d0 = d
-            walked = 0.0
-        ended = stopped or k >= goals or (max_steps is not None and i >= max_steps)
-    out: dict[str, Any] = {
-        "partial_success": math.fsum(success) / n,
-        "composite_success": float(sum(success) == n),
-        "task_success": float(sum(success) == n and stopped),
-        "task_success_corrected": float(sum(success) == n),
-    }
-    for t in GOAT_TYPES:
-        count = types.count(t)
-        won = math.fsum(s for s, tt in zip(success, types, strict=True) if tt == t)
-        out[f"{t}_success"] = won / count if won else 0.0
-        out[f"{t}_success_corrected"] = won / count if count else float("nan")
-    out.update({
-        "composite_spl": math.fsum(spl_k) / n,
-        "composite_softspl": math.fsum(softspl_k) / n,
-        "subtask_success": success,
-        "spl_by_subtask": spl_k,
-        "softspl_by_subtask": softspl_k,
-        "d0_by_subtask": d0_k,
-        "subtasks_closed": min(k, n),
-        "stop_called": stopped,
-        "distance_to_goal": d,
-    })
-    return out
-
+    measures.reset(steps[0])
+    for state in steps[1:]:
+        measures.step(state)
+    return measures.result()
 
 
 class GoatMeasures:
-    """:func:`goat_metrics` kept up to date one state at a time: ``GoatMeasures(subtask_types, num_goals,
-    success_distance, max_steps)``, then :meth:`reset` with the state at reset, :meth:`step` with each
-    later state, and :meth:`result` for the measures so far, O(1) per step where :func:`goat_metrics`
-    replays every state. Same arithmetic in the same order, so the values are identical to
-    ``goat_metrics(subtask_types, states, ...)`` on the states given (tests/test_goat_metrics.py)."""
+    """:func:`goat_metrics` kept up to date one state at a time, O(1) per step: ``GoatMeasures(subtask_types,
+    num_goals, success_distance, max_steps)``, then :meth:`reset` with the state at reset, :meth:`step` with
+    each later state, and :meth:`result` for the measures so far (``goat_metrics`` runs a whole sequence
+    through it)."""
 
     def __init__(self, subtask_types: Sequence[str], num_goals: int | None = None,
                  success_distance: float = 0.25, max_steps: int | None = None) -> None:
@@ -293,6 +233,7 @@ class GoatMeasures:
             "distance_to_goal": self.d,
         })
         return out
+
 
 # ------------------------------------------------------------------------------------------- VLN-CE
 # The measures of VLN-CE (R2R-CE, RxR-CE) as its reference code computes them: jacobkrantz/VLN-CE

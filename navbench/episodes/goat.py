@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goal, select_episodes
+from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goals, select_episodes
 from navbench.episodes.io import _episode, _vec, read_json
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import GOAT_STOP, GoatMeasures
@@ -189,14 +189,7 @@ def _goal(g: Any) -> GoatGoal:
     images = g.get("image_goals") or []
     if not isinstance(images, list):
         raise TypeError("image_goals must be a list")
-    parsed_images = []
-    for i, p in enumerate(images):
-        try:
-            parsed_images.append(parse_image_goal(p))
-        except KeyError as exc:
-            raise ValueError(f"image_goals[{i}] has no {exc.args[0]!r}") from None
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"image_goals[{i}]: {exc}") from None
+    parsed_images = parse_image_goals(images)
     return GoatGoal(object_id, category, _vec(g["position"], 3, "position"),
                     np.array(points, np.float64).reshape(-1, 3), list(children), desc, parsed_images)
 

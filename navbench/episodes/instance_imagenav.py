@@ -90,6 +90,18 @@ def parse_image_goal(p: Any) -> ImageGoal:
     cover = [float(c) if isinstance(c, (int, float)) and not isinstance(c, bool) else None for c in cover]
     return ImageGoal(tuple(pos), tuple(rot), float(hfov), dims[0], dims[1], cover[0], cover[1])
 
+def parse_image_goals(raw: list) -> list[ImageGoal]:
+    """A goal's ``image_goals`` list, each entry by :func:`parse_image_goal`; ValueError naming the entry."""
+    out = []
+    for i, p in enumerate(raw):
+        try:
+            out.append(parse_image_goal(p))
+        except KeyError as exc:
+            raise ValueError(f"image_goals[{i}] has no {exc.args[0]!r}") from None
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"image_goals[{i}]: {exc}") from None
+    return out
+
 
 @dataclass
 class InstanceImageGoal(ObjectGoal):
@@ -209,14 +221,7 @@ def _goal(g: Any) -> InstanceImageGoal:
     raw_images = g["image_goals"]
     if not isinstance(raw_images, list) or not raw_images:
         raise ValueError("image_goals must be a non-empty list")
-    images = []
-    for i, p in enumerate(raw_images):
-        try:
-            images.append(parse_image_goal(p))
-        except KeyError as exc:
-            raise ValueError(f"image_goals[{i}] has no {exc.args[0]!r}") from None
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"image_goals[{i}]: {exc}") from None
+    images = parse_image_goals(raw_images)
     area = g.get("object_surface_area")
     extra = {k: v for k, v in base.extra.items() if k not in ("image_goals", "object_surface_area")}
     return InstanceImageGoal(**{**vars(base), "extra": extra}, image_goals=images,
