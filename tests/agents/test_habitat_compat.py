@@ -179,6 +179,7 @@ def test_reset_gets_the_episode_only_if_it_takes_one():
     assert isinstance(a, HabitatAgent) and adapt(a) is a
 
 
+@pytest.mark.slow  # an end-to-end run (seconds to tens of seconds): make test-slow
 def test_goal_follower_runs_unchanged_from_the_cli_and_evaluate(habitat_dir, pointnav10_file, tmp_path):
     out = tmp_path / "cli"
     assert main(["run", "--episodes", str(pointnav10_file), "--agent", "simple_agents_standin:GoalFollower",

@@ -37,6 +37,7 @@ def test_the_gt_rollout_runs_on_the_r2r_ce_body():
     assert BODY == c.nav_grid_config() and (c.forward_step, c.turn_angle_deg, c.allow_sliding) == (0.25, 15.0, True)
 
 
+@pytest.mark.slow  # an end-to-end run (seconds to tens of seconds): make test-slow
 def test_regeneration_is_byte_identical(small, tmp_path):
     generate_vlnce_split(tmp_path, SCENES_DIR, seed=5, plan=PLAN, log=lambda *_: None)
     for name in ("val.json.gz", "val_gt.json.gz"):
@@ -65,6 +66,7 @@ def test_gt_and_episodes_follow_vlnce(small):
     assert ds.word_list[:2] == ["<PAD>", "<UNK>"] and ds.word_list[2:] == sorted(ds.word_list[2:])
 
 
+@pytest.mark.slow  # an end-to-end run (seconds to tens of seconds): make test-slow
 def test_instructions_name_the_goal_room_and_landmark():
     h = HouseRoutes(scene_files(SCENES_DIR, "val")[0], SCENES_DIR)
     from navbench.episodes.vlnce_generate import route_episode

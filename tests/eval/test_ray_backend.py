@@ -76,6 +76,7 @@ def _ray_run(address: str, out: Path, *args: str) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+@pytest.mark.slow  # an end-to-end run (seconds to tens of seconds): make test-slow
 def test_ray_records_equal_the_local_backends(cluster, local_records, tmp_path):
     proc = _ray_run(cluster[0], tmp_path / "ray", "--limit", "20")
     stdout, stderr = proc.communicate(timeout=600)

@@ -95,6 +95,7 @@ def test_a_house_regenerates_byte_for_byte(tmp_path, monkeypatch):
     assert a.read_bytes() == b.read_bytes()
 
 
+@pytest.mark.slow  # an end-to-end run (seconds to tens of seconds): make test-slow
 @pytest.mark.parametrize("task,k", [("instance_imagenav", 3), ("goat", 1)])
 def test_the_oracle_reaches_every_goal_of_the_bundled_split(tmp_path, task, k):
     summary = navbench.evaluate("oracle", task=task, per_scene=k, out=tmp_path / "run")
