@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from navbench.env.base import NavEnv
 from navbench.env.config import EnvConfig
@@ -80,7 +81,8 @@ class VLNCEEnv(NavEnv):
     def _observation_spaces(self) -> dict:
         obs = super()._observation_spaces()
         ins = obs.get("instruction")
-        if ins is not None and "features" in ins.spaces:  # RxR with text features: VLN-CE's sensor uuid too
+        # RxR with text features: also under VLN-CE's sensor uuid
+        if isinstance(ins, spaces.Dict) and "features" in ins.spaces:
             obs["rxr_instruction"] = ins.spaces["features"]
         return obs
 

@@ -315,7 +315,7 @@ class GoatProgress:
         self._measures = GoatMeasures([t.type for t in episode.tasks], episode.num_goals, success_distance,
                                       max_steps)
 
-    def reset(self, position: Sequence[float], distance: float) -> None:
+    def reset(self, position: Sequence[float] | np.ndarray, distance: float) -> None:
         self.states = [(None, [float(v) for v in position], float(distance))]
         self.active = 0
         self.stop_called = False
@@ -338,7 +338,8 @@ class GoatProgress:
     def over(self) -> bool:
         return self.stop_called or self.active >= self.episode.num_goals or self.num_steps >= self.max_steps
 
-    def step(self, action: int, position: Sequence[float], distance_to: Callable[[int], float]) -> None:
+    def step(self, action: int, position: Sequence[float] | np.ndarray,
+             distance_to: Callable[[int], float]) -> None:
         if not self.states or self.over:
             raise RuntimeError("GOAT episode is over (or not started): reset() first")
         action = int(action)

@@ -22,11 +22,16 @@ from navbench.scene.asset import SceneAsset
 
 
 class CameraGoal(Protocol):
-    position: tuple[float, float, float]
-    rotation: tuple[float, float, float, float]
-    hfov_deg: float
-    height: int
-    width: int
+    @property
+    def position(self) -> tuple[float, float, float]: ...
+    @property
+    def rotation(self) -> tuple[float, float, float, float]: ...
+    @property
+    def hfov_deg(self) -> float: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def width(self) -> int: ...
 
 
 def image_goal_camera(goal: CameraGoal) -> CameraConfig:
