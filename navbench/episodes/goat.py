@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goals, select_episodes
+from navbench.episodes.instance_imagenav import ImageGoal, parse_image_goals, select_episodes, split_files
 from navbench.episodes.io import _episode, _vec, read_json
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import GOAT_STOP, GoatMeasures
@@ -127,10 +127,7 @@ def load_goat(path: str | Path, select: Callable[..., list[Episode]] | None = No
     keeps (:func:`~navbench.episodes.instance_imagenav.select_episodes`). Each file is read whole, at most
     ``cap`` bytes decompressed."""
     path = Path(path)
-    files = [path]
-    content = path.parent / "content"
-    if content.is_dir():
-        files += sorted(f for f in content.iterdir() if f.name.endswith((".json", ".json.gz")) and f.is_file())
+    files = split_files(path)
     dataset = EpisodeDataset()
     for f in files:
         dataset.episodes += _read_file(f, read_json(f, cap))

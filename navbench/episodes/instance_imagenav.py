@@ -90,6 +90,13 @@ def parse_image_goal(p: Any) -> ImageGoal:
     cover = [float(c) if isinstance(c, (int, float)) and not isinstance(c, bool) else None for c in cover]
     return ImageGoal(tuple(pos), tuple(rot), float(hfov), dims[0], dims[1], cover[0], cover[1])
 
+def split_files(path: Path) -> list[Path]:
+    """A split file, then every ``content/*.json(.gz)`` beside it, sorted (habitat-lab's per-scene layout)."""
+    content = path.parent / "content"
+    if not content.is_dir():
+        return [path]
+    return [path, *sorted(f for f in content.iterdir() if f.name.endswith((".json", ".json.gz")) and f.is_file())]
+
 def parse_image_goals(raw: list) -> list[ImageGoal]:
     """A goal's ``image_goals`` list, each entry by :func:`parse_image_goal`; ValueError naming the entry."""
     out = []
@@ -180,10 +187,7 @@ def load_instance_imagenav(path: str | Path, select: Callable[..., list[Episode]
     decompressed. Anything unusable is one-line :class:`EpisodeError` naming the file, the episode and
     the field."""
     path = Path(path)
-    files = [path]
-    content = path.parent / "content"
-    if content.is_dir():
-        files += sorted(f for f in content.iterdir() if f.name.endswith((".json", ".json.gz")) and f.is_file())
+    files = split_files(path)
     dataset = EpisodeDataset()
     goals: dict[str, InstanceImageGoal] = {}
     for f in files:
