@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # InstanceImageNav, GOAT-Bench and ImageNav val (docs/tasks.md): `bash results/tasks.sh run` runs the oracle and the
-# memory agent on the InstanceImageNav and GOAT-Bench val splits, the frontier agent on InstanceImageNav's first FK
-# episodes of each house (it explores: about 15 s an episode on 2 cores; it is refused on GOAT and ImageNav) and the
-# memory agent on ImageNav's first IK of each house (its goal-camera search: seconds an episode; the oracle's ImageNav
+# memory agent on the InstanceImageNav and GOAT-Bench val splits, the frontier agent on all of GOAT-Bench val and on
+# InstanceImageNav's first FK episodes of each house (it explores: about 15 s an episode on 2 cores; it is refused on
+# ImageNav) and the memory agent on ImageNav's first IK of each house (its goal-camera search: seconds an episode; the oracle's ImageNav
 # run is make results-oracle's), `... tables` writes results/instance_imagenav.md, results/goat.md and
 # results/imagenav.md, `... all` does both (`make results-tasks`). NB: the navbench command; PY: the Python that runs
 # navbench.eval.goat_table; RUNS: the runs' root; LIMIT=N: the first N episodes of each split only (a quick look).
@@ -12,6 +12,7 @@ runs_all() {
   for t in instance_imagenav goat; do for a in oracle memory; do
     $NB run --runs-dir "$RUNS" --overwrite -q --task $t --split val --agent $a ${LIMIT:+--limit $LIMIT}
   done; done
+  $NB run --runs-dir "$RUNS" --overwrite -q --task goat --split val --agent frontier ${LIMIT:+--limit $LIMIT}
   $NB run --runs-dir "$RUNS" --overwrite -q --task instance_imagenav --split val --agent frontier --per-scene "$FK" \
     ${LIMIT:+--limit $LIMIT}
   $NB run --runs-dir "$RUNS" --overwrite -q --task imagenav --split val --agent memory --per-scene "$IK" \
@@ -29,8 +30,10 @@ tables() {
     echo '```'; echo
     shown $NB table --long "$i/oracle" "$i/memory"; } > results/instance_imagenav.md
   { echo "# GOAT-Bench val (\`make results-tasks\`)"; echo
-    shown $NB table --long "$g/oracle" "$g/memory"; echo
-    shown $PY -m navbench.eval.goat_table "$g/oracle" "$g/memory"; } > results/goat.md
+    shown $NB table --long "$g/oracle" "$g/memory" "$g/frontier"; echo
+    echo "Paired by episode: \`navbench compare $g/frontier $g/memory\`"; echo
+    echo '```'; $NB compare "$g/frontier" "$g/memory"; echo '```'; echo
+    shown $PY -m navbench.eval.goat_table "$g/oracle" "$g/memory" "$g/frontier"; } > results/goat.md
   local m=$RUNS/imagenav/val
   { echo "# ImageNav val (\`make results-tasks\`; the oracle's run: \`make results-oracle\`)"; echo
     echo "The memory agent ran the first $IK episodes of each house only (\`--per-scene $IK\`), the oracle all 400."

@@ -48,11 +48,12 @@ class Detector(Protocol):
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray: ...
 
 
-def reset_detector(detector: Detect | Detector, episode: Episode) -> None:
-    """Hand ``episode`` to a detector that takes it (a plain function needs none)."""
+def reset_detector(detector: Detect | Detector, episode: Episode, subtask: int = 0) -> None:
+    """Hand ``episode`` (a GOAT-Bench episode's ``subtask`` after the first) to a detector that takes it (a plain
+    function needs none)."""
     reset = getattr(detector, "reset", None)
     if callable(reset):
-        reset(episode)
+        reset(episode, subtask=subtask) if subtask else reset(episode)
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,10 @@ pose (start pose + GPS/compass), and never sees the scene mesh or the navigabili
    targets far above or below the camera.
 5. **STOP** when no reachable frontier remains and nothing was detected.
 
+On a GOAT-Bench episode every STOP is a SUBTASK_STOP, and the next subtask starts as a new search from the
+agent's pose: a new map, a look-around, the detector taught the subtask's goal (category, description, or the
+goal image's caption). It keeps nothing between subtasks: the baseline that re-explores for every goal.
+
 Locomotion is the injected PointNav policy (the same ``StepPolicy`` as the memory agent). As in
 VLFM the policy does the local control; unlike VLFM, which hands it the frontier itself, the policy
 gets a waypoint ``waypoint_lookahead`` m along the map's geodesic to the target (held until the agent
@@ -45,7 +49,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from navbench.agents.base import xz_dist, xz_dists
+from navbench.agents.base import episode_seed, xz_dist, xz_dists
 from navbench.agents.common import (
     Detect,
     ObjectNavAgentBase,
@@ -58,6 +62,7 @@ from navbench.agents.common import (
 from navbench.agents.occupancy import Frontier, OccupancyConfig, OccupancyMap, trace_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import pointgoal_polar
+from navbench.episodes.goat import SUBTASK_STOP, GoatEpisode
 from navbench.episodes.types import Episode
 from navbench.localize.geometry import voxel_downsample
 from navbench.scene.pose import heading_vector
@@ -93,11 +98,21 @@ class FrontierAgent(ObjectNavAgentBase):
     # ----------------------------------------------------------------------------------- episode
     def reset(self, episode: Episode) -> None:
         reset_detector(self.detect, episode)  # the episode's scene and goal text
-        self.map.reset(np.asarray(episode.start_position, np.float64))
         self._begin(episode, {"events": [], "frontiers_chosen": 0, "first_detection_step": None,
                               "stop_reason": None, "bumps": 0})
+        self._episode = episode
+        self.subtask = 0  # a GOAT-Bench episode's active subtask
+        self._subtasks = len(episode.tasks) if isinstance(episode, GoatEpisode) else 0
+        self._position = np.asarray(episode.start_position, np.float64)
+        self.last_action: int | None = None
+        self._start_goal(self._position)
+
+    def _start_goal(self, position: np.ndarray) -> None:
+        """Search for a goal from ``position`` knowing nothing: a new map, a look-around, no detections."""
+        self.map.reset(position)
         self.watch = StuckWatch(self.config.stuck_window, self.config.stuck_progress)
         self.mode = "look_around"
+        self.look_until = self.step + self.config.initial_turns
         self.frontier: Frontier | None = None
         self.frontier_since = 0
         self.blacklist: list[np.ndarray] = []
@@ -106,7 +121,6 @@ class FrontierAgent(ObjectNavAgentBase):
         self.goal: np.ndarray | None = None  # current target point when approaching
         self.waypoint: np.ndarray | None = None
         self.overrides = 0  # steps within the STOP radius without a visible target
-        self.last_action: int | None = None
 
     def decision(self) -> list | None:
         """What the agent drives to now, for the run's trace: [mode, x, z] (dm; no point while looking around)."""
@@ -147,13 +161,28 @@ class FrontierAgent(ObjectNavAgentBase):
 
     # -------------------------------------------------------------------------------------- act
     def act(self, observations: dict[str, np.ndarray]) -> int:
-        self.last_action = self._act(observations)
-        return self.last_action
+        """One step (module docstring); on a GOAT-Bench episode a STOP closes the subtask (SUBTASK_STOP) and the
+        next one starts with a fresh search from where the agent stands."""
+        action = self._act(observations)
+        if action == STOP and self._subtasks:
+            action = self._next_subtask()
+        self.last_action = action
+        return action
+
+    def _next_subtask(self) -> int:
+        self._event("subtask_stop", subtask=self.subtask)
+        self.subtask += 1
+        if self.subtask < self._subtasks:
+            self.policy.reset(seed=[*episode_seed(self.seed, self._episode), self.subtask])
+            reset_detector(self.detect, self._episode, self.subtask)
+            self._start_goal(self._position)
+        return SUBTASK_STOP
 
     def _act(self, observations: dict[str, np.ndarray]) -> int:
-        cfg, env = self.config, self.env_config
+        env = self.env_config
         self.step += 1
         position, yaw = self._pose(observations)
+        self._position = position
         self.watch.add(position)
         if self.last_action == MOVE_FORWARD and len(self.watch.positions) > 1 and \
                 xz_dist(position, self.watch.positions[-2]) < 0.25 * env.forward_step:
@@ -166,7 +195,7 @@ class FrontierAgent(ObjectNavAgentBase):
         self._add_detections(self.detect(observations, (position, yaw)))
 
         if self.mode == "look_around":
-            if self.step <= cfg.initial_turns:
+            if self.step <= self.look_until:
                 return TURN_LEFT
             self.mode = "explore"
             self.watch.restart(position)  # turning in place is not being stuck

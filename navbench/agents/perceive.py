@@ -248,9 +248,11 @@ class LiveDetector:
         """The image the segmenter reads: the renderer's instance ids for the oracle, else RGB."""
         return ("semantic",) if self.cfg.perception == "oracle" else ("rgb",)
 
-    def reset(self, episode: Episode, query: str | None = None) -> None:
-        """Detect the episode's category (an InstanceImageNav episode's: its goal image's caption, as the
-        localiser prompts with it), or ``query`` (the localiser's prompt, taught by :class:`SceneLocalizer`)."""
+    def reset(self, episode: Episode, query: str | None = None, subtask: int = 0) -> None:
+        """Detect the episode's goal: its category, an InstanceImageNav episode's goal image or a GOAT-Bench
+        episode's ``subtask`` (its category, description or image; an image as its caption, as the localiser
+        prompts with it), or ``query`` (the localiser's prompt, taught by :class:`SceneLocalizer`)."""
+        from navbench.episodes.goat import GoatEpisode
         from navbench.episodes.instance_imagenav import InstanceImageEpisode
 
         path = resolve_scene_path(episode.scene_id, self.scene_dir)
@@ -258,9 +260,10 @@ class LiveDetector:
         if path != self._path:
             self.segmenter = stack.segmenter
             self._path = path
-        if query is None and isinstance(episode, InstanceImageEpisode):
-            query = query_prompt(goal_query(episode, 0, lambda: _scene(path))[0], stack.captioner)
-            _teach_goals(stack, episode, path, query)
+        if query is None and isinstance(episode, (InstanceImageEpisode, GoatEpisode)):
+            goal, positions = goal_query(episode, subtask, lambda: _scene(path))
+            query = query_prompt(goal, stack.captioner)
+            _teach_goals(stack, episode, path, query, positions)
         elif query is None:
             _teach_goals(stack, episode, path)
         self.query = (episode.object_category or "") if query is None else query

@@ -259,7 +259,8 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
               prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", level_camera=True,
               goals=_MEMORY_GOALS, **_POLICY_FILES),
     AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
-              explores=True, level_camera=True, goals=(*_OBJECT_GOALS, "instance_imagegoal"), **_POLICY_FILES),
+              explores=True, level_camera=True, goals=(*_OBJECT_GOALS, "instance_imagegoal", "current_subtask"),
+              **_POLICY_FILES),
     AgentSpec("vln_random", make_vln_random, RandomOptions, help="VLN-CE's RandomAgent: actions drawn from the "
               "R2R training set's oracle distribution", gps_free=True),
     AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "

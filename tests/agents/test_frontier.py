@@ -255,6 +255,53 @@ def test_heads_to_detected_target_and_stops_close_when_visible():
     assert agent2.episode_log()["stop_reason"] != "target_visible"
 
 
+class SubtaskDetector:
+    """Sees the active subtask's target patch whenever it is ahead of the camera and < 5 m away; records the
+    subtasks it is reset for."""
+
+    def __init__(self, targets):
+        self.targets, self.resets, self.active = targets, [], 0
+
+    def reset(self, episode, query=None, subtask=0):
+        self.resets.append(subtask)
+        self.active = subtask
+
+    def __call__(self, obs, pose):
+        target = self.targets[self.active]
+        pos, yaw = pose
+        rel = target[:, [0, 2]].mean(0) - pos[[0, 2]]
+        h = heading_vector(yaw)[[0, 2]]
+        ahead, side = rel @ h, h[0] * rel[1] - h[1] * rel[0]
+        seen = ahead > 0 and np.linalg.norm(rel) < 5.0 and abs(math.atan2(side, ahead)) < math.radians(35)
+        return target if seen else np.zeros((0, 3))
+
+
+def test_on_goat_each_subtask_is_a_new_search_closed_with_subtask_stop():
+    from navbench.episodes.goat import SUBTASK_STOP, GoatEpisode, GoatSubtask
+
+    world = BoxWorld(-3.0, 3.0, -6.0, 1.0)
+    ep = world.episode()
+    goat = GoatEpisode(ep.episode_id, ep.scene_id, ep.start_position, ep.start_rotation,
+                       tasks=[GoatSubtask("chair", "object"), GoatSubtask("bed", "object")])
+    detect = SubtaskDetector([target_patch(1.0, -6.0), target_patch(-2.0, -6.0)])
+    agent = FrontierAgent(detect, GreedyPolicy(), FrontierAgentConfig(), ENV)
+    agent.reset(goat)
+    actions = []
+    for _ in range(400):
+        a = agent.act(world.obs())
+        actions.append(a)
+        if a == STOP or actions.count(SUBTASK_STOP) == 2:
+            break
+        world.step(a)
+    assert STOP not in actions and actions.count(SUBTASK_STOP) == 2
+    assert detect.resets == [0, 1]  # taught each subtask's goal
+    first = actions.index(SUBTASK_STOP)
+    assert actions[first + 1:first + 13] == [TURN_LEFT] * 12  # a new look-around: nothing kept from subtask 0
+    assert np.min(np.hypot(*(detect.targets[1][:, [0, 2]] - world.pos[[0, 2]]).T)) < 0.9
+    events = [e["event"] for e in agent.episode_log()["events"]]
+    assert events.count("subtask_stop") == 2 and events.count("look_around_done") == 2
+
+
 def test_not_visible_target_does_not_stop_immediately():
     world = BoxWorld(-3.0, 3.0, -6.0, 1.0)
     hidden = target_patch(0.0, -8.0)  # behind the wall: projected depth disagrees with the measured depth

@@ -106,14 +106,6 @@ def test_the_memory_agent_answers_every_goat_subtask_from_one_memory(tmp_path):
     assert len({s["memory_build_s"] for s in rec["log"]["subtasks"]}) == 1  # one memory for every subtask
 
 
-def test_the_frontier_agent_is_refused_goat_in_one_line(tmp_path, capsys):
-    from navbench.cli import main
-
-    assert main(["run", "--task", "goat", "--agent", "frontier", "--limit", "1", "--out", str(tmp_path / "r")]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "frontier" in err[0] and "instance_imagegoal" in err[0] and "memory" in err[0]
-
-
 def test_the_live_detector_looks_for_an_instance_goal_by_its_images_caption():
     """The frontier agent's detector: the caption the localiser would prompt with, not the file's category."""
     from navbench.agents.perceive import LiveDetector, PerceptionConfig
@@ -126,3 +118,21 @@ def test_the_live_detector_looks_for_an_instance_goal_by_its_images_caption():
     assert ground(det.query, load_scene(SCENES_DIR / ep.scene_id).objects) == [int(ep.goal_object_id)]
     det.reset(EPISODE)
     assert det.query == "chair" and PerceptionConfig().perception == "oracle"
+
+
+def test_the_live_detector_looks_for_each_goat_subtasks_goal():
+    """The frontier agent's detector on GOAT-Bench: a subtask's category, its description text, or its goal
+    image's caption (the localiser's prompts)."""
+    from navbench.agents.perceive import LiveDetector
+
+    ep = load_goat(split_file("goat", "val")).episodes[0]
+    assert {t.type for t in ep.tasks} == {"object", "description", "image"}
+    det = LiveDetector(SCENES_DIR)
+    for k, task in enumerate(ep.tasks):
+        det.reset(ep, subtask=k)
+        if task.type == "object":
+            assert det.query == task.category
+        elif task.type == "description":
+            assert det.query == ep.descriptions[k].strip()
+        else:
+            assert det.query not in (task.category, "") and task.category.replace("_", " ") in det.query
