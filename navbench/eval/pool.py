@@ -3,7 +3,9 @@
 Each worker is a spawned process with its own :class:`~navbench.eval.worker.EpisodeWorker` that takes
 tasks (lists of episode keys) over a pipe and sends back (:class:`~navbench.eval.worker.Msg`), per
 episode, where it begins and its record when it ends. The driver hands the next task to whichever
-worker is idle, in order. When a worker dies (SIGKILL, a segfault in the GL driver, the OOM killer),
+worker is idle, in order; a batched worker with a free slot and no episode left asks for the next task
+(``Msg.MORE``) without waiting for its slots to drain, so every slot stays busy and the workers finish
+together however long the episodes are. When a worker dies (SIGKILL, a segfault in the GL driver, the OOM killer),
 its records already sent are kept, the episodes it was running are retried on a fresh worker up to
 ``retries`` times and then recorded as failed ("worker died (signal 9)"), and the rest of its task
 goes back to the front of the queue (a :class:`~navbench.eval.worker.RetryLedger` keeps the count).
@@ -60,6 +62,15 @@ def _send_exception(conn, exc: BaseException) -> None:
         conn.send((Msg.ERROR, RunError(f"worker: {failure_reason(exc)}")))
 
 
+def _more(conn) -> list[Key]:
+    """A batched worker's refill: ask the driver for more keys and wait for them ([]: there are none)."""
+    conn.send((Msg.MORE, None))
+    keys = conn.recv()
+    if keys is None:  # the driver is stopping
+        raise EOFError
+    return keys
+
+
 def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
     try:
         worker = EpisodeWorker(cfg, make_agent, single_thread=True)
@@ -78,7 +89,7 @@ def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
             if keys is None:
                 return
             try:
-                worker.run(keys, lambda rec: conn.send((Msg.RECORD, rec)), clock, tracker)
+                worker.run(keys, lambda rec: conn.send((Msg.RECORD, rec)), clock, tracker, lambda: _more(conn))
             except (BrokenPipeError, EOFError):
                 raise
             except Exception as exc:  # bad input (EpisodeError, SceneError) or a bug: ends the run
@@ -110,7 +121,7 @@ class _Worker:
         self.kill_reason: str | None = None
 
     def give(self, task: list[Key]) -> None:
-        self.task, self.begun, self.done = task, {}, set()
+        self.task, self.begun, self.done = list(task), {}, set()
         self.task_started = time.monotonic()
         self.conn.send(task)
 
@@ -194,6 +205,11 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
                 elif kind is Msg.RECORD:
                     w.done.add((value["scene_id"], value["episode_id"]))
                     finish(value)
+                elif kind is Msg.MORE:  # a free slot: the next task joins this worker's
+                    keys = queue.popleft() if queue else []
+                    if w.task is not None:
+                        w.task.extend(keys)
+                    w.conn.send(keys)
                 elif kind is Msg.DONE:
                     w.task = None
                 elif kind is Msg.ERROR:

@@ -269,12 +269,15 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
         size = task_size(len(todo), workers, cfg.envs_per_worker)
         # No more env slots than a worker can fill (a one-episode run builds one env and one agent).
         wcfg = dataclasses.replace(cfg, envs_per_worker=max(1, min(cfg.envs_per_worker, size)))
+        pool = workers > 1 and len(todo) > 1 or step_timeout is not None
+        if execution.backend != "ray" and pool and wcfg.envs_per_worker > 1:
+            size = 1  # a pool worker refills each free slot with the next episode (navbench.eval.pool)
         if execution.backend == "ray":
             from navbench.eval.ray_backend import run_ray
             run_ray(wcfg, make_agent, todo, finish, address=execution.address, retries=execution.retries,
                     step_timeout=step_timeout, workers=workers)
         # In this process when one worker (or one episode) will do, unless a hung agent call must be killable.
-        elif (workers <= 1 or len(todo) <= 1) and step_timeout is None or not todo:
+        elif not pool or not todo:
             if todo:
                 with EpisodeWorker(wcfg, make_agent) as worker:
                     worker.run(todo, finish, Clock(step_timeout))

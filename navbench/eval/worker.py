@@ -307,9 +307,10 @@ def run_episode(env: NavEnv, agent: Agent, episode: Episode, cfg: RunConfig, clo
 
 def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[Episode], cfg: RunConfig,
                          finish: Callable[[dict[str, Any]], None], clock: Clock | None = None,
-                         tracker: Tracker = _NO_TRACKER) -> None:
+                         tracker: Tracker = _NO_TRACKER, more: Callable[[], list[Episode]] | None = None) -> None:
     """Step ``len(envs)`` episodes in lockstep, one ``agent.act_batch`` per step for all of them; a slot
-    whose episode ends takes the next one, in order. Each record goes to ``finish`` as its episode ends.
+    whose episode ends takes the next one, in order, and when ``episodes`` are used up the ones ``more()``
+    hands out (until it returns none). Each record goes to ``finish`` as its episode ends.
 
     Every slot's recurrent state is its own, so an episode's outcome does not depend on which slot or
     batch it ran in (tests/eval/test_runner.py checks the records equal the one-at-a-time run's). A failed
@@ -324,9 +325,17 @@ def run_episodes_batched(envs: list[NavEnv], agent: BatchAgent, episodes: list[E
     obs: list[dict | None] = [None] * len(envs)
     failed: list[Exception] = []
 
+    def refill() -> bool:
+        nonlocal more
+        if more is not None and not failed:
+            queue.extend(more())
+            if not queue:
+                more = None  # the driver has nothing left
+        return bool(queue)
+
     def start(i: int) -> None:
         slots[i] = None
-        while queue:
+        while queue or refill():
             ep = queue.pop(0)
             try:
                 record, first, t0, d0 = _begin(envs[i], ep, cfg, tracker, i)
@@ -436,7 +445,7 @@ class EpisodeWorker:
         return self._by_key[key]
 
     def run(self, keys: Iterable[Key], finish: Callable[[dict[str, Any]], None], clock: Clock | None = None,
-            tracker: Tracker = _NO_TRACKER) -> None:
+            tracker: Tracker = _NO_TRACKER, more: Callable[[], list[Key]] | None = None) -> None:
         """Run the episodes ``keys`` in order, handing each record to ``finish`` as its episode ends.
 
         Args:
@@ -444,10 +453,12 @@ class EpisodeWorker:
             finish: takes each record; it may raise to stop the task.
             clock: times agent calls against the step limit (default: no limit).
             tracker: hears where each slot's episode is (a pool worker tells its driver).
+            more: a batched worker's refill: further keys for a free slot once ``keys`` are used up ([]: none).
         """
         episodes = [self._by_key[k] for k in keys]
         if self.batched:
-            run_episodes_batched(self.envs, self.agent, episodes, self.cfg, finish, clock, tracker)
+            refill = (lambda: [self._by_key[k] for k in more()]) if more is not None else None
+            run_episodes_batched(self.envs, self.agent, episodes, self.cfg, finish, clock, tracker, refill)
         else:
             for ep in episodes:
                 finish(run_episode(self.envs[0], self.agent, ep, self.cfg, clock, tracker))
@@ -478,6 +489,7 @@ class Msg(enum.Enum):
     BEGIN = "begin"  # an episode begins: (slot, key, record so far)
     RECORD = "record"  # an episode ended: its record
     DONE = "done"  # the task is finished
+    MORE = "more"  # a batched worker has a free slot and no episode left: the driver answers with keys, [] at the end
     ERROR = "error"  # bad input or a bug: the exception, which ends the run
 
 

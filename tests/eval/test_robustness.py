@@ -190,6 +190,25 @@ def test_batched_invalid_action_fails_only_its_slot(pointnav_file, tmp_path):
     assert all(r["success"] == 1.0 for i, r in recs.items() if i != bad)
 
 
+def test_a_batched_worker_refills_free_slots_until_the_driver_has_nothing_left(pointnav_file):
+    """``EpisodeWorker.run(keys, more=)``: once ``keys`` are used up, each free slot asks ``more()`` for the
+    next keys, until it returns none; it is not asked again after that."""
+    from navbench.eval.worker import EpisodeWorker
+
+    keys = [(e.scene_id, e.episode_id) for e in load_dataset(pointnav_file).episodes]
+    handed, calls, records = [[k] for k in keys[2:]], [], []
+
+    def more():
+        calls.append(len(handed))
+        return handed.pop(0) if handed else []
+
+    with EpisodeWorker(_cfg(pointnav_file, envs_per_worker=3), lambda cfg: _BatchOfOracles(cfg, None)) as worker:
+        worker.run(keys[:2], records.append, more=more)
+    assert sorted(r["episode_id"] for r in records) == sorted(k[1] for k in keys)
+    assert all(r["success"] == 1.0 for r in records)
+    assert calls == [4, 3, 2, 1, 0]  # the third slot's first ask, the refills, then one empty answer
+
+
 class _LogBreaks(OracleAgent):
     """An oracle whose decision log cannot be fetched (a remote agent's server gone after the last step)."""
 

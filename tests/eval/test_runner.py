@@ -221,6 +221,29 @@ def test_batched_policy_records_equal_one_at_a_time(pointnav_file, tmp_path):
     assert records[1, True] != records[1, False]  # sampling reached the agent
 
 
+def test_pool_workers_refill_free_slots_and_records_equal_one_at_a_time(pointnav_file, tmp_path, monkeypatch):
+    """Two pool workers of 3 lockstep slots each take one episode at a time as slots free (Msg.MORE): every
+    episode runs once, and the records equal the in-process one-at-a-time run's."""
+    from navbench.agents.registry import make_pointnav
+    from navbench.eval import pool
+
+    asked = []
+    real = pool.run_pool
+
+    def spy(cfg, make_agent, tasks, *args, **kw):
+        asked.append([len(t) for t in tasks])
+        return real(cfg, make_agent, tasks, *args, **kw)
+
+    monkeypatch.setattr(pool, "run_pool", spy)
+    cfg = dict(agent="pointnav", env={"max_steps": 30})
+    run(_cfg(pointnav_file, "pointnav", envs_per_worker=1, **cfg), make_pointnav, tmp_path / "one")
+    run(_cfg(pointnav_file, "pointnav", envs_per_worker=3, **cfg), make_pointnav, tmp_path / "pool",
+        execution=Execution(workers=2))
+    assert asked == [[1] * 6]  # one-episode tasks: a worker's slots are refilled, not drained
+    one, pooled = (comparable(read_records(tmp_path / d / "episodes.jsonl")) for d in ("one", "pool"))
+    assert len(pooled) == 6 and sorted(pooled, key=str) == sorted(one, key=str)
+
+
 def test_a_worker_whose_env_cannot_start_closes_its_agent(pointnav_file, tmp_path):
     """The env's first reset (a bad episode) fails after the agent is built: the agent is closed anyway."""
     from navbench.episodes.types import EpisodeError
