@@ -212,10 +212,19 @@ def run_intervals(run_dir: str | Path, summary: dict[str, Any], first: int | Non
     if first is None and _valid_ci(summary.get("ci95"), metrics):
         return summary["ci95"]
     recs = run_records(run_dir, first)
+    if not recs:
+        return None
+    # A measure some episodes cannot take (null: GOAT's per-type figures without that type) is bootstrapped over
+    # the episodes that have it, as the summary averages it; the others together.
+    whole = tuple(m for m in metrics if all(r.get(m) is not None for r in recs))
     try:
-        return intervals(recs, metrics) if recs else None
+        out = intervals(recs, whole) if whole else {}
+        for m in metrics:
+            if m not in whole and any(r.get(m) is not None for r in recs):
+                out.update(intervals([r for r in recs if r.get(m) is not None], (m,)))
     except StatsError as exc:
         raise TableError(f"{Path(run_dir) / 'episodes.jsonl'}: {exc}") from None
+    return out
 
 
 def _protocols(run_dirs: list[str | Path], mix_protocols: bool) -> list[str] | None:

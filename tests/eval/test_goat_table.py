@@ -33,3 +33,18 @@ def test_a_run_of_another_task_is_refused_in_one_line(tmp_path, capsys):
     assert main([str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not a GOAT-Bench run" in err[0]
+
+
+def test_navbench_table_long_bootstraps_a_measure_over_the_episodes_that_take_it():
+    """goat-bench's corrected per-type measures are null in an episode without that type: ``navbench table
+    --long`` scores them over the episodes that have them, and every other measure over all episodes."""
+    from navbench.eval.stats import intervals
+    from navbench.eval.table import run_intervals, run_records
+
+    run = RESULTS_DIR / "runs" / "goat" / "val" / "memory"
+    recs = run_records(run)
+    m = "description_success_corrected"
+    assert any(r[m] is None for r in recs)
+    ci = run_intervals(run, {"task": "goat", "success": 1.0, m: 1.0})
+    assert ci[m] == intervals([r for r in recs if r[m] is not None], (m,))[m]
+    assert ci["success"] == intervals(recs, ("success",))["success"]
