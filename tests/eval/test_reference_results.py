@@ -77,7 +77,7 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
                                   "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier",
                                   "imagenav/val/oracle", "imagenav/val/memory", "instance_imagenav/val/oracle",
                                   "instance_imagenav/val/memory", "instance_imagenav/val/frontier", "goat/val/oracle",
-                                  "goat/val/memory"])
+                                  "goat/val/memory", "goat/val/frontier"])
 def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):
     monkeypatch.chdir(RESULTS_DIR.parent)  # a --checkpoint in a run's config is relative to the project root
     cfg = ref_config(RUNS / name)
