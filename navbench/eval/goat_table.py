@@ -8,7 +8,8 @@ per-subtask figures); its type is its episode's ``tasks[k]``, read from the run'
 episode never reached (a plain STOP or the step limit first) counts as a failure. The intervals are
 :func:`navbench.eval.stats.intervals`' two-stage bootstrap over the subtasks (houses, then subtasks).
 Where a run's records carry the memory agent's per-subtask log, the mean localisation time per subtask is
-shown beside them: the memory is built once per house and every subtask is a query to it.
+shown beside them: the memory is built once per house and every subtask is a query to it. Last, the steps each
+run took per subtask it closed.
 """
 
 from __future__ import annotations
@@ -96,6 +97,19 @@ def measures(run_dirs: list[str]) -> list[str]:
     return lines
 
 
+def steps(run_dirs: list[str]) -> list[str]:
+    """What each run's subtasks cost in steps: the episodes' steps over the subtasks they closed (SUBTASK_STOP
+    included; the steps after the last one, to a STOP or the limit, count too)."""
+    lines = ["| run | episodes | steps | subtasks closed | steps per closed subtask |", "|---|---|---|---|---|"]
+    for d in run_dirs:
+        cfg = json.loads((Path(d) / "config.json").read_text())
+        recs = [r for r in read_records(Path(d) / "episodes.jsonl") if not r.get("skipped")]
+        n, closed = sum(int(r["num_steps"]) for r in recs), sum(int(r.get("subtasks_closed") or 0) for r in recs)
+        per = f"{n / closed:.1f}" if closed else "-"
+        lines.append(f"| {cfg.get('label') or Path(d).name} | {len(recs)} | {n} | {closed} | {per} |")
+    return lines
+
+
 def report(run_dirs: list[str]) -> str:
     runs = [subtask_rows(d) for d in run_dirs]
     indices = sorted({r["index"] for _, rows in runs for r in rows})
@@ -106,6 +120,7 @@ def report(run_dirs: list[str]) -> str:
     out += table(runs, "index", indices, lambda k: ORDINALS[k] if k < len(ORDINALS) else str(k + 1))
     out += ["", "### By goal type", ""]
     out += table(runs, "type", types, str)
+    out += ["", "### Steps", ""] + steps(run_dirs)
     return "\n".join(out) + "\n"
 
 

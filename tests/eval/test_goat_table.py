@@ -14,6 +14,7 @@ def test_rows_follow_the_episodes_tasks_and_a_subtask_never_reached_fails(tmp_pa
     recs = [json.loads(line) for line in (run / "episodes.jsonl").read_text().splitlines()[:2]]
     recs[1]["subtask_success"] = recs[1]["subtask_success"][:2]  # as if it had stopped after two subtasks
     recs[1]["spl_by_subtask"] = recs[1]["spl_by_subtask"][:2]
+    recs[1]["subtasks_closed"] = 2
     (run / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
     label, rows = subtask_rows(run)
     episodes = load_goat(split_file("goat", "val")).episodes
@@ -26,6 +27,8 @@ def test_rows_follow_the_episodes_tasks_and_a_subtask_never_reached_fails(tmp_pa
     out = capsys.readouterr().out
     assert "| 1st | 2 | 100.0 [100.0, 100.0] |" in out and "| `partial_success` |" in out
     assert "| object |" in out or "| description |" in out
+    steps = sum(r["num_steps"] for r in recs)  # the first episode closed all its subtasks, the second two
+    assert f"| oracle | 2 | {steps} | {n0 + 2} | {steps / (n0 + 2):.1f} |" in out
 
 
 def test_a_run_of_another_task_is_refused_in_one_line(tmp_path, capsys):
