@@ -204,7 +204,7 @@ class SceneLocalizer:
         rgb, ids = render_image_goal_ids(_scene(path), goal)
         t0 = time.perf_counter()
         if modality(stack.encoder) == "instance_ids":
-            estimate = estimate_camera(memory, ids, c.hfov_deg)
+            estimate = estimate_camera(memory, ids, c.hfov_deg, rgb)
         else:
             estimate = retrieved_camera(memory, stack.encoder.encode_images([rgb])[0])
         self.last = {"query_ms": round(1000 * (time.perf_counter() - t0), 2),
