@@ -188,8 +188,8 @@ class SceneLocalizer:
         """Where an ImageNav episode's goal image was taken (a :class:`~navbench.localize.imagegoal.CameraEstimate`),
         from the scene's memory: the image is rendered as ``imagegoal`` is (the episode's RGB sensor at
         ``goals[0]``, facing :func:`~navbench.tasks.imagenav.goal_yaw`); oracle perception reads its instance ids
-        and searches the memory's labelled cloud for the pose, real models retrieve the keyframe nearest the
-        image's embedding."""
+        and colours and searches the memory's labelled cloud for the pose, real models retrieve the keyframe nearest
+        the image's embedding."""
         from navbench.episodes.instance_imagenav import ImageGoal
         from navbench.localize.imagegoal import estimate_camera, retrieved_camera
         from navbench.render.goal_images import render_image_goal_ids
