@@ -188,8 +188,8 @@ class SceneLocalizer:
         """Where an ImageNav episode's goal image was taken (a :class:`~navbench.localize.imagegoal.CameraEstimate`),
         from the scene's memory: the image is rendered as ``imagegoal`` is (the episode's RGB sensor at
         ``goals[0]``, facing :func:`~navbench.tasks.imagenav.goal_yaw`); oracle perception reads its instance ids
-        and searches the memory's labelled cloud for the pose, real models retrieve the keyframe nearest the
-        image's embedding."""
+        and colours and searches the memory's labelled cloud for the pose, real models retrieve the keyframe nearest
+        the image's embedding."""
         from navbench.episodes.instance_imagenav import ImageGoal
         from navbench.localize.imagegoal import estimate_camera, retrieved_camera
         from navbench.render.goal_images import render_image_goal_ids
@@ -204,7 +204,7 @@ class SceneLocalizer:
         rgb, ids = render_image_goal_ids(_scene(path), goal)
         t0 = time.perf_counter()
         if modality(stack.encoder) == "instance_ids":
-            estimate = estimate_camera(memory, ids, c.hfov_deg)
+            estimate = estimate_camera(memory, ids, c.hfov_deg, rgb)
         else:
             estimate = retrieved_camera(memory, stack.encoder.encode_images([rgb])[0])
         self.last = {"query_ms": round(1000 * (time.perf_counter() - t0), 2),

@@ -3,12 +3,21 @@
 ImageNav's goal is a camera position (success: STOP within 0.2 m of where the goal image was taken), so the
 localiser's object candidates do not answer it. Under oracle perception (instance ids, :func:`estimate_camera`):
 
-1. **Retrieve** the keyframes most like the goal image: histogram intersection of their instance-id pixel counts.
-2. **Render from memory**: the keyframes' depth, back-projected with their ids (every ``stride``-th pixel), is a
-   labelled point cloud; a candidate camera (level, at the keyframes' camera height, position x z and yaw) sees
-   the nearest point at each pixel of a small image. A pose scores the intersection over union of the object
-   pixels its view and the goal image agree on (:func:`match_score`; structure, -1, looks alike from many places).
-3. **Search** the pose: a coarse grid round each retrieved keyframe, then two finer grids round the best pose.
+1. **Memory cloud**: the keyframes' depth, back-projected (every ``stride``-th pixel) with each pixel's instance
+   id and colour, is a labelled, coloured point cloud of the house, kept once per memory.
+2. **Labels**: a goal pixel showing an object is labelled by its id; one showing structure (walls, floors: id -1)
+   by its colour among the goal image's few structure colours (flat-shaded walls and floors tell rooms apart).
+   A cloud point takes its id, or the goal colour its own is nearest (none if farther than ``colour_tolerance``).
+3. **Free floor**: a candidate camera stands where the cloud shows floor and no obstacle within ``clearance``
+   (points between ``obstacle`` heights above the floor): never in a wall or in furniture.
+4. **Panoramic renders**: a candidate camera position (level, at the keyframes' camera height) sees the cloud as
+   a cylindrical image (columns: heading, rows: tangent of elevation), the nearest point per cell, then each
+   cell takes a neighbour's point where that is clearly nearer (the sparse cloud's far points do not show through
+   near surfaces). Every heading is one shift of its columns, so one render scores all yaws: the weighted share of
+   the goal image's cells (resampled onto the cylinder) whose label the render shows (:func:`score_headings`).
+5. **Search**: every free position on a coarse grid round the keyframes most like the goal image (histogram
+   intersection of instance-id pixel counts, ``top_k``), or round all keyframes when the goal shows no object;
+   then finer grids, finer clouds and finer headings round the best ``keep`` poses of each stage.
 
 With real embedding models the memory holds no instance ids: the estimate is the camera position of the keyframe
 the FAISS index retrieves for the goal image (:func:`retrieved_camera`), which is as near as the pre-scan came.
@@ -20,51 +29,67 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from navbench.localize.geometry import backproject, world_to_camera
+from navbench.localize.geometry import backproject
 from navbench.memory.prescan import Memory
-from navbench.render.camera import camera_pose
-from navbench.scene.pose import quat_from_yaw
 
 
 @dataclass(frozen=True)
 class ImageGoalConfig:
-    stride: int = 6  # keyframe pixels back-projected into the memory's cloud (every stride-th row and column)
-    top_k: int = 2  # retrieved keyframes the search starts round
-    radius: float = 8.0  # cloud points farther than this (xz) from the retrieved keyframes are left out
-    # (half-width m, step m, yaw half-width deg, yaw step deg, rendered image side px, cloud voxel m) of each
-    # search stage; a yaw half-width of 180 searches every heading
-    stages: tuple[tuple[float, float, float, float, int, float], ...] = (
-        (1.2, 0.4, 180.0, 30.0, 16, 0.25), (0.4, 0.1, 20.0, 5.0, 24, 0.15), (0.1, 0.05, 5.0, 2.5, 32, 0.1))
+    stride: int = 4  # keyframe pixels back-projected into the memory's cloud (every stride-th row and column)
+    top_k: int = 8  # retrieved keyframes the coarse grid covers
+    reach: float = 2.5  # the coarse grid's half-width (m) round each retrieved keyframe
+    radius: float = 9.0  # cloud points farther than this (xz) from every candidate are left out
+    colour_tolerance: float = 40.0  # largest RGB channel difference of a structure point from a goal colour
+    object_weight: float = 3.0  # a goal object cell's weight in a score, a structure cell's being 1
+    clearance: float = 0.15  # m from the nearest obstacle point a candidate camera keeps
+    obstacle: tuple[float, float] = (0.15, 1.0)  # heights above the floor (m) whose points are obstacles
+    cell: float = 0.05  # free-floor grid cell (m)
+    fill: int = 2  # passes of nearer-neighbour filling of each render
+    # (grid step m, half-width m round the kept poses or 0 for the coarse grid, cloud voxel m, cylinder columns
+    # (headings), cylinder rows, poses kept for the next stage) of each search stage
+    stages: tuple[tuple[float, float, float, int, int, int], ...] = (
+        (0.25, 0.0, 0.2, 96, 24, 4), (0.1, 0.3, 0.1, 180, 40, 2), (0.05, 0.2, 0.03, 360, 64, 1))
 
 
 @dataclass
 class MemoryCloud:
-    """The memory's keyframes as one labelled point cloud, and each keyframe's instance-id pixel counts."""
+    """The memory's keyframes as one labelled, coloured point cloud, and each keyframe's id pixel counts."""
     points: np.ndarray  # (N, 3) world
     ids: np.ndarray  # (N,) instance id, -1 structure
+    colours: np.ndarray  # (N, 3) uint8
     histograms: list[dict[int, float]]  # per keyframe: id -> share of its object pixels
     camera_y: np.ndarray  # (K,) keyframe camera heights (world y)
     positions: np.ndarray  # (K, 3) keyframe camera positions
     yaws: np.ndarray  # (K,)
-    _voxels: dict[float, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    camera_height: float  # the keyframes' camera height above the floor
+    _voxels: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict)
+    _free: dict[tuple, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
-    def voxels(self, voxel: float) -> tuple[np.ndarray, np.ndarray]:
-        """The cloud with one point per ``voxel``-sided cube (kept once made)."""
+    def voxels(self, voxel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The cloud with one point per ``voxel``-sided cube (kept once made): points, ids, colours."""
         if voxel not in self._voxels:
-            self._voxels[voxel] = voxel_downsample(self.points, self.ids, voxel)
+            kept = voxel_downsample(self.points, voxel)
+            self._voxels[voxel] = self.points[kept], self.ids[kept], self.colours[kept]
         return self._voxels[voxel]
+
+    def free(self, floor: float, config: ImageGoalConfig) -> tuple[np.ndarray, np.ndarray]:
+        """Free floor at height ``floor`` (:func:`free_floor`, kept once made): the grid, its xz origin."""
+        key = (round(floor, 2), config.cell, config.clearance, config.obstacle)
+        if key not in self._free:
+            self._free[key] = free_floor(self.points, floor, config)
+        return self._free[key]
 
 
 _CLOUDS: dict[tuple[str, int], MemoryCloud] = {}
 
 
-def memory_cloud(memory: Memory, stride: int = 6) -> MemoryCloud:
+def memory_cloud(memory: Memory, stride: int = 4) -> MemoryCloud:
     """The labelled cloud of ``memory`` (built once per process and memory)."""
     key = (str(memory.directory), stride)
     if key in _CLOUDS:
         return _CLOUDS[key]
     store = memory.store
-    pts, ids, hists = [], [], []
+    pts, ids, cols, hists = [], [], [], []
     for k in range(len(store)):
         depth, kid = store.depth(k), store.instance_ids(k)
         mask = np.zeros(depth.shape, bool)
@@ -72,11 +97,13 @@ def memory_cloud(memory: Memory, stride: int = 6) -> MemoryCloud:
         valid = mask & (depth > 0.1) & (depth < 20.0)
         pts.append(backproject(depth, valid, store.K(k), store.pose(k)))
         ids.append(kid[valid])
+        cols.append(store.rgb(k)[valid])
         hists.append(_histogram(kid[mask]))
     poses = store.poses()
     fwd = -poses[:, :3, 2]  # the camera looks along -z
-    cloud = MemoryCloud(np.concatenate(pts), np.concatenate(ids).astype(np.int32), hists, poses[:, 1, 3].copy(),
-                        poses[:, :3, 3].copy(), np.arctan2(-fwd[:, 0], -fwd[:, 2]))
+    cloud = MemoryCloud(np.concatenate(pts), np.concatenate(ids).astype(np.int32), np.concatenate(cols), hists,
+                        poses[:, 1, 3].copy(), poses[:, :3, 3].copy(), np.arctan2(-fwd[:, 0], -fwd[:, 2]),
+                        float(memory.config.camera_height))
     _CLOUDS[key] = cloud
     return cloud
 
@@ -92,101 +119,271 @@ def similarity(a: dict[int, float], b: dict[int, float]) -> float:
     return sum(min(p, b[i]) for i, p in a.items() if i in b)
 
 
-def render_ids(points: np.ndarray, ids: np.ndarray, cameras: np.ndarray, hfov_deg: float, side: int,
-               aspect: float = 1.0) -> np.ndarray:
-    """(P, side_h, side) ids the memory's cloud shows each camera (``cameras``: (P, 3) x, y, z and (P,) yaw as
-    a (P, 4) array), the nearest point per pixel; -2 where no point falls."""
-    h = max(1, round(side * aspect))
-    f = (side / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
-    out = np.full((len(cameras), h * side), -2, np.int32)
-    for p, (x, y, z, yaw) in enumerate(cameras):
-        T = world_to_camera(camera_pose(np.array([x, y, z]), quat_from_yaw(float(yaw))))
-        cam = points @ T[:3, :3].T + T[:3, 3]
-        d = -cam[:, 2]
-        front = d > 0.1
-        d, cam, pid = d[front], cam[front], ids[front]
-        u = np.floor(f * cam[:, 0] / d + side / 2.0).astype(np.int64)
-        v = np.floor(-f * cam[:, 1] / d + h / 2.0).astype(np.int64)
-        ok = (u >= 0) & (u < side) & (v >= 0) & (v < h)
-        pix, d, pid = v[ok] * side + u[ok], d[ok], pid[ok]
-        order = np.lexsort((d, pix))  # by pixel, nearest first
-        pix, pid = pix[order], pid[order]
-        first = np.ones(len(pix), bool)
-        first[1:] = pix[1:] != pix[:-1]
-        out[p, pix[first]] = pid[first]
-    return out.reshape(len(cameras), h, side)
+def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
+    """Indices of one point (the first) per ``voxel``-sided cube of ``points``, in order."""
+    cells = np.floor(points / voxel).astype(np.int64)
+    cells -= cells.min(axis=0)
+    span = cells.max(axis=0) + 1
+    _, first = np.unique((cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2], return_index=True)
+    return np.sort(first)
 
 
-def voxel_downsample(points: np.ndarray, ids: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
-    """One point (the first) per ``voxel``-sided cube."""
-    keys = np.floor(points / voxel).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
-    first.sort()
-    return points[first], ids[first]
+def _dilate(grid: np.ndarray, n: int) -> np.ndarray:
+    out = grid.copy()
+    for dr in range(-n, n + 1):
+        for dc in range(-n, n + 1):
+            if dr * dr + dc * dc <= n * n:
+                out |= np.roll(np.roll(grid, dr, 0), dc, 1)
+    return out
 
 
-def _goal_at(goal_ids: np.ndarray, side: int) -> np.ndarray:
-    """The goal's ids at ``side`` columns (nearest pixel)."""
-    H, W = goal_ids.shape
-    h = max(1, round(side * H / W))
-    rows = ((np.arange(h) + 0.5) * H / h).astype(int)
-    cols = ((np.arange(side) + 0.5) * W / side).astype(int)
-    return goal_ids[np.ix_(rows, cols)]
+def free_floor(points: np.ndarray, floor: float, config: ImageGoalConfig = ImageGoalConfig()
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """A (rows, cols) grid of ``config.cell`` cells over xz (and its origin): True where the cloud shows floor
+    at height ``floor`` (gaps of a cell closed) and no obstacle point lies within ``config.clearance``."""
+    c = config.cell
+    y = points[:, 1] - floor
+    lo = points[:, [0, 2]].min(axis=0) - 4 * c
+    rows, cols = (np.ceil((points[:, [0, 2]].max(axis=0) - lo) / c).astype(int) + 4)
+    cells = np.floor((points[:, [0, 2]] - lo) / c).astype(np.int64)
+
+    def grid(mask):
+        g = np.zeros((rows, cols), bool)
+        g[cells[mask, 0], cells[mask, 1]] = True
+        return g
+    seen = _dilate(grid(np.abs(y) < 0.05), 1)
+    blocked = _dilate(grid((y > config.obstacle[0]) & (y < config.obstacle[1])), int(round(config.clearance / c)))
+    return seen & ~blocked, lo
 
 
-def match_score(shown: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """How well each rendered id image (P, h, w) matches ``target`` (h, w): the intersection over union of their
-    object pixels with equal ids (walls and floors look alike from many places); for a goal image showing no
-    object, the share of all pixels with equal ids."""
-    obj = target >= 0
-    if not obj.any():
-        return (shown == target).mean(axis=(1, 2))
-    same = ((shown == target) & obj).sum(axis=(1, 2))
-    return same / (obj.sum() + ((shown >= 0) & ~obj).sum(axis=(1, 2)))
+def _palette(rgb: np.ndarray, tolerance: float, most: int = 32) -> np.ndarray:
+    """The few colours of ``rgb`` (n, 3): each, most frequent first, unless within ``tolerance`` of one kept."""
+    values, counts = np.unique(rgb.reshape(-1, 3), axis=0, return_counts=True)
+    kept: list[np.ndarray] = []
+    for j in np.argsort(-counts, kind="stable"):
+        v = values[j].astype(np.int32)
+        if all(np.abs(v - k).max() > tolerance for k in kept):
+            kept.append(v)
+            if len(kept) == most:
+                break
+    return np.array(kept, np.int32).reshape(-1, 3)
+
+
+def _nearest_colour(colours: np.ndarray, palette: np.ndarray, tolerance: float) -> np.ndarray:
+    """Each colour's palette index (nearest by largest channel difference), -1 where none is within tolerance."""
+    if not len(palette):
+        return np.full(len(colours), -1, np.int64)
+    d = np.abs(colours[:, None, :].astype(np.int32) - palette[None]).max(axis=2)
+    j = np.argmin(d, axis=1)
+    return np.where(d[np.arange(len(j)), j] <= tolerance, j, -1)
+
+
+_EMPTY = -(1 << 30)  # a render's label where no point falls
+_OTHER = -(1 << 29)  # a structure point of no goal colour
+
+
+def point_labels(ids: np.ndarray, colours: np.ndarray, palette: np.ndarray, tolerance: float) -> np.ndarray:
+    """A point's label: its id for an object; -2 - its goal colour's index for structure (_OTHER for none)."""
+    j = _nearest_colour(colours, palette, tolerance)
+    return np.where(ids >= 0, ids, np.where(j >= 0, -2 - j, _OTHER)).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class GoalCylinder:
+    """The goal image resampled onto a camera's cylinder: ``labels`` and ``weights`` (rows, K) of the K columns
+    ``offsets`` (headings relative to the camera's, in columns) the image covers; weight 0 outside it."""
+    labels: np.ndarray
+    weights: np.ndarray
+    offsets: np.ndarray
+    tan_half: float  # the rows span tangents of elevation [-tan_half, tan_half]
+
+
+def goal_cylinder(goal_labels: np.ndarray, hfov_deg: float, columns: int, rows: int,
+                  object_weight: float) -> GoalCylinder:
+    """Resample (H, W) goal labels (objects >= 0) onto a cylinder of ``columns`` headings and ``rows``."""
+    H, W = goal_labels.shape
+    f = (W / 2.0) / np.tan(np.radians(hfov_deg) / 2.0)
+    tan_half = (H / 2.0) / f
+    step = 2 * np.pi / columns
+    m = int(np.ceil(np.radians(hfov_deg) / 2 / step))
+    offsets = np.arange(-m, m)
+    delta = (offsets + 0.5) * step  # heading of each column's centre left of the camera's
+    t = tan_half - (np.arange(rows) + 0.5) * (2 * tan_half / rows)  # each row's tangent of elevation
+    u = np.floor(f * np.tan(-delta) + W / 2.0)
+    v = np.floor(H / 2.0 - f * t[:, None] / np.cos(delta)[None, :])
+    inside = (np.abs(delta) < np.pi / 2)[None, :] & (u >= 0)[None, :] & (u < W)[None, :] & (v >= 0) & (v < H)
+    uu = np.broadcast_to(np.clip(u, 0, W - 1), v.shape).astype(np.int64)
+    vv = np.clip(v, 0, H - 1).astype(np.int64)
+    labels = goal_labels[vv, uu].astype(np.int64)
+    weights = np.where(inside, np.where(labels >= 0, object_weight, 1.0), 0.0)
+    keep = inside.any(axis=0)
+    return GoalCylinder(labels[:, keep], weights[:, keep], offsets[keep], float(tan_half))
+
+
+def render_cylinders(points: np.ndarray, labels: np.ndarray, positions: np.ndarray, columns: int, rows: int,
+                     tan_half: float, fill: int = 2) -> np.ndarray:
+    """(P, rows, columns) labels the cloud shows a level cylindrical camera at each of ``positions`` (P, 3):
+    column c spans headings [c, c + 1) * 2 pi / columns (yaw convention: 0 looks along -z, turning left adds),
+    rows span tangents of elevation from +tan_half down to -tan_half; the nearest point per cell, then ``fill``
+    passes in which a cell takes its nearest neighbour's point where that is under 0.8 of its distance."""
+    P = len(positions)
+    p32 = points.astype(np.float32)
+    n = len(points)
+    cells = rows * columns
+    codes = np.full(P * cells, np.iinfo(np.int64).max, np.int64)
+    for i, (x, y, z) in enumerate(positions.astype(np.float32)):
+        dx, dy, dz = p32[:, 0] - x, p32[:, 1] - y, p32[:, 2] - z
+        r = np.sqrt(dx * dx + dz * dz)
+        heading = np.arctan2(-dx, -dz)
+        col = np.floor(heading * np.float32(columns / (2 * np.pi))).astype(np.int64) % columns
+        row = np.floor((np.float32(tan_half) - dy / np.maximum(r, np.float32(1e-6)))
+                       * np.float32(rows / (2 * tan_half))).astype(np.int64)
+        ok = (r > 0.05) & (row >= 0) & (row < rows)
+        code = (np.round(r[ok] * 1000).astype(np.int64) << 32) | np.nonzero(ok)[0]
+        np.minimum.at(codes, i * cells + row[ok] * columns + col[ok], code)
+    codes = codes.reshape(P, rows, columns)
+    big = np.iinfo(np.int64).max
+    for _ in range(fill):
+        near = codes.copy()
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                if dr or dc:
+                    shifted = np.roll(codes, dc, axis=2)  # headings wrap round
+                    if dr:
+                        shifted = np.roll(shifted, dr, axis=1)
+                        edge = 0 if dr > 0 else rows - 1
+                        shifted[:, edge, :] = big
+                    near = np.minimum(near, shifted)
+        take = (near >> 32) * 5 < (codes >> 32) * 4  # nearer than 0.8 of the cell's (or the cell empty)
+        codes = np.where(take, near, codes)
+    empty = codes == big
+    out = labels[np.where(empty, 0, codes & 0xFFFFFFFF) % max(n, 1)] if n else np.zeros(codes.shape, np.int64)
+    return np.where(empty, _EMPTY, out)
+
+
+def score_headings(rendered: np.ndarray, goal: GoalCylinder, headings: np.ndarray | None = None) -> np.ndarray:
+    """(P, H) score of each rendered cylinder (P, rows, columns) at each of ``headings`` (columns; None: all):
+    the goal camera's yaw is heading * 2 pi / columns, the centre of its image between the goal's offsets -1 and
+    0. A score is the weighted share of the goal's cells whose label the render shows."""
+    P, rows, columns = rendered.shape
+    base = np.arange(columns) if headings is None else np.asarray(headings)
+    score = np.zeros((P, len(base)))
+    for k, off in enumerate(goal.offsets):
+        w = goal.weights[:, k]
+        if not w.any():
+            continue
+        same = rendered[:, :, (base + off) % columns] == goal.labels[:, k][None, :, None]
+        score += np.einsum("prc,r->pc", same, w)
+    return score / goal.weights.sum()
 
 
 @dataclass
 class CameraEstimate:
     position: np.ndarray  # (3,) camera position (world)
     yaw: float
-    score: float  # match_score of the chosen pose (oracle) or the retrieved keyframe's cosine (real models)
+    score: float  # score_headings of the chosen pose (oracle) or the retrieved keyframe's cosine (real models)
     keyframes: list[tuple[int, float]]  # retrieved keyframes and their similarity, best first
 
 
-def estimate_camera(memory: Memory, goal_ids: np.ndarray, hfov_deg: float,
+def _grid(centres: np.ndarray, half: float, step: float) -> np.ndarray:
+    """xz points on a ``step`` lattice (aligned to the world origin) within ``half`` of any of ``centres``."""
+    lo = np.floor((centres.min(axis=0) - half) / step).astype(int)
+    hi = np.ceil((centres.max(axis=0) + half) / step).astype(int)
+    gx, gz = np.meshgrid(np.arange(lo[0], hi[0] + 1) * step, np.arange(lo[1], hi[1] + 1) * step, indexing="ij")
+    xz = np.stack([gx.ravel(), gz.ravel()], axis=1)
+    near = np.zeros(len(xz), bool)
+    for c in centres:
+        near |= np.abs(xz - c).max(axis=1) <= half + 1e-9
+    return xz[near]
+
+
+def _on_free(xz: np.ndarray, free: np.ndarray, origin: np.ndarray, cell: float) -> np.ndarray:
+    ij = np.floor((xz - origin) / cell).astype(int)
+    inside = (ij >= 0).all(axis=1) & (ij[:, 0] < free.shape[0]) & (ij[:, 1] < free.shape[1])
+    ok = np.zeros(len(xz), bool)
+    ok[inside] = free[ij[inside, 0], ij[inside, 1]]
+    return ok
+
+
+def _in_view(points: np.ndarray, poses: list[tuple[float, float, float, float]], half: float,
+             half_angle: float) -> np.ndarray:
+    """Points some camera within ``half`` (m, each axis) of one of ``poses`` (score, x, z, yaw) could see within
+    ``half_angle`` of its yaw: a shift of d metres turns a point r away by at most asin(d / r)."""
+    d = half * np.sqrt(2) + 1e-6
+    seen = np.zeros(len(points), bool)
+    for _, x, z, yaw in poses:
+        dx, dz = points[:, 0] - x, points[:, 2] - z
+        r = np.hypot(dx, dz)
+        turn = np.abs(np.angle(np.exp(1j * (np.arctan2(-dx, -dz) - yaw))))
+        seen |= (r <= d) | (turn <= half_angle + np.arcsin(np.minimum(1.0, d / np.maximum(r, d))))
+    return seen
+
+
+def estimate_camera(memory: Memory, goal_ids: np.ndarray, hfov_deg: float, goal_rgb: np.ndarray | None = None,
                     config: ImageGoalConfig = ImageGoalConfig()) -> CameraEstimate:
-    """Where a level camera of ``hfov_deg`` saw ``goal_ids`` (H, W instance ids, -1 structure), from ``memory``
-    (module docstring). The camera's height is the retrieved keyframe's."""
+    """Where a level camera of ``hfov_deg`` saw ``goal_ids`` (H, W instance ids, -1 structure) and ``goal_rgb``
+    (H, W, 3; None: structure unlabelled), from ``memory`` (module docstring). The camera's height is the
+    retrieved keyframe's."""
     cloud = memory_cloud(memory, config.stride)
     goal_hist = _histogram(goal_ids[::4, ::4])
     sims = np.array([similarity(goal_hist, h) for h in cloud.histograms])
-    top = [int(k) for k in np.argsort(-sims, kind="stable")[: config.top_k]]
-    y = float(cloud.camera_y[top[0]])
-    aspect = goal_ids.shape[0] / goal_ids.shape[1]
-    starts = [(cloud.positions[k, 0], cloud.positions[k, 2], cloud.yaws[k]) for k in top]
-    best = (float(cloud.positions[top[0], 0]), float(cloud.positions[top[0], 2]), float(cloud.yaws[top[0]]), -1.0)
-    for half, step, yaw_half, yaw_step, side, voxel in config.stages:
-        target = _goal_at(goal_ids, side)
-        pts, pid = cloud.voxels(voxel)
-        near = np.zeros(len(pts), bool)
-        for x0, z0, _ in starts:
-            near |= np.hypot(pts[:, 0] - x0, pts[:, 2] - z0) < config.radius
-        pts, pid = pts[near], pid[near]
-        n = int(round(half / step))
-        offsets = np.arange(-n, n + 1) * step
-        m = int(round(min(yaw_half, 180.0 - yaw_step / 2) / yaw_step))
-        turns = np.radians(np.arange(-m, m + 1) * yaw_step) if yaw_half < 180 else \
-            np.radians(np.arange(0.0, 360.0, yaw_step))
-        cams = np.array([(x0 + dx, y, z0 + dz, yaw0 + t) for x0, z0, yaw0 in starts
-                         for dx in offsets for dz in offsets for t in turns])
-        scores = np.empty(len(cams))
-        for i in range(0, len(cams), 256):
-            shown = render_ids(pts, pid, cams[i:i + 256], hfov_deg, side, aspect)
-            scores[i:i + 256] = match_score(shown, target)
-        j = int(np.argmax(scores))
-        best = (float(cams[j, 0]), float(cams[j, 2]), float(cams[j, 3]), float(scores[j]))
-        starts = [best[:3]]
-    x, z, yaw, score = best
+    order = np.argsort(-sims, kind="stable")
+    top = [int(k) for k in order[: config.top_k]] if sims.max() > 0 else []
+    y = float(cloud.camera_y[top[0]] if top else np.median(cloud.camera_y))
+    same_floor = np.abs(cloud.camera_y - y) < 0.5
+    free, origin = cloud.free(y - cloud.camera_height, config)
+    if goal_rgb is not None:
+        palette = _palette(goal_rgb[::4, ::4][goal_ids[::4, ::4] < 0], config.colour_tolerance)
+        goal_struct = -2 - _nearest_colour(goal_rgb.reshape(-1, 3), palette, 1e9).reshape(goal_ids.shape)
+    else:
+        palette = np.zeros((0, 3), np.int32)
+        goal_struct = np.full(goal_ids.shape, _OTHER)
+    goal_labels = np.where(goal_ids >= 0, goal_ids, goal_struct)
+    kept: list[tuple[float, float, float, float]] = []  # (score, x, z, yaw) of the poses a stage keeps
+    for s, (step, half, voxel, columns, rows, keep) in enumerate(config.stages):
+        if s == 0:
+            centres = cloud.positions[top][:, [0, 2]] if top else cloud.positions[same_floor][:, [0, 2]]
+            xz = _grid(centres, config.reach if top else 0.5, step)
+        else:
+            xz = _grid(np.array([[x, z] for _, x, z, _ in kept]), half, step)
+        xz = xz[_on_free(xz, free, origin, config.cell)]
+        if not len(xz):  # no free floor round the keyframes: their own positions
+            xz = cloud.positions[top or np.nonzero(same_floor)[0]][:, [0, 2]]
+        pts, pid, pcol = cloud.voxels(voxel)
+        near = (np.abs(pts[:, 1] - y) < 3.0)
+        lo, hi = xz.min(axis=0) - config.radius, xz.max(axis=0) + config.radius
+        near &= (pts[:, 0] > lo[0]) & (pts[:, 0] < hi[0]) & (pts[:, 2] > lo[1]) & (pts[:, 2] < hi[1])
+        heads = np.arange(columns)
+        if s:  # finer stages turn within two of the previous stage's heading steps of a kept pose
+            turn = 2 * (2 * np.pi / config.stages[s - 1][3])
+            angles = heads * 2 * np.pi / columns
+            heads = heads[np.any([np.abs(np.angle(np.exp(1j * (angles - yaw)))) <= turn for *_, yaw in kept], axis=0)]
+            near &= _in_view(pts, kept, half, np.radians(hfov_deg) / 2 + turn + 2 * np.pi / columns)
+        pts_n = pts[near]
+        labels = point_labels(pid[near], pcol[near], palette, config.colour_tolerance)
+        goal = goal_cylinder(goal_labels, hfov_deg, columns, rows, config.object_weight)
+        scores = np.empty((len(xz), len(heads)))
+        cams = np.column_stack([xz[:, 0], np.full(len(xz), y), xz[:, 1]])
+        for i in range(0, len(xz), 32):
+            scores[i:i + 32] = score_headings(
+                render_cylinders(pts_n, labels, cams[i:i + 32], columns, rows, goal.tan_half, config.fill), goal, heads)
+        if s:  # each position turns only round the kept pose it is near
+            allowed = np.zeros_like(scores, bool)
+            for _, x, z, yaw in kept:
+                close = np.abs(xz - [x, z]).max(axis=1) <= half + 1e-9
+                facing = np.abs(np.angle(np.exp(1j * (heads * 2 * np.pi / columns - yaw)))) <= turn
+                allowed |= close[:, None] & facing[None, :]
+            scores = np.where(allowed, scores, -1.0)
+        best_heading = np.argmax(scores, axis=1)
+        best = scores[np.arange(len(xz)), best_heading]
+        kept = []
+        for j in np.argsort(-best, kind="stable"):  # the best poses, each over a metre from those kept
+            x, z = float(xz[j, 0]), float(xz[j, 1])
+            if all(np.hypot(x - kx, z - kz) > 1.0 for _, kx, kz, _ in kept):
+                kept.append((float(best[j]), x, z, float(heads[best_heading[j]] * 2 * np.pi / columns)))
+                if len(kept) == keep:
+                    break
+    score, x, z, yaw = kept[0]
     return CameraEstimate(np.array([x, y, z]), float(np.arctan2(np.sin(yaw), np.cos(yaw))), score,
                           [(k, round(float(sims[k]), 4)) for k in top])
 
