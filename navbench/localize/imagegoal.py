@@ -25,6 +25,7 @@ the FAISS index retrieves for the goal image (:func:`retrieved_camera`), which i
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,13 +81,15 @@ class MemoryCloud:
         return self._free[key]
 
 
-_CLOUDS: dict[tuple[str, int], MemoryCloud] = {}
+_CLOUDS: OrderedDict[tuple[str, int], MemoryCloud] = OrderedDict()
+_CLOUD_SCENES = 4  # clouds kept per process (a house's is ~1.6M points): the most recently used
 
 
 def memory_cloud(memory: Memory, stride: int = 4) -> MemoryCloud:
-    """The labelled cloud of ``memory`` (built once per process and memory)."""
+    """The labelled cloud of ``memory`` (built once per process and memory while it is among the last used)."""
     key = (str(memory.directory), stride)
     if key in _CLOUDS:
+        _CLOUDS.move_to_end(key)
         return _CLOUDS[key]
     store = memory.store
     pts, ids, cols, hists = [], [], [], []
@@ -105,6 +108,8 @@ def memory_cloud(memory: Memory, stride: int = 4) -> MemoryCloud:
                         poses[:, 1, 3].copy(), poses[:, :3, 3].copy(), np.arctan2(-fwd[:, 0], -fwd[:, 2]),
                         float(memory.config.camera_height))
     _CLOUDS[key] = cloud
+    while len(_CLOUDS) > _CLOUD_SCENES:
+        _CLOUDS.popitem(last=False)
     return cloud
 
 
