@@ -222,19 +222,21 @@ def target_patch(x, z, n=7):
     return np.stack([xs.ravel(), ys.ravel(), np.full(xs.size, z)], 1)
 
 
+def seen(target, pose):
+    """A detector's answer: the target whenever it is in front of the camera and < 5 m away."""
+    pos, yaw = pose
+    rel = target[:, [0, 2]].mean(0) - pos[[0, 2]]
+    h = heading_vector(yaw)[[0, 2]]
+    ahead, side = rel @ h, h[0] * rel[1] - h[1] * rel[0]
+    visible = ahead > 0 and np.linalg.norm(rel) < 5.0 and abs(math.atan2(side, ahead)) < math.radians(35)
+    return target if visible else np.zeros((0, 3))
+
+
 def test_heads_to_detected_target_and_stops_close_when_visible():
     world = BoxWorld(-3.0, 3.0, -6.0, 1.0)
     target = target_patch(1.0, -6.0)  # on the far wall
 
-    def detect(obs, pose):  # sees the target whenever it is in front of the camera and < 5 m away
-        pos, yaw = pose
-        rel = target[:, [0, 2]].mean(0) - pos[[0, 2]]
-        h = heading_vector(yaw)[[0, 2]]
-        ahead, side = rel @ h, h[0] * rel[1] - h[1] * rel[0]
-        seen = ahead > 0 and np.linalg.norm(rel) < 5.0 and abs(math.atan2(side, ahead)) < math.radians(35)
-        return target if seen else np.zeros((0, 3))
-
-    agent = FrontierAgent(detect, GreedyPolicy(), FrontierAgentConfig(), ENV)
+    agent = FrontierAgent(lambda obs, pose: seen(target, pose), GreedyPolicy(), FrontierAgentConfig(), ENV)
     actions = run(world, agent, 120)
     assert actions[-1] == STOP
     log = agent.episode_log()
@@ -256,8 +258,7 @@ def test_heads_to_detected_target_and_stops_close_when_visible():
 
 
 class SubtaskDetector:
-    """Sees the active subtask's target patch whenever it is ahead of the camera and < 5 m away; records the
-    subtasks it is reset for."""
+    """Sees the active subtask's target patch as :func:`seen` does; records the subtasks it is reset for."""
 
     def __init__(self, targets):
         self.targets, self.resets, self.active = targets, [], 0
@@ -267,13 +268,7 @@ class SubtaskDetector:
         self.active = subtask
 
     def __call__(self, obs, pose):
-        target = self.targets[self.active]
-        pos, yaw = pose
-        rel = target[:, [0, 2]].mean(0) - pos[[0, 2]]
-        h = heading_vector(yaw)[[0, 2]]
-        ahead, side = rel @ h, h[0] * rel[1] - h[1] * rel[0]
-        seen = ahead > 0 and np.linalg.norm(rel) < 5.0 and abs(math.atan2(side, ahead)) < math.radians(35)
-        return target if seen else np.zeros((0, 3))
+        return seen(self.targets[self.active], pose)
 
 
 def test_on_goat_each_subtask_is_a_new_search_closed_with_subtask_stop():
