@@ -106,7 +106,8 @@ def test_one_forward_pass_per_round_of_asks_and_per_slot_failures():
 
 
 @needs_checkpoint
-@pytest.mark.parametrize("agent,make", [("memory", make_memory), ("frontier", make_frontier)])
+@pytest.mark.parametrize("agent,make", [("memory", make_memory),
+                                        pytest.param("frontier", make_frontier, marks=pytest.mark.slow)])
 def test_lockstep_records_equal_one_at_a_time(objectnav_file, tmp_path, agent, make):
     """The memory and frontier agents, 3 slots in lockstep over 6 episodes (slot refills included): every
     record, decision log and trace equals the one-episode-at-a-time run's."""

@@ -98,6 +98,7 @@ def _actor_pids(cache: Path) -> list[int]:
     return pids
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").is_file(), reason="finds the actor's process in /proc")
 def test_killed_actor_loses_nothing_and_a_local_run_resumes_on_ray(cluster, local_records, tmp_path):
     out = tmp_path / "run"

@@ -229,6 +229,7 @@ def _children(pid: int) -> list[int]:
     return kids
 
 
+@pytest.mark.slow  # torchrun restarting a killed rank end to end: make test-slow
 def test_a_rank_killed_under_torchrun_comes_back_and_resumes(tmp_path):
     torch.manual_seed(1)
     init = save_checkpoint(tmp_path / "init.pth", PointNavResNetPolicy(PolicyNetConfig()), {})
