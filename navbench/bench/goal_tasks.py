@@ -168,8 +168,9 @@ def _timed_goal_observation(env: NavEnv) -> list[float]:
     return times
 
 
-def _step_slice(env: NavEnv, rng: np.random.Generator, seconds: float) -> tuple[int, float]:
-    """Random moves (never STOP) for ``seconds``; (steps, elapsed). An episode that ends is reset."""
+def random_steps(env: NavEnv, rng: np.random.Generator, seconds: float) -> tuple[int, float]:
+    """Random moves (never STOP, so it measures steps rather than resets) for ``seconds``: (steps, elapsed).
+    An episode that ends is reset."""
     steps, t0 = 0, time.perf_counter()
     while time.perf_counter() - t0 < seconds:
         _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
@@ -214,7 +215,7 @@ def goal_task_figures(scene: Path, dataset: EpisodeDataset, config: EnvConfig, s
             goal_obs = {name: _timed_goal_observation(env) for name, env in envs.items()}
             for _ in range(slices):
                 for name, env in envs.items():
-                    steps, elapsed = _step_slice(env, rngs[name], seconds / slices)
+                    steps, elapsed = random_steps(env, rngs[name], seconds / slices)
                     totals[name][0] += steps
                     totals[name][1] += elapsed
             out.update({f"{name}_steps_per_s": steps / elapsed for name, (steps, elapsed) in totals.items()})

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from navbench.bench.goal_tasks import goal_task_figures, random_steps
 from navbench.env.config import EnvConfig
 from navbench.env.pointnav import PointNavEnv
 from navbench.episodes.types import Episode, EpisodeDataset, NavigationGoal
@@ -102,15 +103,9 @@ def _timed_steps(env: PointNavEnv, rng: np.random.Generator, seconds: float, bar
         env.step(int(rng.integers(1, 4)))
     if barrier is not None:
         barrier.wait()
-    steps, t0 = 0, time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
-        _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
-        steps += 1
-        if term or trunc:
-            env.reset()
-    rate = steps / (time.perf_counter() - t0)
+    steps, elapsed = random_steps(env, rng, seconds)
     env.close()
-    return rate
+    return steps / elapsed
 
 
 def env_steps_per_s(scene: Path, config: EnvConfig, seconds: float) -> float:
@@ -190,7 +185,6 @@ def run_bench(cfg: BenchConfig = BenchConfig()) -> dict[str, float | str | bool]
     result["rgbd_steps_per_s_2proc"] = multiprocess_steps_per_s(scene, rgbd, cfg.seconds)
     result["scaling_2proc"] = result["rgbd_steps_per_s_2proc"] / result["rgbd_steps_per_s"]
     if cfg.tasks:
-        from navbench.bench.goal_tasks import goal_task_figures
         result.update(goal_task_figures(scene, _bench_dataset(scene, grid), rgbd, cfg.seconds))
     if cfg.policy:
         from navbench.policy.precision import native_bf16
