@@ -60,6 +60,14 @@ def goals_key(scene_id: str, category: str) -> str:
 
 # --------------------------------------------------------------------------------------------- read
 _READ_ERRORS = (OSError, EOFError, zlib.error, gzip.BadGzipFile, UnicodeDecodeError, json.JSONDecodeError)
+READ_FAILURES = (InputTooLarge, *_READ_ERRORS)  # a JSON(.gz) file too large, unreadable, corrupt or truncated
+
+
+def read_failure(path: Path, exc: BaseException) -> EpisodeError:
+    """The one-line error naming ``path`` for one of :data:`READ_FAILURES`."""
+    if isinstance(exc, InputTooLarge):
+        return EpisodeError(str(exc))  # it names the file and the cap
+    return EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})")
 
 
 def read_json(path: str | Path, cap: int | None = None) -> Any:
@@ -70,10 +78,8 @@ def read_json(path: str | Path, cap: int | None = None) -> Any:
         raise EpisodeError(f"{path}: file not found")
     try:
         return json.loads(read_input(path, cap))
-    except InputTooLarge as exc:
-        raise EpisodeError(str(exc)) from None
-    except _READ_ERRORS as exc:
-        raise EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})") from None
+    except READ_FAILURES as exc:
+        raise read_failure(path, exc) from None
     except RecursionError:
         raise EpisodeError(f"{path}: JSON nested too deeply to read") from None
 
@@ -240,10 +246,8 @@ class _Pass:
                     raise TypeError("'episodes' must be a list of episodes")
         except EpisodeError:
             raise
-        except InputTooLarge as exc:
-            raise EpisodeError(str(exc)) from None
-        except _READ_ERRORS as exc:
-            raise EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})") from None
+        except READ_FAILURES as exc:
+            raise read_failure(path, exc) from None
         except RecursionError:
             raise EpisodeError(f"{path}: JSON nested too deeply to read") from None
         except (KeyError, TypeError, ValueError, AttributeError) as exc:

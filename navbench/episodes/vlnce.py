@@ -38,9 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from navbench.episodes.io import _READ_ERRORS, _JsonStream, file_split, load_dataset
+from navbench.episodes.io import READ_FAILURES, _JsonStream, file_split, load_dataset, read_failure
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
-from navbench.safeio import InputTooLarge, open_input, read_input
+from navbench.safeio import open_input, read_input
 
 RXR_ROLES = ("guide", "follower")  # RxRVLNCEDatasetV1.annotation_roles
 RXR_LANGUAGES = ("en-US", "en-IN", "hi-IN", "te-IN")  # RxRVLNCEDatasetV1.languages
@@ -236,10 +236,8 @@ def read_gt(path: str | Path, episode_ids: set[str] | None = None,
                 raise EpisodeError(f"{path}: extra data after the gt object")
     except EpisodeError:
         raise
-    except InputTooLarge as exc:
-        raise EpisodeError(str(exc)) from None
-    except _READ_ERRORS as exc:
-        raise EpisodeError(f"{path}: corrupt or truncated JSON ({type(exc).__name__}: {exc})") from None
+    except READ_FAILURES as exc:
+        raise read_failure(path, exc) from None
     except (RecursionError, ValueError) as exc:
         raise EpisodeError(f"{path}: malformed gt file ({type(exc).__name__})") from None
     return out
