@@ -27,19 +27,27 @@ from navbench.tasks import get_task
 ORDINALS = ("1st", "2nd", "3rd") + tuple(f"{k}th" for k in range(4, 21))
 
 
-def subtask_rows(run_dir: str | Path) -> tuple[str, list[dict[str, Any]]]:
-    """(the run's label, one row per subtask of every scored episode: scene, episode, index, type, success,
-    spl, and the memory agent's query time when logged)."""
+Run = tuple[dict[str, Any], str, list[dict[str, Any]]]  # a run's config, its label, its scored records
+
+
+def scored_run(run_dir: str | Path) -> Run:
+    """A GOAT-Bench run's config.json, label and records (skipped episodes left out)."""
     run_dir = Path(run_dir)
     cfg = json.loads((run_dir / "config.json").read_text())
     if cfg.get("task") != "goat":
         raise ValueError(f"{run_dir}: not a GOAT-Bench run (task {cfg.get('task')!r})")
+    recs = [r for r in read_records(run_dir / "episodes.jsonl") if not r.get("skipped")]
+    return cfg, cfg.get("label") or run_dir.name, recs
+
+
+def subtask_rows(run: str | Path | Run) -> tuple[str, list[dict[str, Any]]]:
+    """(the run's label, one row per subtask of every scored episode: scene, episode, index, type, success,
+    spl, and the memory agent's query time when logged), from a run directory or its :func:`scored_run`."""
+    cfg, label, recs = run if isinstance(run, tuple) else scored_run(run)
     path = split_file("goat", cfg["split"]) if cfg.get("split") else Path(cfg["episodes"])
     episodes = {(e.scene_id, e.episode_id): e for e in get_task("goat").read_episodes(path).episodes}
     rows = []
-    for r in read_records(run_dir / "episodes.jsonl"):
-        if r.get("skipped"):
-            continue
+    for r in recs:
         ep = episodes[(r["scene_id"], str(r["episode_id"]))]
         success, spl = r.get("subtask_success") or [], r.get("spl_by_subtask") or []
         logged = {s["subtask"]: s.get("query_ms") for s in (r.get("log") or {}).get("subtasks", [])}
@@ -47,7 +55,7 @@ def subtask_rows(run_dir: str | Path) -> tuple[str, list[dict[str, Any]]]:
             rows.append({"scene_id": r["scene_id"], "episode_id": f"{r['episode_id']}:{k:03d}", "index": k,
                          "type": task.type, "success": float(success[k]) if k < len(success) else 0.0,
                          "spl": float(spl[k]) if k < len(spl) else 0.0, "query_ms": logged.get(k)})
-    return cfg.get("label") or run_dir.name, rows
+    return label, rows
 
 
 def _cell(rows: list[dict[str, Any]], metric: str, ci: dict[str, list[float]] | None) -> str:
@@ -77,50 +85,44 @@ def table(runs: list[tuple[str, list[dict[str, Any]]]], key: str, order: list[An
     return lines
 
 
-def measures(run_dirs: list[str]) -> list[str]:
+def measures(runs: list[Run]) -> list[str]:
     """goat-bench's episode measures of each run (%), as its evaluation averages them, the corrected figures
     (an episode without the type left out) beside them, with 95% intervals over episodes."""
     from navbench.tasks.goat import GOAT_MEASURES
 
-    runs = []
-    for d in run_dirs:
-        cfg = json.loads((Path(d) / "config.json").read_text())
-        runs.append((cfg.get("label") or Path(d).name,
-                     [r for r in read_records(Path(d) / "episodes.jsonl") if not r.get("skipped")]))
-    lines = ["| measure | " + " | ".join(label for label, _ in runs) + " |", "|---|" + "---|" * len(runs)]
+    lines = ["| measure | " + " | ".join(label for _, label, _ in runs) + " |", "|---|" + "---|" * len(runs)]
     for m in GOAT_MEASURES:
         cells = []
-        for _, recs in runs:
+        for _, _, recs in runs:
             sel = [{**r, m: float(r[m])} for r in recs if r.get(m) is not None]
             cells.append(_cell(sel, m, intervals(sel, (m,))) + f" (n={len(sel)})" if sel else "-")
         lines.append(f"| `{m}` | " + " | ".join(cells) + " |")
     return lines
 
 
-def steps(run_dirs: list[str]) -> list[str]:
+def steps(runs: list[Run]) -> list[str]:
     """What each run's subtasks cost in steps: the episodes' steps over the subtasks they closed (SUBTASK_STOP
     included; the steps after the last one, to a STOP or the limit, count too)."""
     lines = ["| run | episodes | steps | subtasks closed | steps per closed subtask |", "|---|---|---|---|---|"]
-    for d in run_dirs:
-        cfg = json.loads((Path(d) / "config.json").read_text())
-        recs = [r for r in read_records(Path(d) / "episodes.jsonl") if not r.get("skipped")]
+    for _, label, recs in runs:
         n, closed = sum(int(r["num_steps"]) for r in recs), sum(int(r.get("subtasks_closed") or 0) for r in recs)
         per = f"{n / closed:.1f}" if closed else "-"
-        lines.append(f"| {cfg.get('label') or Path(d).name} | {len(recs)} | {n} | {closed} | {per} |")
+        lines.append(f"| {label} | {len(recs)} | {n} | {closed} | {per} |")
     return lines
 
 
 def report(run_dirs: list[str]) -> str:
-    runs = [subtask_rows(d) for d in run_dirs]
+    scored = [scored_run(d) for d in run_dirs]  # each run's files read once
+    runs = [subtask_rows(s) for s in scored]
     indices = sorted({r["index"] for _, rows in runs for r in rows})
     types = [t for t in ("object", "description", "image") if any(r["type"] == t for _, rows in runs for r in rows)]
-    out = ["### goat-bench's measures, by episode (%)", ""] + measures(run_dirs)
+    out = ["### goat-bench's measures, by episode (%)", ""] + measures(scored)
     out += ["", "SR and SPL (%) of each subtask, 95% intervals (two-stage bootstrap: houses, then subtasks).", "",
             "### By position in the episode", ""]
     out += table(runs, "index", indices, lambda k: ORDINALS[k] if k < len(ORDINALS) else str(k + 1))
     out += ["", "### By goal type", ""]
     out += table(runs, "type", types, str)
-    out += ["", "### Steps", ""] + steps(run_dirs)
+    out += ["", "### Steps", ""] + steps(scored)
     return "\n".join(out) + "\n"
 
 
