@@ -93,17 +93,28 @@ def keep_view(depth: np.ndarray, mask: np.ndarray | None, config: GeometryConfig
     return bool(np.isfinite(median) and median <= config.max_median_depth)
 
 
+def _voxel_keys(points: np.ndarray, voxel_size: float) -> np.ndarray:
+    """One int per ``voxel_size`` cube for each of ``points`` (N, 3): a 1-D unique is much faster than a 3-D one."""
+    cells = np.floor(points / voxel_size).astype(np.int64)
+    cells -= cells.min(axis=0)
+    return np.ravel_multi_index(cells.T, cells.max(axis=0) + 1)
+
+
+def voxel_firsts(points: np.ndarray, voxel_size: float) -> np.ndarray:
+    """Indices of one point (the first) per occupied ``voxel_size`` cube of ``points``, in order: for
+    downsampling a cloud together with what each point carries (labels, colours)."""
+    _, first = np.unique(_voxel_keys(points, voxel_size), return_index=True)
+    return np.sort(first)
+
+
 def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:
     """One point per occupied ``voxel_size`` cube (the centroid of the points in it), in first-seen
     order; ``voxel_size <= 0`` returns the points unchanged."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if voxel_size <= 0 or len(points) == 0:
         return points
-    cells = np.floor(points / voxel_size).astype(np.int64)
-    cells -= cells.min(axis=0)
-    dims = cells.max(axis=0) + 1
-    keys = np.ravel_multi_index(cells.T, dims)  # one int per voxel: a 1-D unique is much faster
-    _, first, inverse, counts = np.unique(keys, return_index=True, return_inverse=True, return_counts=True)
+    _, first, inverse, counts = np.unique(_voxel_keys(points, voxel_size), return_index=True, return_inverse=True,
+                                          return_counts=True)
     sums = np.zeros((len(counts), 3))
     np.add.at(sums, inverse, points)
     order = np.argsort(first, kind="stable")

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from navbench.localize.geometry import backproject
+from navbench.localize.geometry import backproject, voxel_firsts
 from navbench.memory.prescan import Memory
 
 
@@ -69,7 +69,7 @@ class MemoryCloud:
     def voxels(self, voxel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The cloud with one point per ``voxel``-sided cube (kept once made): points, ids, colours."""
         if voxel not in self._voxels:
-            kept = voxel_downsample(self.points, voxel)
+            kept = voxel_firsts(self.points, voxel)
             self._voxels[voxel] = self.points[kept], self.ids[kept], self.colours[kept]
         return self._voxels[voxel]
 
@@ -122,15 +122,6 @@ def _histogram(ids: np.ndarray) -> dict[int, float]:
 def similarity(a: dict[int, float], b: dict[int, float]) -> float:
     """Histogram intersection of two instance-id pixel shares (1: the same objects in the same proportions)."""
     return sum(min(p, b[i]) for i, p in a.items() if i in b)
-
-
-def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
-    """Indices of one point (the first) per ``voxel``-sided cube of ``points``, in order."""
-    cells = np.floor(points / voxel).astype(np.int64)
-    cells -= cells.min(axis=0)
-    span = cells.max(axis=0) + 1
-    _, first = np.unique((cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2], return_index=True)
-    return np.sort(first)
 
 
 def _dilate(grid: np.ndarray, n: int) -> np.ndarray:

@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from navbench.localize import GeometryConfig, backproject, keep_view, median_masked_depth, project, world_to_camera
-from navbench.localize.geometry import voxel_downsample
+from navbench.localize.geometry import voxel_downsample, voxel_firsts
 from navbench.memory import Intrinsics
 from navbench.render.camera import camera_pose
 
@@ -85,6 +85,11 @@ def test_median_depth_view_filter():
     mask[:, 4] = False  # now mostly 5 m
     assert not keep_view(depth, mask)
     assert keep_view(depth, mask, GeometryConfig(max_median_depth=6.0))
+
+
+def test_voxel_firsts_keeps_the_first_point_of_each_cube_in_order():
+    pts = np.array([[0.01, 0.0, 0.0], [0.02, 0.0, 0.0], [0.3, 0.0, 0.0]])
+    assert voxel_firsts(pts, 0.1).tolist() == [0, 2]
 
 
 def test_voxel_downsample_keeps_one_centroid_per_voxel():

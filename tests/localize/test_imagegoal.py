@@ -14,7 +14,6 @@ from navbench.localize.imagegoal import (
     render_cylinders,
     score_headings,
     similarity,
-    voxel_downsample,
 )
 
 
@@ -80,11 +79,6 @@ def test_similarity_is_the_histogram_intersection():
     assert similarity(a, a) == 1.0
     assert abs(similarity(a, {2: 1.0}) - 1 / 3) < 1e-12
     assert similarity(a, {3: 1.0}) == 0.0
-
-
-def test_voxel_downsample_keeps_one_point_per_cube():
-    pts = np.array([[0.01, 0.0, 0.0], [0.02, 0.0, 0.0], [0.3, 0.0, 0.0]])
-    assert voxel_downsample(pts, 0.1).tolist() == [0, 2]
 
 
 def test_estimate_camera_finds_where_goal_images_were_taken(oracle_memory, oracle_scene):
