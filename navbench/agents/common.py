@@ -39,11 +39,12 @@ Detect = Callable[[dict[str, np.ndarray], tuple[np.ndarray, float]], np.ndarray]
 
 class Detector(Protocol):
     """The goal text segmented in the current frame, as (N, 3) world points (``LiveDetector``): ``reset``
-    hands it the episode (its scene and goal text), ``sensors`` names the image it segments."""
+    hands it the episode (its scene and goal text; on GOAT-Bench the active subtask, passed only after the
+    first), ``sensors`` names the image it segments."""
 
     sensors: tuple[str, ...]
 
-    def reset(self, episode: Episode) -> None: ...
+    def reset(self, episode: Episode, subtask: int = 0) -> None: ...
 
     def __call__(self, observations: dict[str, np.ndarray], pose: tuple[np.ndarray, float]) -> np.ndarray: ...
 
