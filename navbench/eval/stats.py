@@ -242,15 +242,66 @@ def _difference(field: str, base: Any, other: Any, line: str, in_protocol: bool 
     return {"field": field, "in_protocol": in_protocol, "base": base, "other": other, "line": line}
 
 
+def _split_files(prov: dict[str, Any]) -> dict[str, Any] | None:
+    """A run's split as provenance.json records it, ``{name: sha256}`` of every file it was read from (the
+    episode file under its own name); None for a run recorded before its other files were hashed."""
+    entry = doc_get(prov, "files", "episodes")
+    if not isinstance(doc_get(entry, "split_sha256"), str):
+        return None
+    files = doc_get(entry, "split_files")
+    return {Path(str(entry.get("path") or "episodes")).name: entry.get("sha256"),
+            **(files if isinstance(files, dict) else {})}
+
+
+def _split_named(entry: Any, fallback: Any) -> str | None:
+    """``path (sha256 0123456789ab)`` of the episode file, or ``(split sha256 ...)`` when its split has
+    other files too."""
+    if isinstance(doc_get(entry, "split_files"), dict) and isinstance(doc_get(entry, "split_sha256"), str):
+        return f"{_shown(doc_get(entry, 'path') or fallback)} (split sha256 {_shown(entry['split_sha256'])[:12]})"
+    return _file_named(entry, fallback)
+
+
+def _episode_differences(base: Path, other: Path, cfg: dict[Path, Any], prov: dict[Path, Any]
+                         ) -> list[dict[str, Any]]:
+    """The ``episodes`` difference when the runs read different splits (every file of each, where both runs
+    recorded them all; else the episode files), or a ``split_files`` note when only one run recorded the
+    split's other files and the episode files agree."""
+    names = {d: _split_named(doc_get(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
+             for d in (base, other)}
+    splits = {d: _split_files(prov[d]) for d in (base, other)}
+    if splits[base] is not None and splits[other] is not None:
+        ids = {d: doc_get(prov[d], "files", "episodes", "split_sha256") for d in (base, other)}
+        if ids[base] == ids[other]:
+            return []
+        a, b = splits[base], splits[other]
+        differing = [n for n in sorted(set(a) | set(b)) if a.get(n) != b.get(n)]
+        shown = ", ".join(_shown(n) for n in differing[:4]) + (f" and {len(differing) - 4} more"
+                                                                 if len(differing) > 4 else "")
+        return [_difference("episodes", ids[base], ids[other],
+                            f"episode file {names[base]} vs {names[other]}: {shown} differ")]
+    sets = {d: _episode_set(d) for d in (base, other)}
+    if sets[base] != sets[other]:
+        return [_difference("episodes", sets[base], sets[other], f"episode file {names[base]} vs {names[other]}")]
+    more = {d: len(splits[d]) - 1 if splits[d] is not None else None for d in (base, other)}
+    if any(n for n in more.values()):
+        unrecorded = " and ".join(w for w, d in (("BASE", base), ("OTHER", other)) if more[d] is None)
+        return [_difference("split_files", more[base], more[other],
+                            f"split files: {unrecorded} recorded the episode file's sha256 only, not the other "
+                            f"files its split is read from (content/, gt): paired on the episode file alone")]
+    return []
+
+
 def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str, Any]] | None = None,
                     other_records: Sequence[Mapping[str, Any]] | None = None) -> list[dict[str, Any]]:
-    """What differs between two runs that can explain a gap in their numbers, each with both values and a
-    ``line`` saying it: the protocol's fields (``in_protocol``), then the episode file by checksum, the
-    subset of one file each ran (from their records), the agent, checkpoint, decoding and seed, and navbench's
-    version, torch's build and the device. A value a run directory does not record shows as ``-``."""
-    from navbench.eval.provenance import protocol_differences, recorded_run_on, run_protocol
+    """What differs between two runs that can explain a gap in their numbers, each with both values (BASE's
+    first) and a ``line`` saying it: the protocol's fields (``in_protocol``), then the split by checksum (the
+    episode file and every other file it is read from: habitat-lab's ``content/`` files, VLN-CE's gt file),
+    the subset of one file each ran (from their records), the agent and each of its settings (config.json's
+    ``agent_options``), the checkpoint and seed, and navbench's version, torch's build and the device. A value
+    a run directory does not record shows as ``-``."""
+    from navbench.eval.provenance import protocol_differences, protocol_value, recorded_run_on, run_protocol
 
-    out = [_difference(k, a, b, f"{k} {a!r} vs {b!r}", True)
+    out = [_difference(k, a, b, f"{k} {protocol_value(k, a)} vs {protocol_value(k, b)}", True)
            for k, a, b in protocol_differences(run_protocol(base), run_protocol(other))]
     cfg = {d: read_run_doc(d, "config.json") for d in (base, other)}
     prov = {d: read_run_doc(d, "provenance.json") for d in (base, other)}
@@ -259,12 +310,10 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
         if a != b:
             out.append(_difference(field, a, b, line or f"{field} {_shown(a)} vs {_shown(b)}"))
 
-    sets = {d: _episode_set(d) for d in (base, other)}
-    names = {d: _file_named(doc_get(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
-             for d in (base, other)}
-    if sets[base] != sets[other]:
-        add("episodes", sets[base], sets[other], f"episode file {names[base]} vs {names[other]}")
-    elif base_records is not None and other_records is not None:
+    episodes = _episode_differences(base, other, cfg, prov)
+    out += episodes
+    if not any(x["field"] == "episodes" for x in episodes) and base_records is not None \
+            and other_records is not None:
         keys = [{_key(r) for r in recs} for recs in (base_records, other_records)]
         common = len(keys[0] & keys[1])
         if keys[0] != keys[1]:
@@ -272,14 +321,17 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
                    else f"{common} in common, paired on those")
             add("episode_subset", len(keys[0]), len(keys[1]),
                 f"the same episodes file, {len(keys[0])} vs {len(keys[1])} of its episodes: {how}")
-    add("agent", cfg[base].get("label") or cfg[base].get("agent"), cfg[other].get("label") or cfg[other].get("agent"))
+    add("agent", cfg[base].get("agent"), cfg[other].get("agent"))
+    # each setting by name (--noise, --perception, --decoding...), not the runs' labels
+    opts = {d: cfg[d].get("agent_options") if isinstance(cfg[d].get("agent_options"), dict) else {}
+            for d in (base, other)}
+    for k in sorted((set(opts[base]) | set(opts[other])) - {"checkpoint"}):
+        add(k, opts[base].get(k), opts[other].get(k))
     ckpt = {d: _file_named(doc_get(prov[d], "files", "checkpoint"), doc_get(cfg[d], "agent_options", "checkpoint"))
             for d in (base, other)}
     if doc_get(prov[base], "files", "checkpoint", "sha256") != doc_get(prov[other], "files", "checkpoint", "sha256") \
             or ckpt[base] != ckpt[other]:
         add("checkpoint", ckpt[base], ckpt[other], f"checkpoint {_shown(ckpt[base])} vs {_shown(ckpt[other])}")
-    for k in ("decoding", "temperature"):
-        add(k, doc_get(cfg[base], "agent_options", k), doc_get(cfg[other], "agent_options", k))
     add("seed", cfg[base].get("seed"), cfg[other].get("seed"))
 
     def origin(doc: dict[str, Any]) -> str | None:
@@ -304,10 +356,10 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
 def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequence[str] = METRICS,
                  mix_protocols: bool = False, per_scene: int | None = None) -> list[dict[str, Any]]:
     """:func:`compare_records` of ``base`` with each of ``others`` (run directories), refusing runs under
-    another protocol (unless ``mix_protocols``) or on another episode file; with ``per_scene``, on the
-    first ``per_scene`` episodes of each scene only. Each result's ``differences`` (:func:`run_differences`)
-    say what differs, in and outside the protocol. The device and precision each run used are not part of
-    the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports both."""
+    another protocol (unless ``mix_protocols``) or on another split (:func:`run_differences`); with
+    ``per_scene``, on the first ``per_scene`` episodes of each scene only. Each result's ``differences``
+    (:func:`run_differences`) say what differs, in and outside the protocol. The device and precision each
+    run used are not part of the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports both."""
     from navbench.eval.provenance import check_same_protocol, recorded_run_on
     from navbench.eval.rundir import read_records
 
@@ -328,9 +380,9 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
     out = []
     for d, pid in zip(others, ids[1:]):
         diffs = run_differences(base, d, records[base], records[d])
-        if _episode_set(d) != _episode_set(base):
+        if any(x["field"] == "episodes" for x in diffs):
             why = "; ".join(x["line"] for x in diffs if x["field"] == "episodes")
-            raise StatsError(f"{d}: scored on another episode file than {base} ({why}): nothing to pair"[:1000])
+            raise StatsError(f"{base} vs {d}: scored on different episode files ({why}): nothing to pair"[:1000])
         try:
             res = compare_records(records[base], records[d], metrics)
         except StatsError as exc:
