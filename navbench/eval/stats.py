@@ -431,8 +431,14 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
     both."""
     from navbench.eval.provenance import check_same_protocol, recorded_run_on, run_protocol
     from navbench.eval.rundir import read_records
+    from navbench.safeio import printable
+    from navbench.tasks import TASKS
 
     base, others = Path(base), [Path(o) for o in others]
+    known = set(METRICS).union(*(task_metrics(t) for t in TASKS))
+    if bad := [m for m in metrics or () if m not in known]:  # no task's: refused before any run is read
+        raise StatsError(f"--metric {printable(bad[0], 60)}: not a measure of any task; choose from "
+                         f"{', '.join(sorted(known))}")
     ids = check_same_protocol([base, *others], allow_mixed=mix_protocols)
     tasks = [str(run_protocol(d).get("task")) for d in (base, *others)]
     chosen = choose_metrics(tasks, metrics)
