@@ -273,13 +273,12 @@ def _difference(field: str, base: Any, other: Any, line: str, in_protocol: bool 
 
 def _split_files(prov: dict[str, Any]) -> dict[str, Any] | None:
     """A run's split as provenance.json records it, ``{name: sha256}`` of every file it was read from (the
-    episode file under its own name); None for a run recorded before its other files were hashed."""
+    episode file as ``the episode file``); None for a run recorded before its other files were hashed."""
     entry = doc_get(prov, "files", "episodes")
     if not isinstance(doc_get(entry, "split_sha256"), str):
         return None
     files = doc_get(entry, "split_files")
-    return {Path(str(entry.get("path") or "episodes")).name: entry.get("sha256"),
-            **(files if isinstance(files, dict) else {})}
+    return {"the episode file": entry.get("sha256"), **(files if isinstance(files, dict) else {})}
 
 
 def _split_named(entry: Any, fallback: Any) -> str | None:
