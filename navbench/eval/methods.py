@@ -2,8 +2,9 @@
 
 The paragraph names the task, the episodes (file, how many the run scored, the file's sha256 and, for a split
 read with other files (``content/``, a gt file), the split's), the success rule, the step limit, the actions,
-the agent's body and sensors, the noise, the navigability rules, navbench's version and the protocol id. Every figure comes from the run directory: the protocol from
-``provenance.json`` (or, for a run written before it, derived from ``config.json``:
+the agent's body and sensors, the noise, the navigability rules, navbench's version and the protocol id. Every
+figure comes from the run directory: the protocol from ``provenance.json`` (or, for a run written before it,
+derived from ``config.json``:
 :func:`navbench.eval.provenance.run_protocol`), the episode file's checksum and the version from
 ``provenance.json``, the count from ``summary.json`` (else the records). ``--format markdown`` (the
 default), ``latex`` (special characters escaped) or ``json`` (the facts the paragraph is written from).
