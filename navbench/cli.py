@@ -45,8 +45,6 @@ from navbench.loop_progress import silenced
 from navbench.paths import EPISODES_DIR, SCENES_DIR
 from navbench.tasks import TASKS, task_names
 
-METRIC_NAMES = ("success", "spl", "soft_spl", "distance_to_goal")
-
 
 # ------------------------------------------------------------------------------------------ commands
 def cmd_run(args) -> int:
@@ -215,8 +213,8 @@ def cmd_export(args) -> int:
 
 def cmd_compare(args) -> int:
     from navbench.eval.stats import compare_runs, format_comparison
-    results = compare_runs(args.base, args.others, tuple(dict.fromkeys(args.metric or ())) or METRIC_NAMES,
-                           mix_protocols=args.mix_protocols, per_scene=args.per_scene)
+    results = compare_runs(args.base, args.others, args.metric, mix_protocols=args.mix_protocols,
+                           per_scene=args.per_scene)
     if args.json:
         print(json.dumps(results[0] if len(results) == 1 else results, indent=1))
     else:
@@ -481,19 +479,23 @@ def build_parser() -> argparse.ArgumentParser:
     ex.set_defaults(func=cmd_export)
 
     c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
-                       description="Pairs OTHER with BASE on the episodes both scored and, per metric, prints "
+                       description="Pairs OTHER with BASE on the episodes both scored and, per measure of their task "
+                       "(by default its headline measures: VLN-CE's TL, NE, OS, SR, SPL, nDTW, SDTW; GOAT-Bench's "
+                       "partial and composite success, composite SPL and success by goal type), prints "
                        "both means, the difference OTHER - BASE, its 95% interval (two-stage bootstrap: scenes, "
                        "then episodes within each drawn scene; 2,000 resamples, seed 0), P(other better) (the "
-                       "share of resamples whose difference favours OTHER, ties half; lower is better for DTG) "
-                       "and the smallest difference this episode set could detect: 2.8 x the bootstrap "
-                       "standard error of the difference (80% power, two-sided alpha 0.05). It names what "
-                       "differs, each with both values: protocol fields, episode file or subset, agent, "
-                       "checkpoint, decoding, seed, navbench version, torch build, device. Runs under "
-                       "different protocols or on different episode files are refused.")
+                       "share of resamples whose difference favours OTHER, ties half; lower is better for distance "
+                       "to goal, neither for path length) and the smallest difference this episode set could "
+                       "detect: 2.8 x the bootstrap standard error of the difference (80% power, two-sided alpha "
+                       "0.05). It names what differs, each with both values, BASE's first: protocol fields, split "
+                       "(every file it is read from) or subset, agent and each of its settings, checkpoint, seed, "
+                       "navbench version, torch build, device. Runs under "
+                       "different protocols or on different splits are refused.")
     c.add_argument("base")
     c.add_argument("others", nargs="+", metavar="other")
     c.add_argument("--json", action="store_true", help="one JSON object (a list for several OTHER runs)")
-    c.add_argument("--metric", action="append", choices=METRIC_NAMES, help="only this metric (repeatable)")
+    c.add_argument("--metric", action="append", help="only this measure of the runs' task (repeatable; default: "
+                                                     "the task's headline measures; a wrong name lists the task's)")
     c.add_argument("--per-scene", type=_count, metavar="K", help="only the first K episodes of each scene of "
                                                                  "the episode file (as run --per-scene K)")
     c.add_argument("--mix-protocols", action="store_true", help="compare runs under different protocols anyway "

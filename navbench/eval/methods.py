@@ -1,9 +1,10 @@
 """``navbench protocol RUN``: a run's protocol as a paragraph for a paper's methods section.
 
-The paragraph names the task, the episodes (file, how many the run scored, the file's sha256), the success
-rule, the step limit, the actions, the agent's body and sensors, the noise, the navigability rules,
-navbench's version and the protocol id. Every figure comes from the run directory: the protocol from
-``provenance.json`` (or, for a run written before it, derived from ``config.json``:
+The paragraph names the task, the episodes (file, how many the run scored, the file's sha256 and, for a split
+read with other files (``content/``, a gt file), the split's), the success rule, the step limit, the actions,
+the agent's body and sensors, the noise, the navigability rules, navbench's version and the protocol id. Every
+figure comes from the run directory: the protocol from ``provenance.json`` (or, for a run written before it,
+derived from ``config.json``:
 :func:`navbench.eval.provenance.run_protocol`), the episode file's checksum and the version from
 ``provenance.json``, the count from ``summary.json`` (else the records). ``--format markdown`` (the
 default), ``latex`` (special characters escaped) or ``json`` (the facts the paragraph is written from).
@@ -46,6 +47,8 @@ def protocol_facts(run_dir: str | Path) -> dict[str, Any]:
         "derived": bool(proto.get("derived")),
         "episodes": {"file": episodes.get("path") or cfg.get("episodes") or cfg.get("split"),
                      "split": cfg.get("split"), "count": count, "sha256": episodes.get("sha256"),
+                     "split_files": sorted(episodes.get("split_files") or {}),
+                     "split_sha256": episodes.get("split_sha256"),
                      "split_version": episodes.get("split_version"), "datasets": prov.get("datasets")},
         "navbench_version": version,
     }
@@ -72,7 +75,11 @@ def _sentences(f: dict[str, Any]) -> list[tuple[str, list[str]]]:
     count = f"{e['count']} episodes" if e.get("count") is not None else "the episodes"
     file = str(e.get("file") or "an unrecorded episode file")
     what = f"{count} of {file}"
-    if e.get("sha256"):
+    if e.get("sha256") and e.get("split_files") and e.get("split_sha256"):  # content/ or gt files read with it
+        n = len(e["split_files"])
+        what += f" (sha256 {e['sha256']}; with the {n} file{'s' * (n > 1)} read beside it, split sha256 " \
+                f"{e['split_sha256']})"
+    elif e.get("sha256"):
         what += f" (sha256 {e['sha256']})"
     extras = []
     if e.get("split_version") is not None:

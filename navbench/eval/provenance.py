@@ -19,7 +19,9 @@
   (model and flags); ``run_on``: the torch device, the real models' precision and the GL platform (none of
   them part of the protocol: docs/comparing.md); it is rewritten when a run is resumed (the records may then
   come from two machines);
-- ``files``: the sha256 of the episode file, of every scene file the run's episodes use (and of the files
+- ``files``: the sha256 of the episode file (and ``split_files``, of each other file its split is read from:
+  habitat-lab's ``content/`` files, VLN-CE's gt file; ``split_sha256``, one checksum of them all that identifies
+  the split: :func:`split_entry`), of every scene file the run's episodes use (and of the files
   beside it sharing its stem: its annotations) and of the policy checkpoint, each path relative to the
   directory of the generated benchmark holding it (``"root": "benchmark"``: a directory with ``benchmark.json``;
   ``files.benchmark`` then holds the sha256 of its ``SHA256SUMS``), else to navbench's data root when it lies
@@ -49,7 +51,7 @@ from typing import Any
 from navbench._version import __version__
 from navbench.env.config import ACTION_NAMES, CONDITIONS, SUCCESS_DISTANCE, EnvConfig
 from navbench.paths import ROOT
-from navbench.safeio import printable, read_input
+from navbench.safeio import open_input, printable, read_input
 from navbench.scene import MULTI_STOREY_NAVIGABILITY_VERSION, NAVIGABILITY_VERSION
 from navbench.tasks import TASKS
 
@@ -179,9 +181,25 @@ def protocol_differences(a: dict[str, Any], b: dict[str, Any]) -> list[tuple[str
     return [(k, a.get(k), b.get(k)) for k in keys if a.get(k) != b.get(k)]
 
 
+# What a protocol field's absence means: a rule that is off is left out (``protocol``), a derived one lacks
+# ``navigability``.
+_ABSENT = {"tilt_angle_deg": "none (no look actions)", "goal_images": "none (no goal images)",
+           "navigability": "not recorded (derived from config.json)", "actuation_noise": "none (noiseless)",
+           "depth_noise": "none (noiseless)", "rgb_noise": "none (noiseless)"}
+
+
+def protocol_value(field: str, value: Any) -> str:
+    """A protocol field's value as a difference names it; an absent one says what its absence means."""
+    if value is not None:
+        return repr(value)
+    if field in _ABSENT:
+        return _ABSENT[field]
+    return f"{CONDITIONS[field]!r} (the default)" if field in CONDITIONS else "none"
+
+
 def protocol_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
-    """``key a vs b`` for each protocol field that differs (``derived`` aside)."""
-    return [f"{k} {x!r} vs {y!r}" for k, x, y in protocol_differences(a, b)]
+    """``key a vs b`` for each protocol field that differs (``derived`` aside), a's value first."""
+    return [f"{k} {protocol_value(k, x)} vs {protocol_value(k, y)}" for k, x, y in protocol_differences(a, b)]
 
 
 MIX_HINT = "; --mix-protocols to show them together anyway"
@@ -193,7 +211,7 @@ def check_same_protocol(run_dirs: list[str | Path], allow_mixed: bool = False, h
     for d, p in zip(run_dirs[1:], protos[1:]):
         diff = protocol_diff(protos[0], p)
         if diff and not allow_mixed:
-            raise ProtocolError(printable(f"{d}: scored under another protocol than {run_dirs[0]} ({'; '.join(diff)})",
+            raise ProtocolError(printable(f"{run_dirs[0]} vs {d}: scored under different protocols ({'; '.join(diff)})",
                                           1000) + hint)
     return [protocol_id(p) for p in protos]
 
@@ -241,6 +259,41 @@ def benchmark_sums(episodes: str | Path) -> Path | None:
 
 def file_entry(path: str | Path) -> dict[str, str]:
     return {**data_path(path), "sha256": sha256(path)}
+
+
+def capped_sha256(path: str | Path) -> str:
+    """The sha256 of an input file's bytes as stored, refused (InputTooLarge) past the input cap on its size
+    on disk, as its reader would refuse it (:mod:`navbench.safeio`)."""
+    h = hashlib.sha256()
+    with open_input(path, gunzip=False) as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def split_entry(task: str, episodes: str | Path, gt: str | Path | None = None) -> dict[str, Any]:
+    """``files.episodes``' checksums of a split: ``sha256`` of the episode file; ``split_files``, the sha256 of
+    every other file the task reads it with (:attr:`Task.episode_files`: habitat-lab's ``content/`` files,
+    VLN-CE's gt file), each named relative to the episode file's folder; ``split_sha256``, what identifies the
+    split: the episode file's sha256 when there is no other file, else the sha256 of the canonical JSON
+    ``{"episodes": sha256, "files": split_files}``. Each file is read up to the input cap."""
+    path = Path(episodes)
+    known = TASKS.get(task)
+    paths = known.episode_files(path, gt) if known is not None else [path]
+    head = capped_sha256(path)
+    others: dict[str, str] = {}
+    for f in paths[1:]:
+        try:
+            name = f.resolve().relative_to(path.resolve().parent).as_posix()
+        except ValueError:  # a --gt file elsewhere: its name
+            name = f.name
+        others[name] = capped_sha256(f)
+    entry: dict[str, Any] = {"sha256": head}
+    if others:
+        entry["split_files"] = dict(sorted(others.items()))
+    text = json.dumps({"episodes": head, "files": entry.get("split_files", {})}, sort_keys=True, separators=(",", ":"))
+    entry["split_sha256"] = hashlib.sha256(text.encode()).hexdigest() if others else head
+    return entry
 
 
 def _git(*args: str) -> str | None:
@@ -379,7 +432,8 @@ def provenance(cfg: Any, episodes: list | None = None) -> dict[str, Any]:
     proto = config_protocol(cfg)
     from navbench.episodes.io import split_version
 
-    episodes_entry: dict[str, Any] = file_entry(cfg.episodes)
+    episodes_entry: dict[str, Any] = {**data_path(cfg.episodes),
+                                      **split_entry(cfg.task, cfg.episodes, getattr(cfg, "gt", None))}
     if (version := split_version(cfg.episodes)) is not None:
         episodes_entry["split_version"] = version
     files: dict[str, Any] = {"episodes": episodes_entry, "scene_dir": data_path(cfg.scene_dir),

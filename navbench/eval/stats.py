@@ -26,6 +26,7 @@ import numpy as np
 
 METRICS = ("success", "spl", "soft_spl", "distance_to_goal")
 LOWER_IS_BETTER = frozenset({"distance_to_goal"})
+NO_DIRECTION = frozenset({"path_length", "steps_taken"})  # neither more nor less is better
 N_RESAMPLES = 2000
 SEED = 0
 # Smallest detectable difference: (z_0.975 + z_0.80) x the bootstrap standard error of the mean paired
@@ -133,30 +134,58 @@ def pair(base: Iterable[Mapping[str, Any]], other: Iterable[Mapping[str, Any]]
     return pairs, dropped
 
 
+def _measured(pair_: tuple[Mapping[str, Any], Mapping[str, Any]], metric: str) -> bool:
+    return pair_[0].get(metric) is not None and pair_[1].get(metric) is not None
+
+
+def _paired(pairs: Sequence[tuple[Mapping[str, Any], Mapping[str, Any]]], metrics: Sequence[str]
+            ) -> dict[str, dict[str, Any]]:
+    b = _matrix([p[0] for p in pairs], metrics)
+    o = _matrix([p[1] for p in pairs], metrics)
+    diffs = resample_means(o - b, [str(p[0].get("scene_id")) for p in pairs])
+    ci = _interval(diffs)
+    out = {}
+    for j, m in enumerate(metrics):
+        sign = -1.0 if m in LOWER_IS_BETTER else 1.0
+        d = sign * diffs[:, j]
+        out[m] = {
+            "base": float(b[:, j].mean()), "other": float(o[:, j].mean()), "diff": float((o - b)[:, j].mean()),
+            "ci95": [float(ci[0, j]), float(ci[1, j])],
+            "p_better": None if m in NO_DIRECTION else float(np.mean(d > 0) + 0.5 * np.mean(d == 0)),
+            "mde": float(MDE_FACTOR * diffs[:, j].std(ddof=1)),
+        }
+    return out
+
+
 def compare_records(base: Iterable[Mapping[str, Any]], other: Iterable[Mapping[str, Any]],
                     metrics: Sequence[str] = METRICS) -> dict[str, Any]:
     """Paired comparison on the shared episodes: per metric both means, ``diff`` = OTHER - BASE, its
     two-stage bootstrap ``ci95``, ``p_better`` (the share of resamples whose mean difference favours
-    OTHER, ties counted half; for distance_to_goal lower is better) and ``mde`` (``MDE_FACTOR`` x the
-    bootstrap standard error of the difference)."""
+    OTHER, ties counted half; for distance_to_goal lower is better; None for a measure with no better
+    direction: path length, steps) and ``mde`` (``MDE_FACTOR`` x the bootstrap standard error of the
+    difference). A measure some records hold no value of (null: GOAT-Bench's corrected per-type success of
+    an episode without that type, nDTW without a gt file) is compared on the pairs where both runs have
+    it, from its own draws, and says on how many (``episodes``); one no pair has is listed under
+    ``unmeasured``."""
     pairs, dropped = pair(base, other)
     if not pairs:
         raise StatsError("the runs share no scored episode")
-    b = _matrix([p[0] for p in pairs], metrics)
-    o = _matrix([p[1] for p in pairs], metrics)
     scenes = [str(p[0].get("scene_id")) for p in pairs]
-    diffs = resample_means(o - b, scenes)
-    ci = _interval(diffs)
     out: dict[str, Any] = {"episodes": len(pairs), "scenes": len(set(scenes)), "dropped": dropped, "metrics": {}}
-    for j, m in enumerate(metrics):
-        sign = -1.0 if m in LOWER_IS_BETTER else 1.0
-        d = sign * diffs[:, j]
-        out["metrics"][m] = {
-            "base": float(b[:, j].mean()), "other": float(o[:, j].mean()), "diff": float((o - b)[:, j].mean()),
-            "ci95": [float(ci[0, j]), float(ci[1, j])],
-            "p_better": float(np.mean(d > 0) + 0.5 * np.mean(d == 0)),
-            "mde": float(MDE_FACTOR * diffs[:, j].std(ddof=1)),
-        }
+    full = [m for m in metrics if all(_measured(p, m) for p in pairs)]
+    results = _paired(pairs, full) if full else {}
+    unmeasured = []
+    for m in metrics:
+        if m in results:
+            continue
+        some = [p for p in pairs if _measured(p, m)]
+        if some:
+            results[m] = {**_paired(some, [m])[m], "episodes": len(some)}
+        else:
+            unmeasured.append(m)
+    out["metrics"] = {m: results[m] for m in metrics if m in results}
+    if unmeasured:
+        out["unmeasured"] = unmeasured
     return out
 
 
@@ -242,15 +271,65 @@ def _difference(field: str, base: Any, other: Any, line: str, in_protocol: bool 
     return {"field": field, "in_protocol": in_protocol, "base": base, "other": other, "line": line}
 
 
+def _split_files(prov: dict[str, Any]) -> dict[str, Any] | None:
+    """A run's split as provenance.json records it, ``{name: sha256}`` of every file it was read from (the
+    episode file as ``the episode file``); None for a run recorded before its other files were hashed."""
+    entry = doc_get(prov, "files", "episodes")
+    if not isinstance(doc_get(entry, "split_sha256"), str):
+        return None
+    files = doc_get(entry, "split_files")
+    return {"the episode file": entry.get("sha256"), **(files if isinstance(files, dict) else {})}
+
+
+def _split_named(entry: Any, fallback: Any) -> str | None:
+    """``path (sha256 0123456789ab)`` of the episode file, or ``(split sha256 ...)`` when its split has
+    other files too."""
+    if isinstance(doc_get(entry, "split_files"), dict) and isinstance(doc_get(entry, "split_sha256"), str):
+        return f"{_shown(doc_get(entry, 'path') or fallback)} (split sha256 {_shown(entry['split_sha256'])[:12]})"
+    return _file_named(entry, fallback)
+
+
+def _episode_differences(base: Path, other: Path, cfg: dict[Path, Any], prov: dict[Path, Any]
+                         ) -> list[dict[str, Any]]:
+    """The ``episodes`` difference when the runs read different splits (every file of each, where both runs
+    recorded them all; else the episode files), or a ``split_files`` note when only one run recorded the
+    split's other files and the episode files agree."""
+    names = {d: _split_named(doc_get(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
+             for d in (base, other)}
+    splits = {d: _split_files(prov[d]) for d in (base, other)}
+    if splits[base] is not None and splits[other] is not None:
+        ids = {d: doc_get(prov[d], "files", "episodes", "split_sha256") for d in (base, other)}
+        if ids[base] == ids[other]:
+            return []
+        a, b = splits[base], splits[other]
+        differing = [n for n in sorted(set(a) | set(b)) if a.get(n) != b.get(n)]
+        shown = ", ".join(_shown(n) for n in differing[:4]) + (f" and {len(differing) - 4} more"
+                                                                 if len(differing) > 4 else "")
+        return [_difference("episodes", ids[base], ids[other],
+                            f"episode file {names[base]} vs {names[other]}: {shown} differ")]
+    sets = {d: _episode_set(d) for d in (base, other)}
+    if sets[base] != sets[other]:
+        return [_difference("episodes", sets[base], sets[other], f"episode file {names[base]} vs {names[other]}")]
+    more = {d: len(splits[d]) - 1 if splits[d] is not None else None for d in (base, other)}
+    if any(n for n in more.values()):
+        unrecorded = " and ".join(w for w, d in (("BASE", base), ("OTHER", other)) if more[d] is None)
+        return [_difference("split_files", more[base], more[other],
+                            f"split files: {unrecorded} recorded the episode file's sha256 only, not the other "
+                            f"files its split is read from (content/, gt): paired on the episode file alone")]
+    return []
+
+
 def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str, Any]] | None = None,
                     other_records: Sequence[Mapping[str, Any]] | None = None) -> list[dict[str, Any]]:
-    """What differs between two runs that can explain a gap in their numbers, each with both values and a
-    ``line`` saying it: the protocol's fields (``in_protocol``), then the episode file by checksum, the
-    subset of one file each ran (from their records), the agent, checkpoint, decoding and seed, and navbench's
-    version, torch's build and the device. A value a run directory does not record shows as ``-``."""
-    from navbench.eval.provenance import protocol_differences, recorded_run_on, run_protocol
+    """What differs between two runs that can explain a gap in their numbers, each with both values (BASE's
+    first) and a ``line`` saying it: the protocol's fields (``in_protocol``), then the split by checksum (the
+    episode file and every other file it is read from: habitat-lab's ``content/`` files, VLN-CE's gt file),
+    the subset of one file each ran (from their records), the agent and each of its settings (config.json's
+    ``agent_options``), the checkpoint and seed, and navbench's version, torch's build and the device. A value
+    a run directory does not record shows as ``-``."""
+    from navbench.eval.provenance import protocol_differences, protocol_value, recorded_run_on, run_protocol
 
-    out = [_difference(k, a, b, f"{k} {a!r} vs {b!r}", True)
+    out = [_difference(k, a, b, f"{k} {protocol_value(k, a)} vs {protocol_value(k, b)}", True)
            for k, a, b in protocol_differences(run_protocol(base), run_protocol(other))]
     cfg = {d: read_run_doc(d, "config.json") for d in (base, other)}
     prov = {d: read_run_doc(d, "provenance.json") for d in (base, other)}
@@ -259,12 +338,10 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
         if a != b:
             out.append(_difference(field, a, b, line or f"{field} {_shown(a)} vs {_shown(b)}"))
 
-    sets = {d: _episode_set(d) for d in (base, other)}
-    names = {d: _file_named(doc_get(prov[d], "files", "episodes"), cfg[d].get("split") or cfg[d].get("episodes"))
-             for d in (base, other)}
-    if sets[base] != sets[other]:
-        add("episodes", sets[base], sets[other], f"episode file {names[base]} vs {names[other]}")
-    elif base_records is not None and other_records is not None:
+    episodes = _episode_differences(base, other, cfg, prov)
+    out += episodes
+    if not any(x["field"] == "episodes" for x in episodes) and base_records is not None \
+            and other_records is not None:
         keys = [{_key(r) for r in recs} for recs in (base_records, other_records)]
         common = len(keys[0] & keys[1])
         if keys[0] != keys[1]:
@@ -272,14 +349,20 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
                    else f"{common} in common, paired on those")
             add("episode_subset", len(keys[0]), len(keys[1]),
                 f"the same episodes file, {len(keys[0])} vs {len(keys[1])} of its episodes: {how}")
-    add("agent", cfg[base].get("label") or cfg[base].get("agent"), cfg[other].get("label") or cfg[other].get("agent"))
+    add("agent", cfg[base].get("agent"), cfg[other].get("agent"))
+    # each setting by name (--noise, --perception, --decoding...), not the runs' labels; of two agents, the
+    # settings both have
+    opts = {d: cfg[d].get("agent_options") if isinstance(cfg[d].get("agent_options"), dict) else {}
+            for d in (base, other)}
+    same_agent = cfg[base].get("agent") == cfg[other].get("agent")
+    names = set(opts[base]) | set(opts[other]) if same_agent else set(opts[base]) & set(opts[other])
+    for k in sorted(names - {"checkpoint"}):
+        add(k, opts[base].get(k), opts[other].get(k))
     ckpt = {d: _file_named(doc_get(prov[d], "files", "checkpoint"), doc_get(cfg[d], "agent_options", "checkpoint"))
             for d in (base, other)}
     if doc_get(prov[base], "files", "checkpoint", "sha256") != doc_get(prov[other], "files", "checkpoint", "sha256") \
             or ckpt[base] != ckpt[other]:
         add("checkpoint", ckpt[base], ckpt[other], f"checkpoint {_shown(ckpt[base])} vs {_shown(ckpt[other])}")
-    for k in ("decoding", "temperature"):
-        add(k, doc_get(cfg[base], "agent_options", k), doc_get(cfg[other], "agent_options", k))
     add("seed", cfg[base].get("seed"), cfg[other].get("seed"))
 
     def origin(doc: dict[str, Any]) -> str | None:
@@ -301,18 +384,63 @@ def run_differences(base: Path, other: Path, base_records: Sequence[Mapping[str,
     return out
 
 
-def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequence[str] = METRICS,
+def task_metrics(task: str) -> tuple[str, ...]:
+    """The measures ``compare`` takes for a task's runs: those its records hold (:attr:`Task.measures`)."""
+    from navbench.tasks import TASKS
+
+    known = TASKS.get(task)
+    return known.measures if known is not None else METRICS
+
+
+def headline_metrics(task: str) -> tuple[str, ...]:
+    """What ``compare`` reports for a task's runs without ``--metric`` (:attr:`Task.headline_measures`)."""
+    from navbench.tasks import TASKS
+
+    known = TASKS.get(task)
+    return known.headline_measures if known is not None else METRICS
+
+
+def choose_metrics(tasks: Sequence[str], metrics: Sequence[str] | None) -> tuple[str, ...]:
+    """``metrics``, each checked to be a measure of every task in ``tasks`` (a StatsError naming the valid
+    ones); none given: the first task's headline measures that every task has."""
+    from navbench.safeio import printable
+
+    if not metrics:
+        chosen = tuple(m for m in headline_metrics(tasks[0]) if all(m in task_metrics(t) for t in tasks))
+        if not chosen:
+            raise StatsError(f"runs of {' and '.join(dict.fromkeys(tasks))} share no measure: name one with --metric")
+        return chosen
+    for t in dict.fromkeys(tasks):
+        valid = task_metrics(t)
+        if bad := [m for m in metrics if m not in valid]:
+            raise StatsError(f"--metric {printable(bad[0], 60)}: not a measure of {t} runs; choose from "
+                             f"{', '.join(valid)}")
+    return tuple(dict.fromkeys(metrics))
+
+
+def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequence[str] | None = None,
                  mix_protocols: bool = False, per_scene: int | None = None) -> list[dict[str, Any]]:
     """:func:`compare_records` of ``base`` with each of ``others`` (run directories), refusing runs under
-    another protocol (unless ``mix_protocols``) or on another episode file; with ``per_scene``, on the
-    first ``per_scene`` episodes of each scene only. Each result's ``differences`` (:func:`run_differences`)
-    say what differs, in and outside the protocol. The device and precision each run used are not part of
-    the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports both."""
-    from navbench.eval.provenance import check_same_protocol, recorded_run_on
+    another protocol (unless ``mix_protocols``) or on another split (:func:`run_differences`); with
+    ``per_scene``, on the first ``per_scene`` episodes of each scene only. ``metrics``: measures of the runs'
+    task (:func:`choose_metrics`), by default its headline measures, of which those no paired record has
+    (nDTW without a gt file) are left out and listed under ``unmeasured``. Each result's ``differences``
+    (:func:`run_differences`) say what differs, in and outside the protocol. The device and precision each
+    run used are not part of the protocol: runs on the CPU and on a GPU are compared, and ``run_on`` reports
+    both."""
+    from navbench.eval.provenance import check_same_protocol, recorded_run_on, run_protocol
     from navbench.eval.rundir import read_records
+    from navbench.safeio import printable
+    from navbench.tasks import TASKS
 
     base, others = Path(base), [Path(o) for o in others]
+    known = set(METRICS).union(*(task_metrics(t) for t in TASKS))
+    if bad := [m for m in metrics or () if m not in known]:  # no task's: refused before any run is read
+        raise StatsError(f"--metric {printable(bad[0], 60)}: not a measure of any task; choose from "
+                         f"{', '.join(sorted(known))}")
     ids = check_same_protocol([base, *others], allow_mixed=mix_protocols)
+    tasks = [str(run_protocol(d).get("task")) for d in (base, *others)]
+    chosen = choose_metrics(tasks, metrics)
     records = {}
     for d in (base, *others):
         if not (d / "episodes.jsonl").is_file():
@@ -328,22 +456,36 @@ def compare_runs(base: str | Path, others: Sequence[str | Path], metrics: Sequen
     out = []
     for d, pid in zip(others, ids[1:]):
         diffs = run_differences(base, d, records[base], records[d])
-        if _episode_set(d) != _episode_set(base):
+        if any(x["field"] == "episodes" for x in diffs):
             why = "; ".join(x["line"] for x in diffs if x["field"] == "episodes")
-            raise StatsError(f"{d}: scored on another episode file than {base} ({why}): nothing to pair"[:1000])
+            raise StatsError(f"{base} vs {d}: scored on different episode files ({why}): nothing to pair"[:1000])
         try:
-            res = compare_records(records[base], records[d], metrics)
+            res = compare_records(records[base], records[d], chosen)
         except StatsError as exc:
-            raise StatsError(f"{d} vs {base}: {exc}") from None
-        out.append({"base_run": str(base), "other_run": str(d), "protocol_id": ids[0],
+            raise StatsError(f"{base} vs {d}: {exc}") from None
+        if metrics and res.get("unmeasured"):
+            raise StatsError(f"{base} vs {d}: no episode both runs scored has a value of "
+                             f"{', '.join(res['unmeasured'])}")
+        out.append({"base_run": str(base), "other_run": str(d), "task": tasks[0], "protocol_id": ids[0],
                     **({"other_protocol_id": pid} if pid != ids[0] else {}),
                     "run_on": {"base": recorded_run_on(base), "other": recorded_run_on(d)},
                     "differences": diffs, **res})
     return out
 
 
-_SHOWN = {"success": ("SR", 100, "%"), "spl": ("SPL", 100, "%"), "soft_spl": ("SoftSPL", 100, "%"),
-          "distance_to_goal": ("DTG", 1, "m")}
+_SHOWN = {"success": "SR", "spl": "SPL", "soft_spl": "SoftSPL", "distance_to_goal": "DTG"}
+_SCALE = {"distance_to_goal": (1, "m"), "path_length": (1, "m"), "steps_taken": (1, "")}  # else a share, in %
+
+
+def metric_label(task: str | None, metric: str) -> tuple[str, float, str]:
+    """(name, scale, unit) of a measure as compare prints it: the task's column header where its table has
+    one (VLN-CE's NE, TL, nDTW...), else SR / SPL / SoftSPL / DTG, else the measure's own name."""
+    from navbench.tasks import TASKS
+
+    known = TASKS.get(task or "")
+    header = next((h for h, m, _ in known.columns if m == metric), None) if known is not None else None
+    k, unit = _SCALE.get(metric, (100, "%"))
+    return header or _SHOWN.get(metric, metric), k, unit
 
 
 def format_comparison(res: dict[str, Any]) -> str:
@@ -359,11 +501,19 @@ def format_comparison(res: dict[str, Any]) -> str:
                                             for d in dropped}.items()))
     eg = "" if not dropped else f" (e.g. episode {dropped[0]['episode_id']} of {dropped[0]['scene_id']})"
     lines.append(f"paired on {res['episodes']} episodes in {res['scenes']} scenes; dropped {len(dropped)}{what}{eg}")
-    lines.append(f"{'metric':<10}{'base':>8}{'other':>8}{'diff':>8}  {'95% CI of diff':<18}{'P(other better)':>16}"
+    labels = {m: metric_label(res.get("task"), m) for m in res["metrics"]}
+    heads = {m: (f"{name} {unit}".strip() + (f" (n={r['episodes']})" if "episodes" in r else ""))
+             for (m, (name, _, unit)), r in zip(labels.items(), res["metrics"].values())}
+    w = max([10, *(len(h) + 1 for h in heads.values())])
+    lines.append(f"{'metric':<{w}}{'base':>8}{'other':>8}{'diff':>8}  {'95% CI of diff':<18}{'P(other better)':>16}"
                  f"{'detectable':>12}")
     for m, r in res["metrics"].items():
-        name, k, unit = _SHOWN[m]
+        _, k, _ = labels[m]
         lo, hi = (k * v for v in r["ci95"])
-        lines.append(f"{name + ' ' + unit:<10}{k * r['base']:>8.1f}{k * r['other']:>8.1f}{k * r['diff']:>+8.1f}  "
-                     f"{f'[{lo:+.1f}, {hi:+.1f}]':<18}{r['p_better']:>16.3f}{k * r['mde']:>12.1f}")
+        better = "-" if r["p_better"] is None else f"{r['p_better']:.3f}"
+        lines.append(f"{heads[m]:<{w}}{k * r['base']:>8.1f}{k * r['other']:>8.1f}{k * r['diff']:>+8.1f}  "
+                     f"{f'[{lo:+.1f}, {hi:+.1f}]':<18}{better:>16}{k * r['mde']:>12.1f}")
+    if res.get("unmeasured"):
+        lines.append("not measured in these runs' records: " + ", ".join(
+            metric_label(res.get("task"), m)[0] for m in res["unmeasured"]))
     return "\n".join(lines)

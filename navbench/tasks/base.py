@@ -79,6 +79,13 @@ def default_reader(path: str | Path, select: Callable[..., list[Episode]] | None
     return load_dataset(path, select)
 
 
+def default_episode_files(path: str | Path, gt: str | Path | None = None) -> list[Path]:
+    """The files a split is read from: the file, then each ``content/*.json(.gz)`` beside it (habitat-lab's
+    per-scene layout: :func:`navbench.episodes.instance_imagenav.split_files`)."""
+    from navbench.episodes.instance_imagenav import split_files
+    return split_files(Path(path))
+
+
 # How InstanceImageNav's and GOAT-Bench's image goals are rendered (navbench.render.goal_images), as a protocol
 # states it (Task.goal_images).
 IMAGE_GOAL_RULE = "a pinhole camera at the file's image goal pose (pitch and roll too), its hfov and size; no noise"
@@ -122,6 +129,9 @@ class Task:
             env is given none; None: navbench's EnvConfig with ``max_steps``.
         goal_images: how the task's goal images are rendered, in a line (camera, pose, size), or "" for a task
             without them: it changes what an agent is shown, so the protocol carries it.
+        episode_files: ``episode_files(path, gt)`` -> every file a run of ``path`` reads its episodes (and their
+            references) from, the file first; provenance hashes them all. ``gt``: a VLN-CE run's ``--gt``.
+        headline: the measures ``navbench compare`` reports without ``--metric``; empty: those of ``columns``.
     """
     name: str
     gym_id: str
@@ -147,6 +157,8 @@ class Task:
     columns: tuple[tuple[str, str, float], ...] = COLUMNS
     env_config: str | None = None
     goal_images: str = ""
+    episode_files: Callable[..., list[Path]] = default_episode_files
+    headline: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.distance_to not in ("POINT", "VIEW_POINTS"):
@@ -162,6 +174,11 @@ class Task:
             if sd is not None:
                 return sd
         return self.success_distance
+
+    @property
+    def headline_measures(self) -> tuple[str, ...]:
+        """What ``navbench compare`` reports by default: ``headline``, else the measures of ``columns``."""
+        return self.headline or tuple(dict.fromkeys(m for _, m, _ in self.columns))
 
     @property
     def extra_measures(self) -> tuple[str, ...]:

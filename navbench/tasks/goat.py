@@ -32,6 +32,10 @@ GOAT_MEASURES = (
     "image_success", "composite_spl", "composite_softspl", "task_success_corrected", "object_success_corrected",
     "description_success_corrected", "image_success_corrected",
 )
+# what goat-bench's evaluation logs first (ppo_trainer_no_2d.py): success over subtasks and of all of them, SPL,
+# success by goal type; task_success is always 0 there and composite_softspl is no headline
+GOAT_HEADLINE = ("partial_success", "composite_success", "composite_spl", "object_success", "description_success",
+                 "image_success")
 # per subtask, in each record (goat-bench writes success_by_subtask and spl_by_subtaskl to episode_metrics.json)
 GOAT_RECORD_FIELDS = ("subtask_success", "spl_by_subtask", "softspl_by_subtask", "d0_by_subtask", "subtasks_closed")
 
@@ -106,6 +110,7 @@ TASK = Task(
     actions=ACTIONS,
     measures=MEASURES + GOAT_MEASURES,
     record_fields=GOAT_RECORD_FIELDS,
+    headline=GOAT_HEADLINE,
     distance_to="VIEW_POINTS",
     success_distance=SUCCESS_DISTANCE,
     success_rule_text="per subtask, at its SUBTASK_STOP (6); STOP ends the episode",

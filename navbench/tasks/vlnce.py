@@ -113,6 +113,14 @@ def read_rxr(path: str | Path, select=None, gt: str | Path | None = None) -> VLN
     return ds
 
 
+def episode_files(path: str | Path, gt: str | Path | None = None) -> list[Path]:
+    """The episode file (and any ``content/`` files) and the gt file(s) scored against: ``gt``, else those
+    beside it (:func:`navbench.episodes.vlnce.gt_paths_beside`)."""
+    from navbench.episodes.instance_imagenav import split_files
+    from navbench.episodes.vlnce import gt_paths_beside
+    return [*split_files(Path(path)), *([Path(gt)] if gt is not None else gt_paths_beside(path))]
+
+
 _COMMON: dict[str, Any] = dict(
     gym_id=GYM_ID,
     goal_sensors=(GoalSensor("instruction", instruction_space, instruction, per_episode=True),),
@@ -121,6 +129,7 @@ _COMMON: dict[str, Any] = dict(
     success_distance=VLNCE_SUCCESS_DISTANCE,
     max_steps=500,
     env_class="navbench.env.vlnce:VLNCEEnv",
+    episode_files=episode_files,
     default_agent="vln_random",  # runs under VLN-CE's own sensors (no GPS+compass), as every run's default
     # the VLN-CE README's table: TL, NE, OS, SR, SPL; nDTW and SDTW as the RxR-Habitat leaderboard lists them
     columns=(("TL", "path_length", 1), ("NE", "distance_to_goal", 1), ("OS", "oracle_success", 100),

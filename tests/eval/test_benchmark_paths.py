@@ -51,7 +51,8 @@ def test_benchmark_run_records_paths_relative_to_the_benchmark_with_checksums(be
                                                                          "bench")
     assert cfg["benchmark"] == {"episodes_sha256": sha}
     files = json.loads((tmp_path / "run" / "provenance.json").read_text())["files"]
-    assert files["episodes"] == {"path": "objectnav/val_unseen_h1.json.gz", "root": "benchmark", "sha256": sha}
+    assert files["episodes"] == {"path": "objectnav/val_unseen_h1.json.gz", "root": "benchmark", "sha256": sha,
+                                 "split_sha256": sha}
     assert files["scene_dir"] == {"path": "scenes", "root": "benchmark"}
     assert files["benchmark"] == {"sha256sums": hashlib.sha256((bench / "SHA256SUMS").read_bytes()).hexdigest()}
     assert str(tmp_path) not in (tmp_path / "run" / "config.json").read_text() + json.dumps(files)

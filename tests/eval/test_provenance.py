@@ -58,7 +58,7 @@ def test_provenance_checksums_versions_and_relative_paths():
     doc = provenance(_cfg(agent="pointnav"), eps)
     files = doc["files"]
     assert files["episodes"] == {"path": "episodes/pointnav/val/val.json.gz", "root": "navbench", "sha256": _sha(VAL),
-                                 "split_version": SPLIT_VERSION}
+                                 "split_sha256": _sha(VAL), "split_version": SPLIT_VERSION}  # a one-file split
     assert files["checkpoint"]["sha256"] == _sha(DEFAULT_CHECKPOINT)
     assert files["checkpoint"]["path"] == "policies/pointnav_navbench.pth"
     assert set(files["scenes"]) == {e.scene_id for e in eps} and len(files["scenes"]) == 2
