@@ -1,7 +1,8 @@
 """``navbench protocol RUN``: a run's protocol as a paragraph for a paper's methods section.
 
-The paragraph names the task, the episodes (file, how many the run scored, the file's sha256), the success
-rule, the step limit, the actions, the agent's body and sensors, the noise, the navigability rules,
+The paragraph names the task in words, the episodes (file, how many the run scored, the file's sha256), the
+task's rules (``Task.rules``: what the agent is given, when an episode succeeds and ends, what its measures
+mean) with the run's success distance and step limit, the actions, the agent's body and sensors, the noise, the navigability rules,
 navbench's version and the protocol id. Every figure comes from the run directory: the protocol from
 ``provenance.json`` (or, for a run written before it, derived from ``config.json``:
 :func:`navbench.eval.provenance.run_protocol`), the episode file's checksum and the version from
