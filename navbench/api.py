@@ -54,6 +54,8 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
         get_task(task)  # an unknown task is a one-line ValueError naming the known ones
     if episodes:
         episodes = Path(episodes)
+        if task is not None:
+            check_file_task(task, episodes)
 
         def first(stream):  # the first episode (and the goals by category) tell the task and the format
             return list(itertools.islice(stream(), 1))
@@ -82,6 +84,21 @@ def resolve_episodes(task: str | None, split: str | None, episodes: str | Path |
     if split not in t.splits:
         raise ValueError(f"unknown {task} split {split!r}: choose from {', '.join(t.splits)}")
     return task, split, t.split_file(split), t.success_distance_for(split)
+
+
+def check_file_task(task: str, path: Path) -> None:
+    """A one-line ValueError when ``path`` holds another task's episodes, by its first episode's fields
+    (:func:`navbench.episodes.io.file_task`), in a format ``task``'s reader does not take (ImageNav reads
+    PointNav-v1 files), naming the task the file belongs to. A file that cannot be read is left to the reader."""
+    from navbench.episodes.io import file_task
+    found = file_task(path, habitat_v1=True)
+    if found is None or found == task or get_task(found).episode_format == get_task(task).episode_format:
+        return
+    fits = [t.name for t in TASKS.values() if t.episode_format == get_task(found).episode_format]
+    article = "an" if get_task(found).display_name[0] in "AEIOR" else "a"
+    raise ValueError(f"{path}: looks like {article} {get_task(found).display_name} file "
+                     f"({get_task(found).episode_format}), not {get_task(task).display_name}'s: use --task "
+                     f"{' or '.join(fits)}")
 
 
 def run_dir(task: str, split: str, label: str, root: str | Path = "runs") -> Path:
@@ -194,7 +211,7 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
                                                                         success_distance)
     # `navbench run` resolved the episodes already (for the task's default agent): a user's file is read once
     task, split, episodes_path, default_sd = _episodes or resolve_episodes(task, split, episodes)
-    env, env_name = _env_config(env_config) if habitat is None else \
+    env, env_name = _env_config(env_config, task) if habitat is None else \
         (habitat.env, "habitat-" + re.sub(r"[^\w.=+-]+", "_", habitat.path.name.split(".")[0])[:60])
     if env is None:
         env = _task_env(task)
@@ -234,16 +251,34 @@ def evaluate(agent: Any = None, task: str | None = None, split: str | None = Non
     return summary
 
 
-def _env_config(env_config: Any) -> tuple[Any, str | None]:
-    """(EnvConfig or None, the name config.json records) for ``evaluate``'s ``env_config``."""
-    from navbench.env.config import EnvConfig, env_config_name
+def _env_config(env_config: Any, task: str) -> tuple[Any, str | None]:
+    """(EnvConfig or None, the name config.json records) for ``evaluate``'s ``env_config``; a configuration made
+    for other tasks than ``task`` is a one-line ValueError."""
+    from navbench.env.config import EnvConfig, env_config_name, env_config_names, env_config_path, env_config_tasks
     if env_config is None:
         return None, None
     if isinstance(env_config, EnvConfig):
         return env_config, None
     if isinstance(env_config, (str, Path)):
+        made_for = env_config_tasks(env_config)
+        if made_for and task not in made_for:
+            fits = [n for n in env_config_names() if not env_config_tasks(n) or task in env_config_tasks(n)]
+            raise ValueError(f"{env_config_path(env_config)}: a configuration for {', '.join(made_for)}, not "
+                             f"{task}: choose one for {task} ({', '.join(fits)})")
         return EnvConfig.load(env_config), env_config_name(env_config)
     raise ValueError(f"env_config: expected a name, a TOML file or an EnvConfig, got {env_config!r}"[:200])
+
+
+def env_config_line(env_config: str | Path, task: str, success_distance: float) -> str:
+    """One line saying what a named configuration (or TOML file) changes from ``task``'s own conditions, whose
+    success distance is ``success_distance`` (the split's or file's); a ValueError when it is made for another
+    task."""
+    from navbench.env.config import EnvConfig, config_changes
+    env, name = _env_config(env_config, task)
+    changes = config_changes(env, _task_env(task) or EnvConfig(), task, success_distance)
+    if not changes:
+        return f"--env-config {name}: {task}'s own conditions, unchanged"
+    return f"--env-config {name} changes {task}'s defaults: " + "; ".join(changes)
 
 
 def _task_env(task: str) -> Any:

@@ -39,7 +39,7 @@ from typing import Any
 from navbench.agents.options import add_flags, flag_of, given_flags
 from navbench.agents.plugins import parse_options, resolve_agent
 from navbench.agents.registry import AGENTS, agent_options, default_agent, loads_models, scan_config
-from navbench.api import resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
+from navbench.api import env_config_line, resolve_episodes, run_dir  # noqa: F401  (run_dir: importable from here too)
 from navbench.episodes.io import file_split
 from navbench.loop_progress import silenced
 from navbench.paths import EPISODES_DIR, SCENES_DIR
@@ -65,12 +65,19 @@ def cmd_run(args) -> int:
             print(habitat.ignored_line(), file=sys.stderr)
     episodes = resolve_episodes(args.task, args.split, args.episodes)  # evaluate() takes it, not again
     task, split = episodes[:2]
+    # what a named configuration changes (one for another task: refused), printed once the run is set to start
+    changes = env_config_line(args.env_config, task, episodes[3]) if args.env_config else None
     args.agent = args.agent or default_agent(task)
     options = _agent_request(args)
     # real perception models load once per machine: one worker (its envs batched) unless told otherwise
     default_workers = 1 if loads_models(args.agent, options) else 2
     workers = args.workers if args.workers is not None or args.address is not None else default_workers
     where: list[Path] = []
+
+    def starting(out: Path) -> None:
+        where.append(out)
+        if changes and not args.quiet:
+            print(changes, file=sys.stderr)
     # -q: no run progress, and no loop progress either (memory pre-scans, workers)
     with warnings.catch_warnings(), silenced() if args.quiet else nullcontext():
         # failed episodes are reported below, in one line, with exit 3
@@ -82,7 +89,7 @@ def cmd_run(args) -> int:
             envs_per_worker=args.envs_per_worker, backend=args.backend, address=args.address, retries=args.retries,
             step_timeout=args.step_timeout, fail_fast=args.fail_fast, env_config=args.env_config,
             progress=None if args.quiet else Progress(),
-            video=args.video, on_run_dir=where.append, device=args.device, precision=args.precision,
+            video=args.video, on_run_dir=starting, device=args.device, precision=args.precision,
             habitat_config=habitat, gt=args.gt, _episodes=episodes)
     out = where[0]
     print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
@@ -136,15 +143,20 @@ def cmd_agents(args) -> int:
     from navbench.agents.plugins import available_agents
     rows = available_agents()
     width = max(len(r["name"]) for r in rows)
-    for r in rows:
-        print(f"{r['name']:<{width}}  {r['source']:<24}  {r['target']}")
+    for r in rows:  # a built-in: what it is and whether it reads the simulator beyond the sensors
+        spec = AGENTS.get(r["name"]) if r["source"] == "built-in" else None
+        if spec is not None:
+            kind = "built-in, " + ("privileged" if spec.privileged else "non-privileged")
+            print(f"{r['name']:<{width}}  {kind:<26}  {spec.help}")
+        else:
+            print(f"{r['name']:<{width}}  {r['source']:<26}  {r['target']}")
     print("\nalso: --agent package.module:Name (a class or factory) or --agent http://HOST:PORT "
           "(a served agent)")
     return 0
 
 
 def task_rows() -> list[dict[str, str]]:
-    """``navbench tasks``' rows: name, Gymnasium id, success rule, step limit, default split."""
+    """``navbench tasks``' rows: name, Gymnasium id, success rule, step limit, default split, default agent."""
     rows = []
     for t in TASKS.values():
         to = "the goal point" if t.distance_to == "POINT" else "a goal's view points"
@@ -152,7 +164,7 @@ def task_rows() -> list[dict[str, str]]:
         if t.success_rule_text:
             rule += f"; {t.success_rule_text}"
         rows.append({"task": t.name, "gym id": t.gym_id, "success": rule, "steps": str(t.max_steps),
-                     "default split": t.default_split})
+                     "default split": t.default_split or "none: --episodes", "default agent": t.default_agent})
     return rows
 
 

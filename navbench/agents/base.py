@@ -17,7 +17,7 @@ from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 
-from navbench.env.sensors import world_pose
+from navbench.env.sensors import AGENT_POSE, world_pose
 from navbench.episodes.types import Episode
 from navbench.scene.pose import yaw_from_quat
 
@@ -78,13 +78,18 @@ def episode_log(agent: Agent) -> dict[str, Any]:
 
 
 class PoseTracker:
-    """World pose from the episode's start pose plus GPS+compass, the way Habitat agents know it."""
+    """World pose from the episode's start pose plus GPS+compass, the way Habitat agents know it; for a
+    privileged agent (one that lists ``agent_pose`` in its ``sensors``), plus the simulator's pose in the same
+    start frame (:meth:`navbench.env.base.NavEnv.give_agent_pose`), under any configuration."""
 
     def reset(self, episode: Episode) -> None:
         self.start_position = np.asarray(episode.start_position, np.float64)
         self.start_yaw = yaw_from_quat(np.asarray(episode.start_rotation, np.float64))
 
     def __call__(self, observations: dict[str, np.ndarray]) -> tuple[np.ndarray, float]:
+        pose = observations.get(AGENT_POSE)
+        if pose is not None:
+            return world_pose(pose[:2], pose[2:], self.start_position, self.start_yaw)
         return world_pose(observations["gps"], observations["compass"], self.start_position, self.start_yaw)
 
 

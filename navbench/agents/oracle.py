@@ -1,7 +1,9 @@
 """``oracle``: follows the geodesic shortest path to the nearest goal and stops inside the success
 distance, like Habitat's ShortestPathFollower (on a GOAT-Bench episode, to each subtask's goals in turn,
 closing each with SUBTASK_STOP). Its SR/SPL are the ceiling a benchmark split allows;
-if they are low, the geodesics, view points or motion model are wrong.
+if they are low, the geodesics, view points or motion model are wrong. Both oracles are privileged: they read the
+simulator's pose (``agent_pose``, :meth:`navbench.env.base.NavEnv.give_agent_pose`) as habitat-lab's
+ShortestPathFollower reads ``sim.get_agent_state()``, so they run under configurations without GPS+compass too.
 
 ``optimistic``: the same follower planning on the map its own depth frames have shown it (unseen
 cells count as free; :mod:`navbench.scene.optimistic`), on the start's storey or, for a goal on another
@@ -21,6 +23,7 @@ import numpy as np
 from navbench.agents.base import PoseTracker
 from navbench.env.base import resolve_scene_path
 from navbench.env.config import EnvConfig
+from navbench.env.sensors import AGENT_POSE
 from navbench.episodes.goat import SUBTASK_STOP, GoatEpisode
 from navbench.episodes.types import Episode
 from navbench.scene.asset import load_scene
@@ -32,7 +35,7 @@ from navbench.scene.pose import quat_from_yaw
 
 
 class OracleAgent:
-    sensors: tuple[str, ...] = ()  # privileged: needs no rendered observation
+    sensors: tuple[str, ...] = (AGENT_POSE,)  # privileged: the simulator's pose, no rendered observation
 
     def __init__(self, scene_dir: str | Path, success_distance: float, env_config: EnvConfig = EnvConfig()):
         self.scene_dir = Path(scene_dir)
@@ -104,7 +107,7 @@ def _goal_sets(episode: Episode) -> list[np.ndarray]:
 
 
 class OptimisticOracleAgent(OracleAgent):
-    sensors: tuple[str, ...] = ("depth",)  # what it has seen is the map it plans on
+    sensors: tuple[str, ...] = ("depth", AGENT_POSE)  # what it has seen is the map it plans on
 
     def reset(self, episode: Episode) -> None:
         self._pose.reset(episode)

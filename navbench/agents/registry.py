@@ -222,6 +222,10 @@ class AgentSpec:
     explores: bool = False
     # Works without GPS+compass (EnvConfig.gps_compass false: Habitat's PointNav challenges).
     gps_free: bool = False
+    # Reads the simulator beyond the configuration's sensors (the scene's geodesics or navigability, goals in world
+    # coordinates, its true pose through `agent_pose`, as habitat-lab's ShortestPathFollower reads
+    # sim.get_agent_state()): a ceiling, never a task's default; it runs under every configuration of its task.
+    privileged: bool = False
     # Back-projects depth with a level camera, so cannot run with a pitched one (EnvConfig.camera_pitch_deg).
     level_camera: bool = False
     # The goal observations it navigates to (a task must give one of them); empty: any task's (it plans from
@@ -249,23 +253,28 @@ _OBJECT_GOALS = ("objectgoal",)
 _MEMORY_GOALS = (*_OBJECT_GOALS, "imagegoal", "instance_imagegoal", "current_subtask", "subtask_category",
                  "subtask_description", "subtask_image")
 AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
-    AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path (an upper bound)"),
-    AgentSpec("optimistic", make_optimistic, help="plans to the goal on a map of what it has seen (PointNav)",
-              level_camera=True, goals=_POINT_GOALS),
+    AgentSpec("oracle", make_oracle, help="follows the geodesic shortest path on the scene's map (a ceiling)",
+              privileged=True),
+    AgentSpec("optimistic", make_optimistic, help="plans to the goal's world position on the true map of the "
+              "cells its depth has seen (PointNav; a learner's ceiling)", level_camera=True, goals=_POINT_GOALS,
+              privileged=True),
     AgentSpec("random", make_random, RandomOptions, help="Habitat's random agent", gps_free=True),
     AgentSpec("pointnav", make_pointnav, PointNavOptions, help="the PointNav policy (without GPS+compass it "
               "dead-reckons from its own actions)", gps_free=True, goals=_POINT_GOALS, **_POLICY_FILES),
-    AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory, localisation, then the PointNav policy",
+    AgentSpec("memory", make_memory, MemoryOptions, help="keyframe memory of a pre-scan, localisation, then the "
+              "PointNav policy (perception: ground-truth instance ids unless --perception names models)",
               prepare=prebuild_memories, scene_files=_memory_files, scene_option="memory_root", level_camera=True,
               goals=_MEMORY_GOALS, **_POLICY_FILES),
-    AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector",
+    AgentSpec("frontier", make_frontier, PerceptionOptions, help="frontier exploration with a live detector "
+              "(perception: ground-truth instance ids unless --perception names models)",
               explores=True, level_camera=True, goals=(*_OBJECT_GOALS, "instance_imagegoal", "current_subtask"),
               **_POLICY_FILES),
     AgentSpec("vln_random", make_vln_random, RandomOptions, help="VLN-CE's RandomAgent: actions drawn from the "
               "R2R training set's oracle distribution", gps_free=True),
     AgentSpec("vln_forward", make_vln_forward, RandomOptions, help="VLN-CE's HandcraftedAgent: a random heading, "
               "37 steps forward, STOP", gps_free=True),
-    AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path (an upper bound)"),
+    AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path on the scene's map "
+              "(a ceiling)", privileged=True),
     AgentSpec("vln_memory", make_vln_memory, MemoryOptions, help="localises a VLN instruction's last landmark "
               "in the keyframe memory, then the PointNav policy", prepare=prebuild_memories, scene_files=_memory_files,
               scene_option="memory_root", level_camera=True, run_files=_checkpoint_file, goals=("instruction",)),
@@ -275,14 +284,22 @@ DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.driv
 DEFAULT_TASK_AGENT = {name: t.default_agent for name, t in TASKS.items()}  # `navbench run` without --agent
 
 
+def is_privileged(agent: str | None) -> bool:
+    """Whether ``agent`` is a built-in privileged agent (:attr:`AgentSpec.privileged`): only those are given the
+    simulator's pose (``agent_pose``); a plug-in or a served agent never is."""
+    spec = AGENTS.get(agent) if isinstance(agent, str) else None
+    return spec is not None and spec.privileged
+
+
 def check_conditions(agent: str | None, task: str, env: Any) -> None:
-    """A one-line ValueError when built-in ``agent`` cannot run under ``env`` (an EnvConfig): an agent that
-    knows its pose from GPS+compass under a configuration without them, or one that back-projects depth
-    with a level camera under a pitched one. Plug-ins and remote agents are not checked."""
+    """A one-line ValueError when built-in ``agent`` cannot run under ``env`` (an EnvConfig): a non-privileged
+    agent that knows its pose from GPS+compass under a configuration without them (a privileged one reads the
+    simulator's pose), or one that back-projects depth with a level camera under a pitched one. Plug-ins and
+    remote agents are not checked."""
     spec = AGENTS.get(agent) if agent is not None else None
     if spec is None:
         return
-    if not env.gps_compass and not spec.gps_free:
+    if not env.gps_compass and not spec.gps_free and not spec.privileged:
         given = {s.uuid for s in TASKS[task].sensors(env)} if task in TASKS else set()
         free = [n for n, s in AGENTS.items() if s.gps_free and (not s.goals or set(s.goals) & given or not given)]
         raise ValueError(f"agent {agent!r} knows its pose from GPS+compass, which this configuration does not "
@@ -319,8 +336,8 @@ agent_factory = agent_spec  # a spec is its agent's factory
 
 
 def default_agent(task: str) -> str:
-    """The benchmark's own method for ``task`` (its ``Task.default_agent``): the memory agent for ObjectNav,
-    the policy for PointNav."""
+    """The benchmark's own strongest non-privileged method for ``task`` (its ``Task.default_agent``): the policy
+    for PointNav, ``vln_memory`` for VLN-CE, the memory agent for the other tasks."""
     return get_task(task).default_agent
 
 

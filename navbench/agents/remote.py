@@ -29,6 +29,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from navbench.env.sensors import AGENT_POSE
 from navbench.episodes.types import Episode, ObjectGoal
 from navbench.safeio import printable
 
@@ -164,9 +165,10 @@ class RemoteAgent:
         if self.info.get("protocol") != PROTOCOL:
             raise RemoteAgentError(printable(f"{self.url}: speaks {self.info.get('protocol')!r}, not {PROTOCOL}"))
         sensors = self.info.get("sensors", [])
-        if not isinstance(sensors, list) or not all(s in ("rgb", "depth", "semantic") for s in sensors):
+        # agent_pose: a served privileged agent's; a served agent is never given it (navbench.eval.worker.make_env)
+        if not isinstance(sensors, list) or not all(s in ("rgb", "depth", "semantic", AGENT_POSE) for s in sensors):
             raise RemoteAgentError(printable(f"{self.url}/info: sensors {sensors!r} are not a list of rgb, depth, "
-                                             f"semantic"))
+                                             f"semantic, {AGENT_POSE}"))
         self.sensors = tuple(sensors)
 
     def _request(self, method: str, path: str, body: bytes | None = None,

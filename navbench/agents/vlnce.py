@@ -9,7 +9,8 @@
 - ``vln_oracle``: follows the episode's ``reference_path`` (the viewpoints the instruction describes) waypoint
   by waypoint with navbench's geodesic follower, then stops within ``stop_radius`` of the last one; its nDTW
   is what following the described path, not only reaching its end, scores. Privileged: it reads the scene and
-  its pose from GPS+compass (run it under ``navbench-r2r-ce`` / ``navbench-rxr-ce``).
+  the simulator's pose (``agent_pose``), so it runs under ``r2r-ce`` / ``rxr-ce`` as under their GPS+compass
+  variants.
 
 - ``vln_memory``: memory over maps for instructions (:class:`InstructionMemoryAgent`): the instruction's final
   landmark localised in the pre-scan memory and driven to with the PointNav policy.
@@ -29,6 +30,7 @@ import numpy as np
 from navbench.agents.base import PoseTracker, episode_seed, xz_dist
 from navbench.env.base import resolve_scene_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
+from navbench.env.sensors import AGENT_POSE
 from navbench.episodes.types import Episode
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.follower import WaypointFollower
@@ -81,7 +83,7 @@ class ReferencePathOracle:
     """Follows ``reference_path`` waypoint by waypoint (module docstring) with
     :class:`navbench.scene.follower.WaypointFollower`, stopping within ``stop_radius`` of its end."""
 
-    sensors: tuple[str, ...] = ()  # privileged: needs no rendered observation
+    sensors: tuple[str, ...] = (AGENT_POSE,)  # privileged: the simulator's pose, no rendered observation
 
     def __init__(self, scene_dir: str | Path, env_config: EnvConfig = EnvConfig(), waypoint_radius: float = 0.5,
                  stop_radius: float = 0.5):

@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.env.config import EnvConfig
-from navbench.env.sensors import compass, gps, normalize_depth
+from navbench.env.sensors import AGENT_POSE, compass, gps, normalize_depth
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.metrics import episode_metrics
 from navbench.paths import SCENES_DIR
@@ -100,6 +100,7 @@ class NavEnv(gym.Env):
         self.goal_sensors = self.task_def.sensors(self.config)
         self.observation_space = spaces.Dict(self._observation_spaces())
         self._episode_goals: dict[str, np.ndarray] = {}  # the per-episode goal observations of the episode
+        self._agent_pose = False  # give_agent_pose(): the simulator's pose, for a privileged agent
         self._tilt = 0.0  # degrees LOOK_UP / LOOK_DOWN have added to the camera's pitch
 
         self._scene_path: Path | None = None
@@ -142,6 +143,16 @@ class NavEnv(gym.Env):
         for sensor in self.goal_sensors:
             obs[sensor.uuid] = sensor.space(self.dataset, c)
         return obs
+
+    def give_agent_pose(self) -> None:
+        """Add ``agent_pose`` to the observations from now on: the simulator's pose as [forward, right, heading]
+        relative to the episode's start (float32; the values GPS+compass would give), whatever the
+        configuration senses. For privileged agents only (the oracles), which read the simulator's pose as
+        habitat-lab's ShortestPathFollower reads ``sim.get_agent_state()``; no score depends on it."""
+        self._agent_pose = True
+        big = np.finfo(np.float32).max
+        self.observation_space = spaces.Dict({**self.observation_space.spaces,
+                                              AGENT_POSE: spaces.Box(-big, big, (3,), np.float32)})
 
     # ------------------------------------------------------------------ scene
     def _load_scene(self, scene_id: str, start_y: float | None = None) -> None:
@@ -466,6 +477,9 @@ class NavEnv(gym.Env):
         if c.gps_compass:
             obs["gps"] = gps(self._position, self._start_position, self._start_yaw)
             obs["compass"] = compass(self._yaw, self._start_yaw)
+        if self._agent_pose:
+            obs[AGENT_POSE] = np.concatenate([gps(self._position, self._start_position, self._start_yaw),
+                                              compass(self._yaw, self._start_yaw)])
         obs.update(self._goal_observation())
         return obs
 

@@ -158,6 +158,7 @@ class EnvConfig:
             raise ValueError(f"{path}: cannot read ({exc.strerror})") from None
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise ValueError(f"{path}: not valid TOML ({exc})") from None
+        data.pop("tasks", None)  # the tasks it is made for: env_config_tasks
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - names)
         if unknown:
@@ -173,6 +174,64 @@ class EnvConfig:
         from navbench.scene.navigability import NavGridConfig
         return NavGridConfig(agent_height=self.agent_height, agent_radius=self.agent_radius,
                              max_climb=self.max_climb, cell_size=self.cell_size)
+
+
+def env_config_tasks(name_or_path: str | Path) -> tuple[str, ...]:
+    """The tasks a configuration is made for: its ``tasks = [...]`` (task names), or () when it names none and
+    fits every task (navbench's own conditions). A bad ``tasks`` is a one-line ValueError naming the file."""
+    path = env_config_path(name_or_path)
+    try:
+        tasks = tomllib.loads(path.read_text()).get("tasks", [])
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return ()  # EnvConfig.load names what is wrong with the file
+    if not isinstance(tasks, list) or not all(isinstance(t, str) and t in TASKS for t in tasks):
+        raise ValueError(f"{path}: tasks must be a list of task names ({', '.join(TASKS)}), got {tasks!r}"[:300])
+    return tuple(tasks)
+
+
+# How a configuration's change of each field is written (config_changes): a label and a unit.
+_CHANGE_LABELS = {"max_steps": ("steps", ""), "forward_step": ("forward step", " m"),
+                  "turn_angle_deg": ("turns", " deg"), "tilt_angle_deg": ("tilts", " deg"),
+                  "hfov_deg": ("hfov", " deg"),
+                  "agent_height": ("camera and body height", " m"), "agent_radius": ("radius", " m"),
+                  "max_climb": ("climb", " m"), "allow_sliding": ("sliding", ""), "gps_compass": ("GPS+compass", ""),
+                  "camera_pitch_deg": ("camera pitch", " deg")}
+
+
+def config_changes(config: EnvConfig, base: EnvConfig, task: str, success_distance: float) -> list[str]:
+    """What ``config`` changes from a task's own conditions ``base`` (whose success distance is
+    ``success_distance``), in words: ``["actions +LOOK_UP, LOOK_DOWN", "success 0.25 -> 0.1 m", ...]``."""
+    def num(v: Any) -> str:
+        return f"{v:g}" if isinstance(v, float) else str(v)
+
+    out: list[str] = []
+    t = TASKS[task]
+    a, b = t.env_actions(base), t.env_actions(config)
+    looks, looked = any(x.startswith("LOOK_") for x in b), any(x.startswith("LOOK_") for x in a)
+    if a != b:
+        out.append("actions " + ", ".join([*(f"+{x}" for x in b if x not in a), *(f"-{x}" for x in a if x not in b)])
+                   + (f" (tilts of {num(config.tilt_angle_deg)} deg)" if looks and not looked else ""))
+    sd = config.success_distance if config.success_distance is not None else success_distance
+    if sd != success_distance:
+        out.append(f"success {num(success_distance)} -> {num(sd)} m")
+    if (base.width, base.height) != (config.width, config.height):
+        out.append(f"camera {base.width}x{base.height} -> {config.width}x{config.height}")
+    if (base.min_depth, base.max_depth, base.normalize_depth) != (config.min_depth, config.max_depth,
+                                                                  config.normalize_depth):
+        out.append(f"depth {num(base.min_depth)}-{num(base.max_depth)} m -> {num(config.min_depth)}-"
+                   f"{num(config.max_depth)} m" + ("" if config.normalize_depth else ", not normalised"))
+    said = {"actions", "success_distance", "width", "height", "min_depth", "max_depth", "normalize_depth", "rgb",
+            "depth", "semantic", "gl_platform"}
+    for f in dataclasses.fields(config):
+        old, new = getattr(base, f.name), getattr(config, f.name)
+        if f.name in said or old == new or (f.name == "tilt_angle_deg" and not (looks and looked)):
+            continue
+        label, unit = _CHANGE_LABELS.get(f.name, (f.name, ""))
+        if isinstance(new, bool):
+            out.append(f"{label} {'on' if new else 'off'}")
+        else:
+            out.append(f"{label} {num(old) if old is not None else 'none'} -> {num(new)}{unit}")
+    return out
 
 
 def env_config_names() -> list[str]:

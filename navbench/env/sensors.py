@@ -13,6 +13,9 @@ import numpy as np
 # to_agent_frame and pointgoal_polar live with the other pose geometry (task goal sensors read them there)
 from navbench.scene.pose import pointgoal_polar, to_agent_frame, wrap_angle  # noqa: F401
 
+# The privileged pose observation (NavEnv.give_agent_pose): a privileged agent lists it in its ``sensors``.
+AGENT_POSE = "agent_pose"
+
 
 def from_agent_frame(forward: float, right: float, yaw: float) -> np.ndarray:
     """Inverse of :func:`to_agent_frame`: (forward, right) -> world xz offset as a 3-vector (y = 0)."""

@@ -318,11 +318,14 @@ def episode_keys(path: str | Path, cap: int | None = None) -> set[tuple[str, str
     return keys
 
 
-def file_task(path: str | Path, cap: int | None = None) -> str | None:
+def file_task(path: str | Path, cap: int | None = None, habitat_v1: bool = False) -> str | None:
     """The task a file's first episode belongs to when its fields name one: ``"goat"`` for GOAT-Bench's
     ``tasks`` (goat-bench ``GoatEpisode``), ``"instance_imagenav"`` for InstanceImageNav's ``goal_image_id``
-    (habitat-lab ``InstanceImageGoalNavEpisode``); None otherwise (PointNav-v1 / ObjectNav-v1: see
-    :attr:`EpisodeDataset.task`). Reads up to the first episode (of the ``content/`` files too)."""
+    (habitat-lab ``InstanceImageGoalNavEpisode``), ``"rxr_ce"`` / ``"r2r_ce"`` for VLN-CE's ``instruction``
+    object (habitat-lab v0.1.7 ``VLNEpisode``; RxR's carries ``language`` and ``instruction_id``, VLN-CE
+    ``RxRVLNCEDatasetV1``); None otherwise (PointNav-v1 / ObjectNav-v1: see :attr:`EpisodeDataset.task`), or with
+    ``habitat_v1`` ``"objectnav"`` / ``"pointnav"`` by the first episode's ``object_category``. Reads up to the
+    first episode (of the ``content/`` files too)."""
     p = _Pass(Path(path), cap)
     try:
         for raw, _ in p.raw():
@@ -330,6 +333,11 @@ def file_task(path: str | Path, cap: int | None = None) -> str | None:
                 return "goat"
             if isinstance(raw, dict) and "goal_image_id" in raw:
                 return "instance_imagenav"
+            if isinstance(raw, dict) and isinstance(raw.get("instruction"), dict):
+                ins = raw["instruction"]
+                return "rxr_ce" if "language" in ins or "instruction_id" in ins else "r2r_ce"
+            if habitat_v1 and isinstance(raw, dict):
+                return "objectnav" if raw.get("object_category") is not None else "pointnav"
             return None
     except EpisodeError:
         return None  # the task's own reader names what is wrong

@@ -1,10 +1,11 @@
 """``navbench protocol RUN``: a run's protocol as a paragraph for a paper's methods section.
 
-The paragraph names the task, the episodes (file, how many the run scored, the file's sha256 and, for a split
-read with other files (``content/``, a gt file), the split's), the success rule, the step limit, the actions,
-the agent's body and sensors, the noise, the navigability rules, navbench's version and the protocol id. Every
-figure comes from the run directory: the protocol from ``provenance.json`` (or, for a run written before it,
-derived from ``config.json``:
+The paragraph names the task in words, the episodes (file, how many the run scored, the file's sha256 and, for a
+split read with other files (``content/``, a gt file), the split's), the task's rules (``Task.rules``: what the
+agent is given, when an episode succeeds and ends, what its measures mean) with the run's success distance and
+step limit, the actions, the agent's body and sensors, the noise, the navigability rules, navbench's version and
+the protocol id. Every figure comes from the run directory: the protocol from ``provenance.json`` (or, for a run
+written before it, derived from ``config.json``:
 :func:`navbench.eval.provenance.run_protocol`), the episode file's checksum and the version from
 ``provenance.json``, the count from ``summary.json`` (else the records). ``--format markdown`` (the
 default), ``latex`` (special characters escaped) or ``json`` (the facts the paragraph is written from).
@@ -17,18 +18,15 @@ import re
 from pathlib import Path
 from typing import Any
 
-from navbench.env.config import CONDITIONS, SUCCESS_DISTANCE
+from navbench.env.config import CONDITIONS, SUCCESS_DISTANCE, EnvConfig
 from navbench.eval.provenance import ProtocolError, protocol_id, run_protocol
 from navbench.eval.stats import doc_get, read_run_doc
 from navbench.safeio import printable
+from navbench.tasks import TASKS, Task
 
 FORMATS = ("markdown", "latex", "json")
-_TASKS = {"pointnav": "PointNav", "objectnav": "ObjectNav", "ovon": "open-vocabulary ObjectNav (HM3D-OVON style)"}
-_GOAL = {"pointnav": "the goal position",
-         "objectnav": "the nearest view point of any instance of the goal category (an instance's own position "
-                      "where it has no view points)",
-         "ovon": "the nearest view point of any instance of the goal category (an instance's own position where "
-                 "it has no view points)"}
+# A protocol's task that is not a registered one: "ovon", ObjectNav's rules at OVON's distance.
+_OTHER = {"ovon": ("open-vocabulary ObjectNav (HM3D-OVON style)", "objectnav")}
 
 
 def protocol_facts(run_dir: str | Path) -> dict[str, Any]:
@@ -88,17 +86,20 @@ def _sentences(f: dict[str, Any]) -> list[tuple[str, list[str]]]:
         extras.append(f"{k} from the {v} release")
     if extras:
         what += ", " + ", ".join(extras)
-    out.append((f"We evaluate {_TASKS.get(task, task)} on {what}.", [file]))
+    name, t = _task(task)
+    out.append((f"We evaluate {name} on {what}.", [file]))
     sd = p.get("success_distance", SUCCESS_DISTANCE.get(task))
-    out.append((f"An episode succeeds when the agent calls STOP within {_num(sd)} m geodesic distance of "
-                f"{_GOAL.get(task, 'the goal')}, and ends after at most {p.get('max_steps')} actions; SPL "
-                f"weighs success by the shortest path's length over the longer of it and the length walked.", []))
+    if t is not None and t.rules:
+        out.append((t.rules.format(sd=_num(sd), max_steps=p.get("max_steps")), []))
+    else:
+        out.append((f"An episode succeeds when the agent calls STOP within {_num(sd)} m geodesic distance of the "
+                    f"goal, and ends after at most {p.get('max_steps')} actions.", []))
     actions = p.get("actions") or []
     names = [a if isinstance(a, str) else json.dumps(a, sort_keys=True) for a in actions]
     act = (f"The actions are {', '.join(names)}: a forward step of {_num(p.get('forward_step'))} m, turns of "
            f"{_num(p.get('turn_angle_deg'))} deg")
-    if p.get("tilt_angle_deg") is not None:
-        act += f", camera tilts of {_num(p['tilt_angle_deg'])} deg"
+    if any(str(a).startswith("LOOK_") for a in names):  # a protocol leaves out EnvConfig's default tilt
+        act += f", camera tilts of {_num(p.get('tilt_angle_deg', EnvConfig().tilt_angle_deg))} deg"
     act += "; a blocked step " + ("slides along the obstacle." if p.get("allow_sliding") else "does not slide.")
     out.append((act, names))
     body = (f"The agent is a cylinder of radius {_num(p.get('agent_radius'))} m with its camera "
@@ -109,8 +110,7 @@ def _sentences(f: dict[str, Any]) -> list[tuple[str, list[str]]]:
                f"{_num(p.get('hfov_deg'))} deg horizontal field of view (depth {_num(p.get('min_depth'))}-"
                f"{_num(p.get('max_depth'))} m{', normalised' if p.get('normalize_depth') else ''}), the camera "
                + (f"pitched {_num(pitch)} deg" if pitch else "level"))
-    sensors += (", and GPS+compass." if p.get("gps_compass", CONDITIONS["gps_compass"])
-                else ", without GPS+compass (PointNav's goal is given once, from the start).")
+    sensors += (", and GPS+compass." if p.get("gps_compass", CONDITIONS["gps_compass"]) else ", without GPS+compass.")
     out.append((sensors, []))
     noise = []
     if p.get("actuation_noise"):
@@ -133,6 +133,15 @@ def _sentences(f: dict[str, Any]) -> list[tuple[str, list[str]]]:
     out.append((f"Runs use {ver}; protocol id {f['protocol_id']}"
                 + (" (derived from the run's configuration)." if f.get("derived") else "."), [f["protocol_id"]]))
     return out
+
+
+def _task(task: str) -> tuple[str, Task | None]:
+    """A protocol's task as prose names it, and its definition (whose ``rules`` the paragraph states)."""
+    if task in _OTHER:
+        name, rules_of = _OTHER[task]
+        return name, TASKS[rules_of]
+    t = TASKS.get(task)
+    return (t.display_name, t) if t is not None else (task, None)
 
 
 _SAID = {"task", "success_distance", "max_steps", "actions", "forward_step", "turn_angle_deg", "tilt_angle_deg",

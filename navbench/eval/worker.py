@@ -26,8 +26,10 @@ from typing import Any
 import numpy as np
 
 from navbench.agents.base import Agent, BatchAgent, episode_log, is_batch_agent, slot_agent
+from navbench.agents.registry import is_privileged
 from navbench.env.base import NavEnv
 from navbench.env.make import task_env
+from navbench.env.sensors import AGENT_POSE
 from navbench.episodes.io import load_dataset
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 from navbench.eval.config import RunConfig, selector
@@ -70,6 +72,8 @@ def run_dataset(path: str | Path, limit: int | None = None, per_scene: int | Non
 
 def make_env(cfg: RunConfig, dataset: EpisodeDataset, sensors: tuple[str, ...]) -> NavEnv:
     env = task_env(cfg.task, dataset, scene_dir=cfg.scene_dir, config=cfg.env_config(sensors))
+    if AGENT_POSE in sensors and is_privileged(cfg.agent):  # a built-in privileged agent reads the simulator's
+        env.give_agent_pose()                                # pose, whatever the configuration senses
     env.reset(seed=cfg.seed)  # seeds the env's generator; episodes are then given explicitly
     return env
 

@@ -24,6 +24,8 @@ from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
 # HabitatSimActions: stop 0, move_forward 1, turn_left 2, turn_right 3, look_up 4, look_down 5).
 NAV_ACTIONS = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT")
 MEASURES = ("distance_to_goal", "success", "spl", "soft_spl")
+# The sentence on SPL every Habitat task's rules end with (habitat-lab habitat/tasks/nav/nav.py SPL).
+SPL_RULE = "SPL weighs success by the shortest path's length over the longer of it and the length walked."
 # A table's columns: (header, measure, scale): SR and SPL in percent, distances in metres.
 COLUMNS = (("SR", "success", 100), ("SPL", "spl", 100), ("SoftSPL", "soft_spl", 100), ("DTG", "distance_to_goal", 1))
 
@@ -121,7 +123,8 @@ class Task:
         max_steps: Habitat's ``environment.max_episode_steps`` for the task's benchmark.
         splits: the bundled splits (``episodes/NAME/SPLIT/SPLIT.json.gz``).
         default_split: what a run reads without ``--split`` or ``--episodes``.
-        default_agent: what ``navbench run`` runs without ``--agent``.
+        default_agent: what ``navbench run`` runs without ``--agent``: the strongest baseline that reads only
+            the configuration's sensors (never a privileged agent, such as the oracle).
         group_by: the episode field tables break results down by (``object_category``), or None.
         env_class: the env's ``module:Class`` (the Gymnasium entry point); it takes ``task=NAME``.
         columns: ``navbench table``'s columns for the task's runs: (header, measure, scale).
@@ -132,6 +135,10 @@ class Task:
         episode_files: ``episode_files(path, gt)`` -> every file a run of ``path`` reads its episodes (and their
             references) from, the file first; provenance hashes them all. ``gt``: a VLN-CE run's ``--gt``.
         headline: the measures ``navbench compare`` reports without ``--metric``; empty: those of ``columns``.
+        display_name: the task's name in prose (``R2R-CE``), as a methods paragraph and errors write it.
+        rules: the task's rules in words for a methods paragraph (``navbench protocol``): what the agent is given,
+            when an episode succeeds and ends, what each measure means; ``{sd}`` (the success distance, m) and
+            ``{max_steps}`` are filled in from the run's protocol.
     """
     name: str
     gym_id: str
@@ -150,8 +157,8 @@ class Task:
     success_rule_text: str = ""
     max_steps: int = 500
     splits: tuple[str, ...] = ()
-    default_split: str = "val"
-    default_agent: str = "oracle"
+    default_split: str = ""  # "" for a task that bundles no split
+    default_agent: str = "random"
     group_by: str | None = None
     env_class: str = "navbench.env.base:NavEnv"
     columns: tuple[tuple[str, str, float], ...] = COLUMNS
@@ -159,12 +166,18 @@ class Task:
     goal_images: str = ""
     episode_files: Callable[..., list[Path]] = default_episode_files
     headline: tuple[str, ...] = ()
+    display_name: str = ""
+    rules: str = ""
 
     def __post_init__(self) -> None:
         if self.distance_to not in ("POINT", "VIEW_POINTS"):
             raise ValueError(f"task {self.name}: distance_to must be POINT or VIEW_POINTS, got {self.distance_to!r}")
         if self.splits and self.default_split not in self.splits:
             raise ValueError(f"task {self.name}: default split {self.default_split!r} is not one of its splits")
+        if not self.splits and self.default_split:
+            raise ValueError(f"task {self.name}: default split {self.default_split!r}, but it bundles no split")
+        if not self.display_name:
+            object.__setattr__(self, "display_name", self.name)
 
     def success_distance_for(self, split: str | None = None, dataset: EpisodeDataset | None = None) -> float:
         """The success distance a run of this task scores at, for a bundled ``split`` or a user's

@@ -117,7 +117,17 @@ TASK = Task(
     max_steps=MAX_EPISODE_STEPS,
     splits=("val",),
     default_split="val",
-    default_agent="oracle",
+    default_agent="memory",
+    display_name="GOAT-Bench",
+    rules="An episode is a sequence of subtasks in one scene, each an object category, a description of one object "
+          "instance in words, or an image of one instance; the agent is given the active subtask's goal. It closes "
+          "a subtask with SUBTASK_STOP, which succeeds when the agent stands within {sd} m geodesic distance of the "
+          "nearest view point of that subtask's goal instances; the next subtask starts at once from the same "
+          "pose. The last SUBTASK_STOP, or STOP at any time, ends the episode (subtasks left open fail), which ends "
+          "after at most {max_steps} actions in all. A subtask's SPL weighs its success by the shortest path from "
+          "where it began over the longer of it and the length walked for it; partial success and composite SPL "
+          "average over an episode's subtasks, and success is also reported by goal type (object, description, "
+          "image).",
     env_class="navbench.env.goat:GoatEnv",
     goal_images=IMAGE_GOAL_RULE,
 )

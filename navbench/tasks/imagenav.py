@@ -24,7 +24,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
-from navbench.tasks.base import GoalContext, GoalSensor, Task, default_reader
+from navbench.tasks.base import SPL_RULE, GoalContext, GoalSensor, Task, default_reader
 
 
 def goal_seed(episode_id: str) -> int:
@@ -84,6 +84,10 @@ TASK = Task(
     max_steps=1000,
     splits=("val",),
     default_split="val",
-    default_agent="oracle",
+    default_agent="memory",
+    display_name="ImageNav",
+    rules="The agent is given an image taken by its own camera standing at the goal position, turned by a yaw "
+          "drawn from the episode id. An episode succeeds when the agent calls STOP within {sd} m geodesic distance "
+          "of that position, and ends after at most {max_steps} actions; " + SPL_RULE,
     goal_images="the episode's RGB sensor at goals[0].position, yaw drawn from sha256(episode_id) (goal_yaw)",
 )

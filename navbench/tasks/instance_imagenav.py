@@ -8,7 +8,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.episodes.types import Episode, EpisodeDataset, EpisodeError
-from navbench.tasks.base import IMAGE_GOAL_RULE, NAV_ACTIONS, GoalContext, GoalSensor, Task
+from navbench.tasks.base import IMAGE_GOAL_RULE, NAV_ACTIONS, SPL_RULE, GoalContext, GoalSensor, Task
 
 # habitat-lab config/habitat/task/instance_imagenav.yaml (success.success_distance) and the benchmark yamls
 # (environment.max_episode_steps); the reader and measures (navbench.episodes.instance_imagenav) state the same.
@@ -70,7 +70,12 @@ TASK = Task(
     max_steps=MAX_EPISODE_STEPS,
     splits=("val",),
     default_split="val",
-    default_agent="oracle",
+    default_agent="memory",
+    display_name="InstanceImageNav",
+    rules="The agent is given an image of one object instance, taken by a camera of the episode's own pose and "
+          "field of view, and that field of view. An episode succeeds when the agent calls STOP within {sd} m "
+          "geodesic distance of the nearest of the pictured instance's view points (the positions it is seen "
+          "from), not of other instances of its category, and ends after at most {max_steps} actions; " + SPL_RULE,
     group_by="object_category",
     env_class="navbench.env.base:NavEnv",
     goal_images=IMAGE_GOAL_RULE,

@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.episodes.types import EpisodeDataset, EpisodeError
-from navbench.tasks.base import GoalContext, GoalSensor, Task
+from navbench.tasks.base import SPL_RULE, GoalContext, GoalSensor, Task
 
 OVON_SUCCESS_DISTANCE = 0.25
 SPLITS = ("train", "val_seen", "val_seen_synonyms", "val_unseen")
@@ -65,6 +65,10 @@ TASK = Task(
     splits=SPLITS,
     default_split="val_unseen",
     default_agent="memory",
+    display_name="ObjectNav",
+    rules="The agent is given an object category. An episode succeeds when the agent calls STOP within {sd} m "
+          "geodesic distance of the nearest view point of any instance of that category (an instance's own "
+          "position where it has no view points), and ends after at most {max_steps} actions; " + SPL_RULE,
     group_by="object_category",
     env_class="navbench.env.objectnav:ObjectNavEnv",
 )

@@ -7,7 +7,7 @@ import numpy as np
 from gymnasium import spaces
 
 from navbench.scene.pose import pointgoal_polar
-from navbench.tasks.base import GoalContext, GoalSensor, Task
+from navbench.tasks.base import SPL_RULE, GoalContext, GoalSensor, Task
 
 
 def _polar_space(dataset, config) -> spaces.Box:
@@ -48,5 +48,10 @@ TASK = Task(
     splits=("train", "val", "select"),
     default_split="val",
     default_agent="pointnav",
+    display_name="PointNav",
+    rules="The agent is given the goal position as a distance and direction: from where it stands at every step "
+          "with GPS+compass, or once, from the start pose, without them. An episode succeeds when the agent calls "
+          "STOP within {sd} m geodesic distance of the goal position, and ends after at most {max_steps} actions; "
+          + SPL_RULE,
     env_class="navbench.env.pointnav:PointNavEnv",
 )

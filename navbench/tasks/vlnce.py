@@ -130,14 +130,24 @@ _COMMON: dict[str, Any] = dict(
     max_steps=500,
     env_class="navbench.env.vlnce:VLNCEEnv",
     episode_files=episode_files,
-    default_agent="vln_random",  # runs under VLN-CE's own sensors (no GPS+compass), as every run's default
+    default_agent="vln_memory",
     # the VLN-CE README's table: TL, NE, OS, SR, SPL; nDTW and SDTW as the RxR-Habitat leaderboard lists them
     columns=(("TL", "path_length", 1), ("NE", "distance_to_goal", 1), ("OS", "oracle_success", 100),
              ("SR", "success", 100), ("SPL", "spl", 100), ("nDTW", "ndtw", 100), ("SDTW", "sdtw", 100)),
 )
 
+# {instruction}: which instructions, for each task's rules
+_RULES = ("The agent is given {instruction} describing a route, and no goal position. An episode succeeds when the "
+          "agent calls STOP within {{sd}} m geodesic distance of the goal point at the route's end, and ends after at "
+          "most {{max_steps}} actions. SPL weighs success by the shortest path's length over the longer of it and the "
+          "length walked; oracle success counts an episode that came within {{sd}} m of the end at any step; nDTW "
+          "scores how closely the path walked follows the instruction's reference path (dynamic time warping, "
+          "normalised as VLN-CE does), and SDTW is nDTW counted on successful episodes only.")
+
 R2R_TASK = Task(
     name="r2r_ce",
+    display_name="R2R-CE",
+    rules=_RULES.format(instruction="a Room-to-Room instruction in English"),
     title="follow a Room-to-Room instruction in continuous space (VLN-CE R2R-CE; scored within 3.0 m)",
     reference="jacobkrantz/VLN-CE habitat_extensions/config/vlnce_task.yaml, habitat_extensions/measures.py",
     episode_format="VLN-CE-v1",
@@ -151,14 +161,15 @@ R2R_TASK = Task(
 
 RXR_TASK = Task(
     name="rxr_ce",
+    display_name="RxR-CE",
+    rules=_RULES.format(instruction="a Room-across-Room instruction (English, Hindi or Telugu)"),
     title="follow a Room-across-Room instruction in continuous space (VLN-CE RxR-CE; scored within 3.0 m)",
     reference="jacobkrantz/VLN-CE habitat_extensions/config/rxr_vlnce_english_task.yaml, "
               "habitat_extensions/measures.py",
     episode_format="RxR-VLN-CE-v1",
     read_episodes=read_rxr,
     actions=RXR_ACTIONS,
-    splits=(),
-    default_split="val",
+    splits=(),  # RxR-CE's files are the user's (--episodes)
     env_config="rxr-ce",
     **_COMMON,
 )

@@ -132,7 +132,7 @@ def test_a_task_without_bundled_splits_asks_for_a_file(gym_id, task, monkeypatch
     from navbench.api import resolve_episodes
     from navbench.tasks import TASKS
 
-    monkeypatch.setitem(TASKS, task, dataclasses.replace(TASKS[task], splits=()))  # as a task bundling none
+    monkeypatch.setitem(TASKS, task, dataclasses.replace(TASKS[task], splits=(), default_split=""))  # bundling none
     with pytest.raises(ValueError, match="bundles no split: pass dataset="):
         gym.make(gym_id)
     with pytest.raises(ValueError, match="bundles no split: give a file of its episodes with --episodes FILE"):

@@ -43,3 +43,26 @@ def test_a_directory_that_is_no_run_is_one_line_exit_2(tmp_path, capsys):
     assert main(["protocol", str(tmp_path)]) == 0  # a run without provenance: its protocol derived, and said
     out = capsys.readouterr().out
     assert "at most 9 actions" in out and "derived from the run's configuration" in out
+
+
+def _paragraph(run, capsys):
+    assert main(["protocol", str(RESULTS_DIR / "runs" / run)]) == 0
+    return capsys.readouterr().out.strip()
+
+
+def test_each_tasks_paragraph_states_that_tasks_rules_in_words(capsys):
+    goat = _paragraph("goat/val/memory", capsys)
+    assert goat.startswith("We evaluate GOAT-Bench on ") and "SUBTASK_STOP, which succeeds when the agent stands " \
+        "within 0.25 m geodesic distance of the nearest view point of that subtask's goal instances" in goat
+    assert "STOP at any time, ends the episode" in goat and "by goal type (object, description, image)" in goat
+    inst = _paragraph("instance_imagenav/val/memory", capsys)
+    assert inst.startswith("We evaluate InstanceImageNav on ") and "within 0.1 m geodesic distance of the nearest of " \
+        "the pictured instance's view points" in inst
+    assert "`LOOK_UP`, `LOOK_DOWN`: a forward step of 0.25 m, turns of 30 deg, camera tilts of 15 deg" in inst
+    r2r = _paragraph("r2r_ce/val/vln_random", capsys)
+    assert r2r.startswith("We evaluate R2R-CE on ") and "a Room-to-Room instruction" in r2r
+    assert "no goal position" in r2r
+    assert "within 3 m geodesic distance of the goal point at the route's end" in r2r and "nDTW" in r2r
+    assert "without GPS+compass." in r2r and "PointNav" not in r2r
+    for text in (goat, inst, r2r):
+        assert "We evaluate goat" not in text and "instance_imagenav on" not in text and "r2r_ce on" not in text

@@ -44,10 +44,10 @@ def test_same_seed_same_noisy_records_with_one_or_two_workers(pointnav_file, tmp
     assert main(["compare", "--mix-protocols", str(tmp_path / "quiet"), str(tmp_path / "one")]) == 0
 
 
-@pytest.mark.parametrize("agent,needle", [("memory", "GPS+compass"), ("oracle", "GPS+compass")])
-def test_an_agent_that_needs_gps_exits_2_in_one_line_under_the_challenge(agent, needle, capsys, tmp_path):
-    argv = ["run", "--task", "objectnav" if agent == "memory" else "pointnav", "--agent", agent,
-            "--env-config", "habitat-challenge-pointnav-2021", "--limit", "1", "--out", str(tmp_path / "o")]
+@pytest.mark.parametrize("agent,needle", [("memory", "GPS+compass"), ("frontier", "GPS+compass")])
+def test_an_agent_that_needs_gps_exits_2_in_one_line_without_it(agent, needle, capsys, tmp_path):
+    argv = ["run", "--task", "objectnav", "--agent", agent, "--env-config", "navbench-dead-reckoning", "--limit", "1",
+            "--out", str(tmp_path / "o")]
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0] and agent in err[0]

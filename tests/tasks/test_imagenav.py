@@ -99,7 +99,7 @@ def test_objectnav_episodes_are_refused_in_one_line_naming_file_and_field(object
     assert str(exc.value).startswith(str(objectnav_file)) and "\n" not in str(exc.value)
     assert main(["run", "--task", "imagenav", "--episodes", str(objectnav_file), "--agent", "oracle"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and str(objectnav_file) in err[0] and "object_category" in err[0]
+    assert len(err) == 1 and str(objectnav_file) in err[0] and "use --task objectnav" in err[0]
 
 
 def test_an_episode_without_a_goal_exits_2_naming_file_and_field(tmp_path, pointnav_file, capsys):
