@@ -209,7 +209,8 @@ def cmd_table(args) -> int:
 
 def cmd_export(args) -> int:
     from navbench.eval.export import export_run
-    print(export_run(args.run_dir, args.format, args.out))
+    print(export_run(args.run_dir, args.format, args.out, partial=args.partial,
+                     note=lambda line: print(line, file=sys.stderr)))
     return 0
 
 
@@ -478,6 +479,8 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("run_dir")
     ex.add_argument("--format", required=True, choices=("r2r-ce", "rxr-ce"))
     ex.add_argument("-o", "--out", help="the file to write (default: RUN/predictions.json or .jsonl)")
+    ex.add_argument("--partial", action="store_true", help="write it although the run covers only part of its "
+                                                          "episode file (a leaderboard scores the whole split)")
     ex.set_defaults(func=cmd_export)
 
     c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",
