@@ -32,6 +32,10 @@ GOAT_MEASURES = (
     "image_success", "composite_spl", "composite_softspl", "task_success_corrected", "object_success_corrected",
     "description_success_corrected", "image_success_corrected",
 )
+# navbench table's columns from the summary, by goat-bench's names (navbench.eval.table adds success and SPL by
+# goal type from the records)
+GOAT_COLUMNS = (("partial SR", "partial_success", 100), ("composite SR", "composite_success", 100),
+                ("composite SPL", "composite_spl", 100))
 # per subtask, in each record (goat-bench writes success_by_subtask and spl_by_subtaskl to episode_metrics.json)
 GOAT_RECORD_FIELDS = ("subtask_success", "spl_by_subtask", "softspl_by_subtask", "d0_by_subtask", "subtasks_closed")
 
@@ -115,4 +119,5 @@ TASK = Task(
     default_agent="oracle",
     env_class="navbench.env.goat:GoatEnv",
     goal_images=IMAGE_GOAL_RULE,
+    columns=GOAT_COLUMNS,
 )
