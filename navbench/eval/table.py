@@ -128,7 +128,9 @@ def first_records(run_dir: str | Path, first: int) -> list[dict[str, Any]]:
             Path(recorded_paths(cfg, run_dir / "config.json")[0])
     except RunError as exc:
         raise TableError(str(exc)) from None
-    head = load_dataset(episodes, lambda stream: list(itertools.islice(stream(), first))).episodes
+    task = TASKS.get(cfg["task"])  # the task's own reader (GOAT-Bench's content/ layout), Habitat's JSON else
+    read = task.read_episodes if task is not None else load_dataset
+    head = read(episodes, lambda stream: list(itertools.islice(stream(), first))).episodes
     keep = {(e.scene_id, e.episode_id) for e in head}
     recs = [r for r in read_records(run_dir / "episodes.jsonl") if (r["scene_id"], r["episode_id"]) in keep]
     if len(recs) < len(keep):
@@ -318,11 +320,10 @@ def runs_frame(run_dirs: list[str | Path], wide: bool = True, first: int | None 
     df = pd.DataFrame(rows)
     notes = [n for n in (GOAT_NOTE if any(s.get("task") == "goat" for s in summaries) else None, note) if n]
     df.attrs["notes"] = notes
-    if not wide or df["split"].nunique() <= 1:
+    if not wide or df["split"].nunique() <= 1 or df["task"].nunique() > 1:  # one task's splits side by side
         return df
     ident = [*IDENTITY, *(protocols[0] if protocols else {})]
-    heads = [h for h in ("SR", "SPL") if h in df.columns] or \
-        list(dict.fromkeys(h for s in summaries for h in task_columns(s.get("task"))))
+    heads = [h for h in ("SR", "SPL") if h in df.columns] or list(task_columns(summaries[0].get("task")))
     metrics = [c for m in heads for c in (m, f"{m} lo", f"{m} hi") if c in df.columns]
     wide_df = df.pivot_table(index=["agent", *ident], columns="split", values=metrics, aggfunc="first", sort=False)
     wide_df = wide_df.swaplevel(0, 1, axis=1)

@@ -83,3 +83,8 @@ def test_navbench_table_shows_goat_bench_measures_by_name_and_goal_type(tmp_path
     assert main_cli(["table", str(run)]) == 0
     out = capsys.readouterr().out
     assert "| composite SPL " in out.splitlines()[0] and "goat-bench's partial_success" in out
+    # --first reads the split with GOAT-Bench's reader; a GOAT run beside another task's keeps its row
+    first = runs_frame([run], wide=False, first=3)
+    assert first.loc[0, "episodes"] == 3 and "object SR" in first.columns
+    mixed = runs_frame([run, RESULTS_DIR / "runs" / "objectnav" / "val_unseen" / "memory"])
+    assert list(mixed["task"]) == ["goat", "objectnav"] and mixed.loc[1, "SR"] > 0
