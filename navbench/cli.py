@@ -9,7 +9,7 @@
     navbench serve-agent package.module:Name|NAME [--agent-opt KEY=VALUE ...] [--host 127.0.0.1] --port P
     navbench check-agent http://HOST:PORT [--task TASK] [--steps 200]
     navbench merge RUN_DIR... --out DIR
-    navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category] [--mix-protocols]
+    navbench table RUN_DIR... [--format markdown|csv|latex] [--by scene|category]
     navbench compare BASE OTHER... [--json] [--metric spl] [--per-scene K]
     navbench protocol RUN_DIR [--format markdown|latex|json]
     navbench generate scenes|episodes|imagenav|instance_imagenav|goat|vlnce|policy-train|policy-select [--seed 0]
@@ -92,7 +92,7 @@ def cmd_run(args) -> int:
             video=args.video, on_run_dir=starting, device=args.device, precision=args.precision,
             habitat_config=habitat, gt=args.gt, _episodes=episodes)
     out = where[0]
-    print(summary_markdown({**summary, "split": split or file_split(args.episodes)}))
+    print(summary_markdown({**summary, "split": split or file_split(args.episodes)}, out))
     print(f"\nwrote {out}/episodes.jsonl, summary.json, config.json")
     if summary["num_failed"]:
         print(f"navbench: {summary['num_failed']} episode(s) failed (listed in {out}/summary.json), e.g. "
@@ -129,7 +129,7 @@ def cmd_merge(args) -> int:
     from navbench.eval.table import summary_markdown
 
     summary = merge([Path(d) for d in args.run_dirs], Path(args.out), overwrite=args.overwrite)
-    print(summary_markdown(summary))
+    print(summary_markdown(summary, args.out))
     print(f"\nwrote {args.out}/episodes.jsonl, summary.json, config.json")
     return 3 if summary["num_failed"] else 0
 
@@ -210,16 +210,16 @@ def cmd_check_agent(args) -> int:
 def cmd_table(args) -> int:
     from navbench.eval.table import group_frame, render, runs_frame
     if args.by:
-        print(render(group_frame(args.run_dirs, args.by, args.first, args.mix_protocols), args.format))
+        print(render(group_frame(args.run_dirs, args.by, args.first), args.format))
         return 0
-    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first, mix_protocols=args.mix_protocols),
-                 args.format))
+    print(render(runs_frame(args.run_dirs, wide=not args.long, first=args.first), args.format))
     return 0
 
 
 def cmd_export(args) -> int:
     from navbench.eval.export import export_run
-    print(export_run(args.run_dir, args.format, args.out))
+    print(export_run(args.run_dir, args.format, args.out, partial=args.partial,
+                     note=lambda line: print(line, file=sys.stderr)))
     return 0
 
 
@@ -473,21 +473,24 @@ def build_parser() -> argparse.ArgumentParser:
     from navbench.viz.cli import add_parsers as add_viz_parsers
     add_viz_parsers(sub)
 
-    t = sub.add_parser("table", help="render run summaries side by side")
+    t = sub.add_parser("table", help="render run summaries side by side",
+                       description="One row per run (or per agent, a column per split) in each task's own "
+                       "measures, each with its 95%% interval. Runs under different protocols are shown side by "
+                       "side: a protocol column, one column per protocol field that differs and a note say so "
+                       "(navbench compare refuses to pair them).")
     t.add_argument("run_dirs", nargs="+")
     t.add_argument("--format", default="markdown", choices=("markdown", "csv", "latex"))
     t.add_argument("--long", action="store_true", help="one row per run instead of agent x split")
     t.add_argument("--first", type=_count, help="score every run on the first N episodes of its split only")
     t.add_argument("--by", choices=("scene", "category"), help="one row per run and scene or object category")
-    t.add_argument("--mix-protocols", action="store_true", help="tabulate runs scored under different protocols "
-                                                                "(success distance, step limit...) anyway: a "
-                                                                "protocol column and a note mark the table")
     t.set_defaults(func=cmd_table)
 
     ex = sub.add_parser("export", help="write a VLN-CE run's leaderboard file (R2R-CE JSON, RxR-CE JSON Lines)")
     ex.add_argument("run_dir")
     ex.add_argument("--format", required=True, choices=("r2r-ce", "rxr-ce"))
     ex.add_argument("-o", "--out", help="the file to write (default: RUN/predictions.json or .jsonl)")
+    ex.add_argument("--partial", action="store_true", help="write it although the run covers only part of its "
+                                                          "episode file (a leaderboard scores the whole split)")
     ex.set_defaults(func=cmd_export)
 
     c = sub.add_parser("compare", help="paired comparison of runs on the episodes they share, with intervals",

@@ -24,8 +24,8 @@ section() {  # section TITLE BASE_RUN PER_SCENE RUN...
     if [ -f "$r/summary.json" ]; then have+=("$r"); else echo "- not run yet: \`$r\` (\`make results-realistic\`)"; fi
   done
   [ ${#have[@]} -eq 0 ] && return
-  echo "\`navbench table --mix-protocols ${have[*]}\`"; echo
-  $NB table --mix-protocols "${have[@]}"
+  echo "\`navbench table ${have[*]}\`"; echo
+  $NB table "${have[@]}"
   for r in "${have[@]}"; do
     echo; echo "\`navbench compare --mix-protocols --per-scene $k $base $r\`"; echo; echo '```'
     $NB compare --mix-protocols --per-scene "$k" "$base" "$r"; echo '```'
@@ -38,7 +38,8 @@ tables() {
   echo "Each agent under each condition of \`configs/env/\` (docs/realistic.md) on the first $K episodes of each"
   echo "scene ($FK for the frontier agent, $KC for the Habitat Challenge 2021 PointNav run), against its noiseless"
   echo "reference run on the same episodes (paired intervals, noisy minus noiseless). The protocols differ, which"
-  echo "is the point, hence \`--mix-protocols\`. The challenge run also has its own success distance (0.36 m, not 0.2 m)."
+  echo "is the point, hence \`compare --mix-protocols\`; each table names the conditions that differ in columns. The"
+  echo "challenge run also has its own success distance (0.36 m, not 0.2 m)."
   echo "With oracle perception the memory agent and the PointNav policy read depth (and instance ids), not RGB: of"
   echo "the depth+RGB condition only the depth noise reaches them. GPS+compass stay exact (docs/realistic.md)."
   runs() { for c in $CONDITIONS; do echo "$RUNS/$1-$c"; done; }

@@ -29,7 +29,7 @@ tables() {
     echo '```'; echo
     shown $NB table --long "$i/oracle" "$i/memory"; } > results/instance_imagenav.md
   { echo "# GOAT-Bench val (\`make results-tasks\`)"; echo
-    shown $NB table --long "$g/oracle" "$g/memory" "$g/frontier"; echo
+    shown $NB table "$g/oracle" "$g/memory" "$g/frontier"; echo
     echo "Paired by episode: \`navbench compare $g/frontier $g/memory\`"; echo
     echo '```'; $NB compare "$g/frontier" "$g/memory"; echo '```'; echo
     shown $PY -m navbench.eval.goat_table "$g/oracle" "$g/memory" "$g/frontier"; } > results/goat.md

@@ -11,12 +11,18 @@
   The challenge takes all three languages of ``test_challenge`` in one file (VLN-CE's
   ``scripts/merge_inference_predictions.py`` joins per-language files).
 
+A leaderboard scores a whole split: a run that covers only part of its episode file (``--limit``,
+``--per-scene``, ``--shard``, or a run that stopped early) is refused in one line unless ``partial``, which
+writes the file and says in one line how many episodes it lacks.
+
     navbench export runs/r2r_ce/test/vln_random --format r2r-ce -o predictions.json
+    navbench export runs/r2r_ce/val/vln_random --format r2r-ce --partial   # a part of the split, knowingly
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,9 +67,39 @@ def rxr_predictions(records: list[dict[str, Any]], where: Path = Path("episodes.
     return out
 
 
-def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None) -> Path:
+def missing_episodes(run_dir: Path, records: list[dict[str, Any]]) -> tuple[int, int, str] | None:
+    """``(episodes the records cover, episodes in the file, the file)`` when the run's records do not cover its episode
+    file (its bundled split where this checkout has it), else None. A file this machine cannot read is
+    judged by config.json: a selection (limit, per-scene, shard) or a run that did not complete is partial."""
+    from navbench.eval.config import recorded_paths
+    from navbench.paths import split_file
+    from navbench.tasks import TASKS
+
+    cfg_path, cfg = run_dir / "config.json", {}
+    try:
+        cfg = json.loads(cfg_path.read_text())
+        task, split = TASKS.get(cfg.get("task")), cfg.get("split")
+        bundled = split_file(task.name, split) if task is not None and isinstance(split, str) else None
+        episodes = bundled if bundled is not None and bundled.is_file() else Path(recorded_paths(cfg, cfg_path)[0])
+        gt = {"gt": cfg["gt"]} if cfg.get("gt") else {}
+        keys = {(e.scene_id, str(e.episode_id)) for e in task.read_episodes(episodes, **gt).episodes}
+    except (OSError, ValueError, TypeError, AttributeError, RunError):
+        cfg = cfg if isinstance(cfg, dict) else {}
+        try:
+            done = json.loads((run_dir / "summary.json").read_text()).get("complete", True) is not False
+        except (OSError, ValueError, AttributeError):
+            done = True
+        selected = any(cfg.get(k) is not None for k in ("limit", "per_scene", "shard"))
+        return (-1, -1, str(cfg.get("episodes") or "its episode file")) if selected or not done else None
+    have = {(r.get("scene_id"), str(r.get("episode_id"))) for r in records}
+    return (len(keys & have), len(keys), str(episodes)) if keys - have else None
+
+
+def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None, partial: bool = False,
+               note: Callable[[str], None] | None = None) -> Path:
     """Write ``run_dir``'s leaderboard file in ``fmt`` (default ``RUN/predictions.json`` for r2r-ce,
-    ``RUN/predictions.jsonl`` for rxr-ce); RunError (one line) for a run that cannot be submitted."""
+    ``RUN/predictions.jsonl`` for rxr-ce); RunError (one line) for a run that cannot be submitted, or that
+    covers only part of its episode file unless ``partial`` (then ``note`` gets one line saying so)."""
     if fmt not in FORMATS:
         raise RunError(f"--format {fmt!r}: choose from {', '.join(FORMATS)}")
     run_dir = Path(run_dir)
@@ -71,6 +107,15 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None) -> 
     if not jsonl.is_file():
         raise RunError(f"{jsonl}: missing (is this a navbench run directory?)")
     records = read_records(jsonl)
+    gap = missing_episodes(run_dir, records)
+    if gap is not None:
+        covered, total, episodes = gap
+        what = f"covers {covered} of the {total} episodes of {episodes}" if total >= 0 else \
+            f"covers only part of {episodes} (a selection, or a run that stopped early)"
+        if not partial:
+            raise RunError(f"{run_dir}: {what}; a leaderboard scores the whole split: --partial to write it anyway")
+        if note is not None:
+            note(f"navbench export: {run_dir} {what}: the file is not a whole split's submission")
     if fmt == "r2r-ce":
         text = json.dumps(r2r_predictions(records, jsonl), indent=2)
         target = Path(out) if out is not None else run_dir / "predictions.json"

@@ -21,6 +21,7 @@ from typing import Any
 
 from navbench.eval.runner import read_records
 from navbench.eval.stats import intervals
+from navbench.metrics import GOAT_TYPES
 from navbench.paths import split_file
 from navbench.tasks import get_task
 
@@ -56,6 +57,22 @@ def subtask_rows(run: str | Path | Run) -> tuple[str, list[dict[str, Any]]]:
                          "type": task.type, "success": float(success[k]) if k < len(success) else 0.0,
                          "spl": float(spl[k]) if k < len(spl) else 0.0, "query_ms": logged.get(k)})
     return label, rows
+
+
+def type_figures(run: str | Path | Run) -> dict[str, dict[str, float]]:
+    """goat-bench's success and SPL by goal type: ``{type: {"success", "spl": mean over the run's subtasks of
+    that type, "success lo", "success hi", "spl lo", "spl hi": their 95% interval, "subtasks": count}}``,
+    for the types the run has (``navbench table``'s per-type columns, in [0, 1])."""
+    _, rows = subtask_rows(run)
+    out = {}
+    for t in GOAT_TYPES:
+        sel = [r for r in rows if r["type"] == t]
+        if not sel:
+            continue
+        ci = intervals(sel, ("success", "spl")) or {}
+        out[t] = {"subtasks": len(sel), **{m: sum(r[m] for r in sel) / len(sel) for m in ("success", "spl")},
+                  **{f"{m} {e}": ci[m][i] for m in ci for i, e in enumerate(("lo", "hi"))}}
+    return out
 
 
 def _cell(rows: list[dict[str, Any]], metric: str, ci: dict[str, list[float]] | None) -> str:
@@ -115,7 +132,7 @@ def report(run_dirs: list[str]) -> str:
     scored = [scored_run(d) for d in run_dirs]  # each run's files read once
     runs = [subtask_rows(s) for s in scored]
     indices = sorted({r["index"] for _, rows in runs for r in rows})
-    types = [t for t in ("object", "description", "image") if any(r["type"] == t for _, rows in runs for r in rows)]
+    types = [t for t in GOAT_TYPES if any(r["type"] == t for _, rows in runs for r in rows)]
     out = ["### goat-bench's measures, by episode (%)", ""] + measures(scored)
     out += ["", "SR and SPL (%) of each subtask, 95% intervals (two-stage bootstrap: houses, then subtasks).", "",
             "### By position in the episode", ""]

@@ -18,6 +18,7 @@ from typing import Any
 from navbench.episodes.io import load_dataset
 from navbench.eval.config import RunConfig, recorded_paths, selector
 from navbench.eval.provenance import check_same_protocol, merge_provenance
+from navbench.eval.records import summary_text
 from navbench.eval.rundir import RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.runner import config_diff, summarize
 
@@ -89,7 +90,7 @@ def merge(run_dirs: list[Path], out: Path, overwrite: bool = False, note=print) 
         write_atomic(out / "config.json", json.dumps(cfg_json, indent=1) + "\n")
         write_atomic(out / "episodes.jsonl", "".join(json.dumps(r) + "\n" for r in records))
         summary = summarize(records, cfg, complete=True)
-        write_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
+        write_atomic(out / "summary.json", summary_text(summary))
         merge_provenance(run_dirs, out)
     finally:
         lock.release()

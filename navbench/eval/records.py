@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import json
+import math
 from typing import Any, TypedDict
 
 
@@ -62,3 +64,20 @@ class RunSummary(TypedDict, total=False):
     num_failed: int
     failed_episodes: list[FailedEpisode]
     shard: str
+
+
+def json_ready(value: Any) -> Any:
+    """``value`` with every non-finite float (the mean of no episodes) as None, so ``summary.json`` is JSON
+    (``json.dumps`` would write ``NaN``, which JSON parsers refuse) with null where a figure is undefined."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    return value
+
+
+def summary_text(summary: dict[str, Any]) -> str:
+    """``summary.json``'s text: strict JSON (never NaN or Infinity)."""
+    return json.dumps(json_ready(summary), indent=1, allow_nan=False) + "\n"

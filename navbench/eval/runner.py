@@ -47,7 +47,7 @@ from navbench.eval.provenance import (
     sha256,
     write_provenance,
 )
-from navbench.eval.records import EpisodeRecord, RunSummary
+from navbench.eval.records import EpisodeRecord, RunSummary, json_ready, summary_text
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.stats import add_intervals
 from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
@@ -97,7 +97,7 @@ def summarize(records: list[dict[str, Any]], cfg: RunConfig, complete: bool,
         summary["shard"] = cfg.shard
     if extra:
         summary.update(extra)
-    return summary
+    return json_ready(summary)  # null, not NaN, for a figure of no episodes (a run stopped before its first)
 
 
 def config_json(cfg: RunConfig) -> dict[str, Any]:
@@ -292,7 +292,7 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
         kept = [r for r in records if (r["scene_id"], r["episode_id"]) in wanted]
         summary = summarize(kept, cfg, complete)
         try:
-            write_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
+            write_atomic(out / "summary.json", summary_text(summary))
         except RunError:
             if complete:
                 raise

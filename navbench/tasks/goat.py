@@ -36,6 +36,10 @@ GOAT_MEASURES = (
 # success by goal type; task_success is always 0 there and composite_softspl is no headline
 GOAT_HEADLINE = ("partial_success", "composite_success", "composite_spl", "object_success", "description_success",
                  "image_success")
+# navbench table's columns from the summary, by goat-bench's names (navbench.eval.table adds success and SPL by
+# goal type from the records)
+GOAT_COLUMNS = (("partial SR", "partial_success", 100), ("composite SR", "composite_success", 100),
+                ("composite SPL", "composite_spl", 100))
 # per subtask, in each record (goat-bench writes success_by_subtask and spl_by_subtaskl to episode_metrics.json)
 GOAT_RECORD_FIELDS = ("subtask_success", "spl_by_subtask", "softspl_by_subtask", "d0_by_subtask", "subtasks_closed")
 
@@ -130,4 +134,5 @@ TASK = Task(
           "image).",
     env_class="navbench.env.goat:GoatEnv",
     goal_images=IMAGE_GOAL_RULE,
+    columns=GOAT_COLUMNS,
 )

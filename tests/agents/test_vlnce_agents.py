@@ -122,6 +122,16 @@ def test_export_r2r_and_rxr_leaderboard_files(r2r_file, tmp_path, capsys):
     # an R2R run has no instruction ids: no RxR file, one line, exit 2
     assert main(["export", str(tmp_path / "fwd"), "--format", "rxr-ce"]) == 2
     assert "instruction_id" in capsys.readouterr().err
+    # a run of part of the split: refused in one line naming what it covers; --partial writes it and says so
+    navbench.evaluate("vln_forward", task="r2r_ce", episodes=r2r_file, out=tmp_path / "two", limit=2)
+    assert main(["export", str(tmp_path / "two"), "--format", "r2r-ce"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "covers 2 of the 6 episodes" in err[0] and "--partial" in err[0]
+    assert not (tmp_path / "two" / "predictions.json").exists()
+    assert main(["export", str(tmp_path / "two"), "--format", "r2r-ce", "--partial"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "covers 2 of the 6 episodes" in err[0]
+    assert len(json.loads((tmp_path / "two" / "predictions.json").read_text())) == 2
 
     # an RxR guide file of the same episodes, goal-less as test_challenge is: it runs unscored and exports
     src = json.loads(gzip.decompress(r2r_file.read_bytes()))

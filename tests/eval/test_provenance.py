@@ -25,7 +25,7 @@ from navbench.eval.provenance import (
 )
 from navbench.eval.runner import RunConfig, RunError, read_records, run
 from navbench.eval.stats import intervals
-from navbench.eval.table import TableError, group_frame, render, runs_frame
+from navbench.eval.table import group_frame, render, runs_frame
 from navbench.paths import RESULTS_DIR, SCENES_DIR, split_file
 
 VAL = split_file("pointnav", "val")
@@ -103,15 +103,27 @@ def test_runs_without_provenance_get_a_derived_protocol_never_taken_for_todays(t
         check_same_protocol([RUNS / "objectnav" / "val_unseen" / "memory", d])
 
 
-def test_table_refuses_mixed_protocols_unless_told_and_then_marks_it(copy_run, capsys):
+def test_table_shows_runs_under_different_protocols_and_names_what_differs(copy_run, capsys):
+    """A table puts runs under different protocols side by side: the protocol's id and each field that
+    differs as columns (a condition a protocol leaves out shows its default), and a note; compare refuses."""
     mem = RUNS / "objectnav" / "val_unseen" / "memory"
     far = copy_run(RUNS / "objectnav/val_unseen/frontier", "frontier", success_distance=1.0)
-    with pytest.raises(TableError, match="success_distance"):
-        runs_frame([mem, far])
-    text = render(runs_frame([mem, far], mix_protocols=True))
-    assert "protocol" in text.splitlines()[0] and "mixed protocols" in text
-    assert main(["table", str(mem), str(far)]) == 2
-    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    df = runs_frame([mem, far], wide=False)
+    assert list(df["success_distance"]) == ["0.25", "1.0"] and df["protocol"].nunique() == 2
+    assert main(["table", str(mem), str(far)]) == 0
+    text = capsys.readouterr().out
+    head = text.splitlines()[0]
+    assert "| protocol " in head and " success_distance |" in head
+    assert "differ in success_distance (a column each)" in text and "navbench compare" in text
+    assert main(["compare", str(mem), str(far)]) == 2
+    assert "success_distance" in capsys.readouterr().err
+    noisy = copy_run(RUNS / "objectnav/val_unseen/frontier", "noisy")
+    doc = json.loads((noisy / PROVENANCE).read_text())
+    doc["protocol"]["gps_compass"] = False  # a realistic condition, in the protocol only when on
+    (noisy / PROVENANCE).write_text(json.dumps(doc))
+    assert list(runs_frame([mem, noisy], wide=False)["gps_compass"]) == ["true", "false"]
+    # by scene too
+    assert set(group_frame([mem, far], "scene")["success_distance"]) == {"0.25", "1.0"}
 
 
 def test_table_shows_intervals_from_summary_or_records_in_every_format(copy_run):

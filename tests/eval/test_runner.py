@@ -173,6 +173,26 @@ def test_cli_missing_scene(tmp_path, pointnav_file, capsys):
     assert "no_such_house.glb: scene file not found" in err
 
 
+def test_a_run_stopped_by_bad_input_leaves_json_and_names_the_file(tmp_path, objectnav_file, capsys):
+    """The first episode's category is missing from category_to_task_category_id: the run ends before any
+    record, the error names the episode file and summary.json is strict JSON, null where nothing was scored."""
+    ds = load_dataset(objectnav_file)
+    first = min(ds.episodes, key=lambda e: (e.scene_id, e.episode_id))
+    del ds.category_to_task_category_id[first.object_category]
+    path = save_dataset(ds, tmp_path / "eps.json.gz")
+    out = tmp_path / "o"
+    argv = ["run", "--episodes", str(path), "--task", "objectnav", "--agent", "oracle", "--out", str(out)]
+    assert main([*argv, "--workers", "1", "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(path) in err[0] and f"category {first.object_category!r}" in err[0]
+
+    def no_constants(name):
+        raise AssertionError(f"summary.json holds {name}, which is not JSON")
+    summary = json.loads((out / "summary.json").read_text(), parse_constant=no_constants)
+    assert summary["num_episodes"] == 0 and not summary["complete"]
+    assert all(summary[m] is None for m in ("success", "spl", "soft_spl", "distance_to_goal"))
+
+
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_cli_start_off_the_navigable_area(tmp_path, pointnav_file, capsys, workers):
     """The default PointNav agent steps 8 episodes at once: the bad third episode ends the run, but the

@@ -61,3 +61,32 @@ def test_missing_config_is_a_one_line_error(tmp_path):
     (d / "config.json").unlink()
     with pytest.raises(TableError, match="no config.json"):
         runs_frame([d])
+
+
+def test_the_table_a_run_prints_says_what_its_agent_perceives_with(tmp_path):
+    """After a run: a line under the table with the agent's checkpoint, decoding and perception, the perception
+    in words (oracle ground truth or models); none for an agent without them."""
+    from navbench.eval.table import load_summary, summary_markdown
+
+    mem = _run(tmp_path, "mem", "memory", "val_unseen", {"decoding": "argmax", "perception": "oracle"})
+    text = summary_markdown(load_summary(mem), mem)
+    assert text.splitlines()[-1] == ("*agent mem: checkpoint pointnav_navbench, decoding argmax, perception oracle "
+                                     "(the simulator's ground-truth object labels, not a model)*")
+    model = _run(tmp_path, "fr", "frontier", "val_unseen",
+                 {"decoding": "argmax", "perception": "siglip2+qwen2.5-vl+sam3", "noise": "none"})
+    assert "perception siglip2+qwen2.5-vl+sam3 (objects detected in RGB by these models)" in \
+        summary_markdown(load_summary(model), model)
+    orc = _run(tmp_path, "orc", "oracle", "val_unseen", {})
+    assert "agent" not in summary_markdown(load_summary(orc), orc).splitlines()[-1]
+
+
+def test_the_table_a_goat_run_prints_is_in_goat_bench_measures():
+    from navbench.eval.table import load_summary, summary_markdown
+    from navbench.paths import RESULTS_DIR
+
+    run = RESULTS_DIR / "runs" / "goat" / "val" / "memory"
+    text = summary_markdown(load_summary(run), run)
+    head = [h.strip() for h in text.splitlines()[0].strip("|").split("|")]
+    assert head[-9:] == ["object SR", "object SPL", "description SR", "description SPL", "image SR", "image SPL",
+                         "partial SR", "composite SR", "composite SPL"]
+    assert "perception oracle" in text and "goat-bench's partial_success" in text
