@@ -246,24 +246,40 @@ class PathFinder:
         return int(np.argmin(np.hypot(ends[:, 0] - last[0], ends[:, 2] - last[2])))
 
     def _polyline(self, field, start: np.ndarray) -> list[np.ndarray]:
-        """Points from ``start`` to the field's nearest goal: steepest descent in steps of a cell, then each point
-        joined to the farthest later one in straight navigable line."""
+        """Points from ``start`` to the field's nearest goal: down the field's values from cell to neighbouring
+        cell until the goal is in straight navigable line, then each point joined to the farthest later one in
+        straight navigable line."""
         g = self.grid
         cs = g.cell_size
         y = g.floor_height
         goals = field.goals
+        values = field.values
+        h, w = values.shape
         p = np.array([start[0], y, start[2]])
         trail = [p]
-        for _ in range(int(4 * g.navigable.size ** 0.5) + 100):
+        i, j = (int(v) for v in g.world_to_grid(p))
+        first = True
+        while True:
             near = goals[np.argmin(np.hypot(goals[:, 0] - p[0], goals[:, 2] - p[2]))]
-            if not g._straight(p[0], p[2], near[0], near[2])[2] and \
-                    math.hypot(near[0] - p[0], near[2] - p[2]) <= field.distance(p) + cs:
+            if not g._straight(p[0], p[2], near[0], near[2])[2]:
                 trail.append(np.array([near[0], y, near[2]]))
                 break
-            step = field.descent_direction(p)
-            if not step.any():
+            best = (values[i, j], i, j)
+            for di in (-1, 0, 1):
+                for dj in (-1, 0, 1):
+                    ni, nj = i + di, j + dj
+                    # a diagonal move only between navigable orthogonal neighbours: consecutive points stay in
+                    # straight navigable line
+                    if 0 <= ni < h and 0 <= nj < w and values[ni, nj] < best[0] and \
+                            (di == 0 or dj == 0 or (g.navigable[ni, j] and g.navigable[i, nj])):
+                        best = (values[ni, nj], ni, nj)
+            if first:  # the start's own cell centre first: the start lies in that cell
+                best, first = (values[i, j], i, j), False
+            elif (best[1], best[2]) == (i, j):  # a minimum short of the goal: end at the nearest goal
+                trail.append(np.array([near[0], y, near[2]]))
                 break
-            p = p + step * cs
+            i, j = best[1], best[2]
+            p = np.array([g.origin[0] + j * cs, y, g.origin[1] + i * cs])
             trail.append(p)
         out = [trail[0]]
         i = 0
