@@ -1,0 +1,90 @@
+"""The real habitat-lab on navbench's habitat_sim, through habitat-lab's public API: a PointNav config pointed at
+navbench's bundled split and scenes. Skipped unless the ``habitat`` extra and ``compat/habitat-sim`` are installed
+(``pip install -e ".[habitat]" -e compat/habitat-sim``)."""
+
+import importlib
+
+import numpy as np
+import pytest
+
+habitat_sim = pytest.importorskip("habitat_sim", reason="navbench-habitat-sim (compat/habitat-sim) not installed")
+if not hasattr(habitat_sim, "__navbench__"):
+    pytest.skip("habitat_sim here is not navbench's", allow_module_level=True)
+habitat = pytest.importorskip("habitat", reason="habitat-lab (the habitat extra) not installed")
+
+from navbench._version import __version__ as navbench_version  # noqa: E402
+from navbench.paths import EPISODES_DIR, SCENES_DIR  # noqa: E402
+
+SPLIT = EPISODES_DIR / "pointnav" / "val" / "val.json.gz"
+
+
+def _pointnav_config(*extra: str):
+    from habitat.config.default import get_config
+
+    # habitat-lab's own benchmark config, unchanged but for where its episodes and scenes are
+    return get_config("benchmark/nav/pointnav/pointnav_habitat_test.yaml",
+                      overrides=[f"habitat.dataset.data_path={SPLIT}", f"habitat.dataset.scenes_dir={SCENES_DIR}",
+                                 "habitat.dataset.split=val", "habitat.environment.iterator_options.shuffle=False",
+                                 *extra])
+
+
+def test_import_surface_names_navbench():
+    assert habitat_sim.__version__ == f"0.3.3+navbench.{navbench_version}"
+    assert habitat_sim.__navbench__ == navbench_version
+    # a feature habitat-lab probes with try/import is real or raises ImportError, never a placeholder
+    with pytest.raises(ImportError):
+        from habitat_sim.utils import profiling_utils  # noqa: F401
+    from habitat_sim.utils.common import d3_40_colors_rgb
+    assert d3_40_colors_rgb.shape == (40, 3)
+    import magnum as mn
+    assert mn.Vector3(0, 0.9, 0).y == pytest.approx(0.9)
+    importlib.import_module("habitat.sims.habitat_simulator.habitat_simulator")
+
+
+def test_habitat_baselines_imports():
+    try:
+        importlib.import_module("torchvision")
+    except Exception as exc:  # PyPI's CUDA build beside torch+cpu raises RuntimeError at import
+        pytest.skip(f"torchvision does not import here ({type(exc).__name__}): habitat_baselines needs it")
+    importlib.import_module("habitat_baselines.run")
+
+
+@pytest.fixture(scope="module")
+def lab_env():
+    with habitat.Env(config=_pointnav_config()) as env:
+        yield env
+
+
+def test_reset_geodesic_equals_navbench_d0(lab_env):
+    from navbench.env.base import NavEnv
+    from navbench.env.config import EnvConfig
+
+    # navbench's own env with habitat-lab's agent body (radius 0.1, height 1.5, climb 0.2)
+    ours = NavEnv(task="pointnav", dataset=SPLIT,
+                  config=EnvConfig(agent_radius=0.1, agent_height=1.5, max_climb=0.2, rgb=False, depth=False))
+    try:
+        for _ in range(4):
+            obs = lab_env.reset()
+            ep = lab_env.current_episode
+            lab_d0 = lab_env.get_metrics()["distance_to_goal"]
+            _, info = ours.reset(options={"episode": ep.episode_id})
+            assert lab_d0 == pytest.approx(info["geodesic_distance"], rel=1e-6, abs=1e-6), ep.episode_id
+            assert obs["rgb"].shape == (256, 256, 3) and obs["depth"].shape == (256, 256, 1)
+            state = lab_env.sim.get_agent_state()
+            assert np.allclose(state.position, ep.start_position, atol=1e-5)
+    finally:
+        ours.close()
+
+
+def test_shortest_path_follower_reaches_the_goal(lab_env):
+    from habitat.tasks.nav.shortest_path_follower import ShortestPathFollower
+
+    follower = ShortestPathFollower(lab_env.sim, goal_radius=0.2, return_one_hot=False)
+    for _ in range(2):
+        lab_env.reset()
+        goal = lab_env.current_episode.goals[0].position
+        while not lab_env.episode_over:
+            lab_env.step(follower.get_next_action(goal))
+        metrics = lab_env.get_metrics()
+        assert metrics["success"] == 1.0, (lab_env.current_episode.episode_id, metrics)
+        assert metrics["spl"] > 0.9
