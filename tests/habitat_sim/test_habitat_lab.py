@@ -88,3 +88,25 @@ def test_shortest_path_follower_reaches_the_goal(lab_env):
         metrics = lab_env.get_metrics()
         assert metrics["success"] == 1.0, (lab_env.current_episode.episode_id, metrics)
         assert metrics["spl"] > 0.9
+
+
+def _gym_env(config):
+    from habitat.gym import make_gym_from_config
+
+    return make_gym_from_config(config)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["forkserver", "spawn"])
+def test_vector_env_workers_import_navbench_habitat_sim(method):
+    from habitat.core.vector_env import VectorEnv
+
+    cfg = _pointnav_config()
+    envs = VectorEnv(make_env_fn=_gym_env, env_fn_args=[(cfg,), (cfg,)], multiprocessing_start_method=method)
+    try:
+        obs = envs.reset()
+        steps = envs.step([1, 2])
+        assert [o["rgb"].shape for o in obs] == [(256, 256, 3)] * 2
+        assert all(s[0]["depth"].shape == (256, 256, 1) for s in steps)
+    finally:
+        envs.close()
