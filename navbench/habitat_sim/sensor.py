@@ -4,8 +4,8 @@ A :class:`Sensor` is a scene node under its agent's body, placed by its spec (``
 ``orientation`` Euler radians applied about x, then y, then z in the body frame, as habitat-sim's
 ``Sensor::setTransformationFromSpec``); the simulator renders it at the node's absolute pose with navbench's
 renderer at the spec's own resolution, hfov, near and far. Observations are habitat-sim's: COLOR ``uint8 (H, W, 4)``
-RGBA, DEPTH ``float32 (H, W)`` z-depth in metres with 0 where nothing was hit, SEMANTIC ``uint32 (H, W)`` with 0
-for structure and background.
+RGBA, DEPTH ``float32 (H, W)`` z-depth in metres with 0 where nothing was hit, SEMANTIC ``uint32 (H, W)``, the
+instance ids ``semantic_scene`` lists, 0 for structure and background.
 """
 
 from __future__ import annotations

@@ -37,17 +37,21 @@ class _ObjectTemplateManager:
 
 
 def semantic_scene_of(asset) -> SemanticScene:
-    """The semantic scene of a navbench scene: one object per annotated object, ``semantic_id`` = navbench's
-    instance id + 1 (the SEMANTIC sensor's value; 0 is structure), in id order."""
+    """The semantic scene of a navbench scene, in habitat-sim's HM3D layout: ``objects[i]`` is the object of instance
+    id ``i`` (its ``semantic_id``, the SEMANTIC sensor's value, and the suffix of its ``id``), ``objects[0]`` and ids
+    no object has are category "Unknown" (0 is also structure and background)."""
     scene = SemanticScene()
-    categories: dict[str, SemanticCategory] = {}
-    for oid in sorted(asset.objects):
-        obj = asset.objects[oid]
-        name = str(getattr(obj, "category", "object"))
+    unknown = SemanticCategory(0, "Unknown")
+    categories: dict[str, SemanticCategory] = {"Unknown": unknown}
+    top = max((int(k) for k in asset.objects), default=0)
+    for oid in range(top + 1):
+        obj = asset.objects.get(oid)
+        if obj is None:
+            scene.objects.append(SemanticObject(oid, unknown, mn.Range3D()))
+            continue
+        name = str(obj.category)
         cat = categories.setdefault(name, SemanticCategory(len(categories), name))
-        lo, hi = getattr(obj, "aabb_min", None), getattr(obj, "aabb_max", None)
-        aabb = mn.Range3D(lo, hi) if lo is not None and hi is not None else mn.Range3D()
-        scene.objects.append(SemanticObject(int(oid) + 1, cat, aabb))
+        scene.objects.append(SemanticObject(oid, cat, mn.Range3D(obj.aabb_min, obj.aabb_max)))
     scene.categories = list(categories.values())
     return scene
 
@@ -203,8 +207,8 @@ class Simulator:
                     out[m.uuid] = np.concatenate([rgb[:, :, :3], alpha], axis=2)
                 elif kind == SensorType.DEPTH:
                     out[m.uuid] = np.asarray(frame.depth, np.float32).copy()
-                else:
-                    out[m.uuid] = (np.asarray(frame.ids, np.int64) + 1).astype(np.uint32)
+                else:  # navbench's instance ids; structure and background (-1) are 0
+                    out[m.uuid] = np.maximum(np.asarray(frame.ids, np.int64), 0).astype(np.uint32)
         return out
 
     def get_sensor_observations(self, agent_ids: int | list[int] = 0):

@@ -90,6 +90,33 @@ def test_shortest_path_follower_reaches_the_goal(lab_env):
         assert metrics["spl"] > 0.9
 
 
+def test_objectnav_reset_geodesic_equals_navbench_d0_and_look_actions_run():
+    from habitat.config.default import get_config
+
+    from navbench.env.base import NavEnv
+    from navbench.env.config import EnvConfig
+
+    split = EPISODES_DIR / "objectnav" / "val_seen" / "val_seen.json.gz"
+    cfg = get_config("benchmark/nav/objectnav/objectnav_hm3d.yaml",
+                     overrides=[f"habitat.dataset.data_path={split}", f"habitat.dataset.scenes_dir={SCENES_DIR}",
+                                "habitat.dataset.split=val_seen", "habitat.environment.iterator_options.shuffle=False"])
+    # habitat-lab's HM3D ObjectNav body is navbench's default one (radius 0.18, height 0.88)
+    ours = NavEnv(task="objectnav", dataset=split, config=EnvConfig(rgb=False, depth=False))
+    with habitat.Env(config=cfg) as env:
+        try:
+            for _ in range(3):
+                env.reset()
+                ep = env.current_episode
+                _, info = ours.reset(options={"episode": ep.episode_id})
+                # habitat-lab hands the view points over as float32, which moves navbench's field by < 0.1 mm
+                assert env.get_metrics()["distance_to_goal"] == pytest.approx(info["geodesic_distance"], abs=1e-4)
+            before = env.sim.get_observations_at()["depth"]
+            obs = env.step("look_up")
+            assert not np.array_equal(obs["depth"], before)  # the tilt acts on the sensor nodes
+        finally:
+            ours.close()
+
+
 def _gym_env(config):
     from habitat.gym import make_gym_from_config
 

@@ -71,7 +71,21 @@ def test_depth_and_ids_equal_navbenchs_render_at_the_sensor_pose(sim):
     with Renderer(sim._nb_asset, CameraConfig(width=96, height=64, hfov_deg=90.0, znear=0.01, zfar=1000.0)) as r:
         ref = r.render(pos, rot, rgb=False, depth=True, ids=True)
     assert np.array_equal(obs["depth"], ref.depth)
-    assert np.array_equal(obs["semantic"], (ref.ids + 1).astype(np.uint32))  # 0: structure and background
+    assert np.array_equal(obs["semantic"], np.maximum(ref.ids, 0).astype(np.uint32))  # 0: structure, background
+
+
+def test_semantic_ids_index_the_semantic_scene(sim):
+    objects = sim.semantic_scene.objects
+    assert objects[0].category.name() == "Unknown"
+    seen: set[int] = set()
+    for k in range(12):
+        _place(sim, np.asarray(sim.pathfinder.get_random_navigable_point(), np.float64), k * 0.5)
+        ids = np.unique(sim.get_sensor_observations()["semantic"])
+        seen.update(int(i) for i in ids[ids > 0])
+    assert len(seen) >= 3
+    for i in seen:  # the ids the sensor gives index semantic_scene as habitat-lab's ObjectNav goals expect
+        assert objects[i].semantic_id == i and objects[i].id.split("_")[-1] == str(i)
+        assert objects[i].category.name() == sim._nb_asset.objects[i].category
 
 
 def test_move_forward_follows_minus_z_and_turns_are_about_y(sim):
@@ -153,10 +167,13 @@ def test_added_sensor_at_a_world_pose_renders_there(sim):
     sensor = sim.get_sensor("goal_camera")
     sensor.draw_observation()
     img = sensor.get_observation()
+    pos, rot = sensor.world_pose()  # the requested world pose, through float32 scene-graph arithmetic
+    assert np.allclose(pos, cam_pos, atol=1e-5)
+    assert np.allclose(rot, quat_to_coeffs(cam_rot), atol=1e-5) or np.allclose(rot, -quat_to_coeffs(cam_rot), atol=1e-5)
     with Renderer(sim._nb_asset, CameraConfig(width=50, height=40, hfov_deg=60.0, znear=0.01, zfar=1000.0)) as r:
-        ref = r.render(cam_pos, quat_to_coeffs(cam_rot), rgb=True, depth=False, ids=False)
+        ref = r.render(pos, rot, rgb=True, depth=False, ids=False)
     assert img.shape == (40, 50, 4)
-    assert np.abs(img[..., :3].astype(int) - ref.rgb.astype(int)).max() <= 1
+    assert np.array_equal(img[..., :3], ref.rgb)
     sim.remove_sensor("goal_camera")
     assert "goal_camera" not in sim.sensors
     assert spec not in agent.agent_config.sensor_specifications
