@@ -10,8 +10,7 @@ from __future__ import annotations
 import enum
 
 from navbench.habitat_sim import magnum as mn
-
-COVERAGE = "navbench's habitat_sim covers navigation (no physics)"
+from navbench.habitat_sim._out_of_scope import placeholder
 
 
 class RigidState:
@@ -75,11 +74,7 @@ class CollisionGroups(enum.IntFlag):
 
 
 def _physics_only(name: str) -> type:
-    def __init__(self, *args, **kwargs):
-        raise NotImplementedError(f"habitat_sim.physics.{name}: {COVERAGE}")
-
-    doc = f"Named for annotations; constructing it raises ({COVERAGE})."
-    return type(name, (), {"__init__": __init__, "__doc__": doc})
+    return placeholder(f"habitat_sim.physics.{name}", "no physics")
 
 
 ManagedRigidObject = _physics_only("ManagedRigidObject")
