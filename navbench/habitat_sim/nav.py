@@ -5,8 +5,8 @@ habitat-sim answers these queries on a Detour navmesh; here they are answered on
 main storey, with habitat-sim's conventions (``navmesh-spec.md``: §4 geodesics, §5 try_step, §6 other queries):
 
 * ``geodesic_distance`` is navbench's geodesic field at the snapped start (what navbench's own env measures
-  ``d0`` and distance to goal with), ``inf`` when no end is reachable; ``points`` is the string-pulled polyline
-  along the field's steepest descent (computed when first read).
+  ``d0`` and distance to goal with), ``inf`` when no end is reachable; query points are taken to 10
+  micrometres. ``points`` is the string-pulled polyline down the field (computed when first read).
 * snapping searches within :data:`SNAP_RADIUS` metres in xz of the point and 4 m in y (Detour's query box
   ``(2, 4, 2)``), and returns NaNs when nothing navigable lies there.
 * ``try_step`` / ``try_step_no_sliding`` are the grid's collision rule (navbench's own motion) and return the
@@ -30,6 +30,7 @@ from navbench.scene.navigability import NavGrid, NavGridConfig
 
 SNAP_RADIUS = 2.0  # metres in xz (Detour's findNearestPoly half extents: 2, 4, 2)
 SNAP_HEIGHT = 4.0
+QUERY_DECIMALS = 5  # find_path's points, in metres: episode files' precision
 WALKABLE_SLOPE_DEG = 45.0  # navbench's floor-like test: a normal within 45 degrees of vertical
 
 __all__ = ["GreedyFollowerCodes", "GreedyGeodesicFollowerImpl", "MultiGoalShortestPath", "NavMeshSettings",
@@ -214,17 +215,19 @@ class PathFinder:
     # ------------------------------------------------------------------ paths
     def find_path(self, path: ShortestPath | MultiGoalShortestPath) -> bool:
         """Fill ``path`` (see the module docstring); True when an end is reachable."""
+        # habitat-lab narrows episode points to float32; to the 10 micrometres episode files are written to, they
+        # are the file's numbers again, so the grid's goal snapping (exact at cell edges) sees what navbench's env sees
         if isinstance(path, MultiGoalShortestPath):
-            ends = np.asarray(path.requested_ends, np.float64).reshape(-1, 3)
+            ends = np.round(np.asarray(path.requested_ends, np.float64).reshape(-1, 3), QUERY_DECIMALS)
         elif isinstance(path, ShortestPath):
-            ends = _vec(path.requested_end)[None, :]
+            ends = np.round(_vec(path.requested_end), QUERY_DECIMALS)[None, :]
         else:
             raise TypeError(f"find_path takes a ShortestPath or a MultiGoalShortestPath, got {type(path).__name__}")
         path.geodesic_distance = math.inf
         path._points = []
         if isinstance(path, MultiGoalShortestPath):
             path.closest_end_point_index = -1
-        start = self._snap(_vec(path.requested_start))
+        start = self._snap(np.round(_vec(path.requested_start), QUERY_DECIMALS))
         valid = [k for k, e in enumerate(ends) if self._snap(e) is not None]
         if start is None or not valid:
             return False
