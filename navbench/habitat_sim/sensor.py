@@ -31,9 +31,43 @@ from navbench.habitat_sim.scene import SceneNode, SceneNodeType
 
 __all__ = ["AudioSensorSpec", "CameraSensor", "CameraSensorSpec", "EquirectangularSensorSpec",
            "FisheyeSensorDoubleSphereSpec", "FisheyeSensorModelType", "FisheyeSensorSpec", "Sensor", "SensorSpec",
-           "SensorSubType", "SensorType", "VisualSensorSpec", "check_spec"]
+           "SensorSubType", "SensorType", "VisualSensorSpec", "apply_noise", "check_spec"]
 
 COVERAGE = "navbench's habitat_sim covers navigation"
+
+# habitat-sim's sensor noise models (src_python/habitat_sim/sensors/noise_models) -> the sensor types they apply
+# to, and their keyword arguments; navbench.env.noise implements them
+NOISE_MODELS: dict[str, tuple[SensorType, ...]] = {
+    "None": (), "": (), "RedwoodDepthNoiseModel": (SensorType.DEPTH,), "GaussianNoiseModel": (SensorType.COLOR,),
+    "SpeckleNoiseModel": (SensorType.COLOR,), "PoissonNoiseModel": (SensorType.COLOR,),
+    "SaltAndPepperNoiseModel": (SensorType.COLOR,)}
+NOISE_KWARGS: dict[str, set[str]] = {
+    "None": set(), "": set(), "RedwoodDepthNoiseModel": {"noise_multiplier"},
+    "GaussianNoiseModel": {"intensity_constant", "mean", "sigma"}, "SpeckleNoiseModel": {"intensity_constant"},
+    "PoissonNoiseModel": set(), "SaltAndPepperNoiseModel": {"amount", "s_vs_p"}}
+
+
+def apply_noise(spec: SensorSpec, obs: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``obs`` with the spec's noise model applied (COLOR: to the RGB channels), drawn from ``rng``."""
+    from navbench.env import noise
+
+    model, kw = str(spec.noise_model), dict(spec.noise_model_kwargs or {})
+    if model in ("None", ""):
+        return obs
+    if model == "RedwoodDepthNoiseModel":
+        return noise.redwood_depth(obs, float(kw.get("noise_multiplier", 1.0)), rng)
+    rgb = np.ascontiguousarray(obs[..., :3])
+    if model == "GaussianNoiseModel":
+        rgb = noise.gaussian_rgb(rgb, float(kw.get("intensity_constant", 0.2)), rng)
+    elif model == "SpeckleNoiseModel":
+        rgb = noise.speckle_rgb(rgb, float(kw.get("intensity_constant", 0.2)), rng)
+    elif model == "PoissonNoiseModel":
+        rgb = noise.poisson_rgb(rgb, rng)
+    else:
+        rgb = noise.salt_and_pepper_rgb(rgb, rng, float(kw.get("amount", 0.05)), float(kw.get("s_vs_p", 0.5)))
+    out = obs.copy()
+    out[..., :3] = rgb
+    return out
 
 
 def check_spec(spec: SensorSpec) -> None:
@@ -51,8 +85,18 @@ def check_spec(spec: SensorSpec) -> None:
     if spec.sensor_type not in (SensorType.COLOR, SensorType.DEPTH, SensorType.SEMANTIC):
         raise NotImplementedError(f"{name}: sensor_type {spec.sensor_type.name} is not supported (COLOR, DEPTH "
                                   "and SEMANTIC are)")
-    if str(spec.noise_model) not in ("None", ""):
-        raise NotImplementedError(f"{name}: noise_model {spec.noise_model!r} is not supported yet (only 'None')")
+    model = str(spec.noise_model)
+    if model not in NOISE_MODELS:
+        raise NotImplementedError(f"{name}: noise_model {model!r} is not supported (known: {sorted(NOISE_MODELS)})")
+    kinds = NOISE_MODELS[model]
+    if kinds and spec.sensor_type not in kinds:
+        raise ValueError(f"{name}: noise_model {model!r} applies to {' and '.join(k.name for k in kinds)} sensors")
+    kwargs = dict(spec.noise_model_kwargs or {})
+    unknown = set(kwargs) - NOISE_KWARGS[model]
+    if unknown:
+        raise ValueError(f"{name}: noise_model {model!r} takes {sorted(NOISE_KWARGS[model])}, got {sorted(unknown)}")
+    if model == "GaussianNoiseModel" and (float(kwargs.get("mean", 0.0)), float(kwargs.get("sigma", 1.0))) != (0, 1):
+        raise NotImplementedError(f"{name}: GaussianNoiseModel with mean or sigma other than 0 and 1 is not supported")
     h, w = (int(v) for v in np.asarray(spec.resolution).reshape(2))
     if h <= 0 or w <= 0:
         raise ValueError(f"{name}: resolution must be positive [H, W], got {[h, w]}")

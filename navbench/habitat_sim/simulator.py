@@ -23,7 +23,7 @@ from navbench.habitat_sim.agent.controls import ObjectControls
 from navbench.habitat_sim.config import Configuration, SensorType
 from navbench.habitat_sim.nav import GreedyGeodesicFollower, PathFinder, nav_grid_config
 from navbench.habitat_sim.scene import SceneNode, SemanticCategory, SemanticObject, SemanticScene
-from navbench.habitat_sim.sensor import COVERAGE, Sensor, check_spec
+from navbench.habitat_sim.sensor import COVERAGE, Sensor, apply_noise, check_spec
 from navbench.habitat_sim.utils.common import quat_from_angle_axis
 
 __all__ = ["Simulator"]
@@ -70,6 +70,7 @@ class Simulator:
         self._nb_renderers: dict[Any, Any] = {}
         self._nb_last_state: dict[int, AgentState] = {}
         self._nb_closed = False
+        self._nb_noise_rng = np.random.default_rng([0, 1])
         self._nb_configure(config)  # not reconfigure: subclasses (habitat-lab's HabitatSim) override it
 
     # ------------------------------------------------------------------ configuration
@@ -137,8 +138,10 @@ class Simulator:
         return agent
 
     def seed(self, new_seed: int) -> None:
+        """Seeds the agents' random starts, the path finder's random points and the sensors' noise."""
         self.random = np.random.default_rng(int(new_seed))
         self.pathfinder.seed(int(new_seed))
+        self._nb_noise_rng = np.random.default_rng([int(new_seed), 1])  # a stream of its own: renders draw here
 
     def get_object_template_manager(self) -> _ObjectTemplateManager:
         return _ObjectTemplateManager()
@@ -204,11 +207,12 @@ class Simulator:
                 if kind == SensorType.COLOR:
                     rgb = frame.rgb
                     alpha = np.full((*rgb.shape[:2], 1), 255, np.uint8)
-                    out[m.uuid] = np.concatenate([rgb[:, :, :3], alpha], axis=2)
+                    obs = np.concatenate([rgb[:, :, :3], alpha], axis=2)
                 elif kind == SensorType.DEPTH:
-                    out[m.uuid] = np.asarray(frame.depth, np.float32).copy()
+                    obs = np.asarray(frame.depth, np.float32).copy()
                 else:  # navbench's instance ids; structure and background (-1) are 0
-                    out[m.uuid] = np.maximum(np.asarray(frame.ids, np.int64), 0).astype(np.uint32)
+                    obs = np.maximum(np.asarray(frame.ids, np.int64), 0).astype(np.uint32)
+                out[m.uuid] = apply_noise(m.specification(), obs, self._nb_noise_rng)
         return out
 
     def get_sensor_observations(self, agent_ids: int | list[int] = 0):

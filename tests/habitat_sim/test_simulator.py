@@ -210,3 +210,33 @@ def test_out_of_scope_features_are_refused_in_one_line(scene_path):
         hs.Simulator(cfg)
     with pytest.raises(NotImplementedError, match="covers navigation"):
         hs.physics.ManagedRigidObject()
+
+
+def test_noise_models_are_navbenchs_seeded_by_the_simulator(scene_path):
+    from navbench.env.noise import gaussian_rgb, redwood_depth
+
+    def noisy(spec, seed):
+        with hs.Simulator(_config(scene_path, [spec], seed=seed)) as s:
+            return s.get_sensor_observations()[spec.uuid], s
+
+    clean_depth, s0 = noisy(_spec("d", hs.SensorType.DEPTH), 3)
+    spec = _spec("d", hs.SensorType.DEPTH)
+    spec.noise_model, spec.noise_model_kwargs = "RedwoodDepthNoiseModel", {"noise_multiplier": 0.5}
+    depth, _ = noisy(spec, 3)
+    assert np.array_equal(depth, redwood_depth(clean_depth, 0.5, np.random.default_rng([3, 1])))
+    assert np.array_equal(noisy(spec, 3)[0], depth) and not np.array_equal(noisy(spec, 4)[0], depth)
+
+    clean_rgb, _ = noisy(_spec("c", hs.SensorType.COLOR), 3)
+    spec = _spec("c", hs.SensorType.COLOR)
+    spec.noise_model, spec.noise_model_kwargs = "GaussianNoiseModel", {"intensity_constant": 0.1}
+    rgb, _ = noisy(spec, 3)
+    assert (rgb[..., 3] == 255).all()
+    assert np.array_equal(rgb[..., :3], gaussian_rgb(clean_rgb[..., :3], 0.1, np.random.default_rng([3, 1])))
+
+    for model, kwargs, kind, message in [("FancyNoise", {}, hs.SensorType.COLOR, "not supported"),
+                                         ("RedwoodDepthNoiseModel", {}, hs.SensorType.COLOR, "applies to DEPTH"),
+                                         ("GaussianNoiseModel", {"sigma2": 1}, hs.SensorType.COLOR, "takes")]:
+        bad = _spec("x", kind)
+        bad.noise_model, bad.noise_model_kwargs = model, kwargs
+        with pytest.raises((NotImplementedError, ValueError), match=message):
+            hs.Simulator(_config(scene_path, [bad]))
