@@ -340,10 +340,23 @@ class Quaternion:
     def scalar(self, value: float) -> None:
         self._s = _F(value)
 
+    @classmethod
+    def _make(cls, x: float, y: float, z: float, w: float) -> Quaternion:
+        out = cls.__new__(cls)
+        out._v, out._s = np.array((x, y, z), _F), _F(w)
+        return out
+
+    def _floats(self) -> tuple[float, float, float, float]:
+        x, y, z = self._v.tolist()
+        return x, y, z, float(self._s)
+
     def __mul__(self, other):
         if isinstance(other, Quaternion):
-            v1, s1, v2, s2 = self._v, self._s, other._v, other._s
-            return Quaternion(s1 * v2 + s2 * v1 + np.cross(v1, v2), s1 * s2 - np.dot(v1, v2))
+            # Hamilton product in plain floats (numpy's cross and dot cost more than the arithmetic)
+            x1, y1, z1, w1 = self._floats()
+            x2, y2, z2, w2 = other._floats()
+            return Quaternion._make(w1 * x2 + w2 * x1 + (y1 * z2 - z1 * y2), w1 * y2 + w2 * y1 + (z1 * x2 - x1 * z2),
+                                    w1 * z2 + w2 * z1 + (x1 * y2 - y1 * x2), w1 * w2 - (x1 * x2 + y1 * y2 + z1 * z2))
         return Quaternion(self._v * _F(other), self._s * _F(other))
 
     def __rmul__(self, k):
@@ -397,12 +410,23 @@ class Quaternion:
 
     def transform_vector(self, v) -> Vector3:
         """``q v q^-1`` for any quaternion (Magnum's ``transform_vector``)."""
-        p = Quaternion(np.asarray(v, dtype=_F), 0.0)
-        return (self * p * self.inverted()).vector
+        x, y, z, w = self._floats()
+        n = x * x + y * y + z * z + w * w
+        return self._rotate(v, x, y, z, w, n)
 
     def transform_vector_normalized(self, v) -> Vector3:
-        p = Quaternion(np.asarray(v, dtype=_F), 0.0)
-        return (self * p * self.conjugated()).vector
+        x, y, z, w = self._floats()
+        return self._rotate(v, x, y, z, w, 1.0)
+
+    @staticmethod
+    def _rotate(v, x: float, y: float, z: float, w: float, n: float) -> Vector3:
+        # q v q* / |q|^2 = (v (w^2 - u.u) + 2 u (u.v) + 2 w (u x v)) / |q|^2, with u the vector part
+        vx, vy, vz = (float(c) for c in np.asarray(v, dtype=_F).reshape(3))
+        uv = x * vx + y * vy + z * vz
+        k = w * w - (x * x + y * y + z * z)
+        cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx
+        return Vector3._of(((k * vx + 2 * x * uv + 2 * w * cx) / n, (k * vy + 2 * y * uv + 2 * w * cy) / n,
+                            (k * vz + 2 * z * uv + 2 * w * cz) / n))
 
     def to_matrix(self) -> Matrix3x3:
         x, y, z = (float(c) for c in self._v)
