@@ -126,3 +126,17 @@ def test_topdown_view_matches_is_navigable(finder):
         x, z = np.float32(lo[0] + w * np.float32(0.1)), np.float32(lo[2] + h * np.float32(0.1))
         assert view[h, w] == finder.is_navigable([x, height, z])
     assert not finder.get_topdown_view(0.1, height + 3.0).any()  # another storey's height
+
+
+def test_island_radius_covers_the_island_and_points_near_stay_near(finder):
+    pts = _points(finder, 12, seed=21)
+    radius = finder.island_radius(pts[0])
+    same = [p for p in pts if finder.get_island(p) == finder.get_island(pts[0])]
+    assert len(same) >= 2 and finder.num_islands >= 1
+    # a circle of that radius contains the island: no two of its points are farther apart than its diameter
+    assert max(np.linalg.norm((p - q)[[0, 2]]) for p in same for q in same) <= 2 * radius
+    finder.seed(1)
+    near = [np.asarray(finder.get_random_navigable_point_near(pts[0], 1.5), np.float64) for _ in range(5)]
+    for p in near:
+        assert np.isnan(p).all() or (finder.is_navigable(p) and np.linalg.norm((p - pts[0])[[0, 2]]) <= 1.5)
+    assert any(np.isfinite(p).all() for p in near)
