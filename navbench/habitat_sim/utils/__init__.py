@@ -1,0 +1,1 @@
+"""``habitat_sim.utils``: the quaternion and colour helpers (``common``)."""
