@@ -223,6 +223,28 @@ def test_memory_over_maps_follows_an_instruction_on_the_bundled_split(tmp_path):
     assert s["num_episodes"] == 2 and s["num_failed"] == 0 and s["success"] > 0
 
 
+@pytest.mark.slow
+def test_the_route_is_what_tells_the_final_landmark_from_its_twins(tmp_path):
+    # two bundled episodes (one in each of two houses) whose last sentence's landmark has a twin nearer the start:
+    # the whole instruction reaches the goal, its last sentence alone stops by the twin (~2 min on 2 cores)
+    from navbench.paths import split_file
+
+    src = split_file("r2r_ce", "val")
+    data = json.loads(gzip.decompress(src.read_bytes()))
+    gt = json.loads(gzip.decompress((src.parent / "val_gt.json.gz").read_bytes()))
+    keep = ("5", "204")
+    data["episodes"] = [e for e in data["episodes"] if str(e["episode_id"]) in keep]
+    d = tmp_path / "val"
+    d.mkdir()
+    (d / "val.json.gz").write_bytes(gzip.compress(json.dumps(data).encode()))
+    (d / "val_gt.json.gz").write_bytes(gzip.compress(json.dumps({k: gt[k] for k in keep}).encode()))
+    full = navbench.evaluate("vln_memory", task="r2r_ce", episodes=d / "val.json.gz", out=tmp_path / "full")
+    last = navbench.evaluate("vln_memory", task="r2r_ce", episodes=d / "val.json.gz", out=tmp_path / "last",
+                             options={"instruction": "last"})
+    assert full["num_episodes"] == last["num_episodes"] == 2
+    assert full["success"] == 1.0 and last["success"] == 0.0
+
+
 class HabitatInstructionAgent:
     """A habitat-lab ``Agent`` as VLN-CE's are written: reset() without arguments, act(observations) returning
     {"action": ...}, reading the instruction and the depth image."""
