@@ -248,6 +248,20 @@ class MemoryOptions(PerceptionOptions):
         return parts
 
 
+@dataclass(frozen=True)
+class VLNMemoryOptions(MemoryOptions):
+    """``vln_memory``'s options: the memory agent's, and how much of the instruction it reads."""
+    instruction: str = _opt("full", "how much of a VLN instruction vln_memory reads: the whole (full) or only its "
+                            "last sentence (last, an ablation)", choices=("full", "last"))
+
+    def _recorded(self) -> tuple[str, ...]:
+        return (*super()._recorded(), "instruction")
+
+    def label_parts(self, agent: str, seed: int) -> list[str]:
+        parts = super().label_parts(agent, seed)
+        return parts + ([f"instruction_{self.instruction}"] if self.instruction != "full" else [])
+
+
 def decoding_of(options: dict[str, Any]) -> tuple[str, float]:
     """(decoding, temperature) of a run's agent options. ``navbench run`` always records ``decoding``; a
     config written before that option existed says it with ``sample_actions``/``sample_on_revisit``/

@@ -34,6 +34,7 @@ from navbench.agents.options import (  # noqa: F401
     PointNavOptions,
     PolicyOptions,
     RandomOptions,
+    VLNMemoryOptions,
     decoding_of,
 )
 from navbench.episodes.types import Episode
@@ -68,7 +69,9 @@ def make_vln_oracle(cfg):
 
 def make_vln_memory(cfg):
     from navbench.agents.vlnce import InstructionMemoryAgent
-    return InstructionMemoryAgent(make_memory(cfg))  # one episode at a time (envs_per_worker 1)
+    # one episode at a time (envs_per_worker 1); without GPS+compass it tracks its pose from actions and depth
+    return InstructionMemoryAgent(make_memory(cfg), cfg.env_config(("depth",)),
+                                  _options(cfg, VLNMemoryOptions).instruction)
 
 
 def make_random(cfg):
@@ -275,9 +278,11 @@ AGENTS: dict[str, AgentSpec] = {s.name: s for s in (
               "37 steps forward, STOP", gps_free=True),
     AgentSpec("vln_oracle", make_vln_oracle, help="follows a VLN episode's reference path on the scene's map "
               "(a ceiling)", privileged=True),
-    AgentSpec("vln_memory", make_vln_memory, MemoryOptions, help="localises a VLN instruction's last landmark "
-              "in the keyframe memory, then the PointNav policy", prepare=prebuild_memories, scene_files=_memory_files,
-              scene_option="memory_root", level_camera=True, run_files=_checkpoint_file, goals=("instruction",)),
+    AgentSpec("vln_memory", make_vln_memory, VLNMemoryOptions, help="localises a VLN instruction's last landmark, "
+              "in the room the route enters, in the keyframe memory, then the PointNav policy (pose from actions and "
+              "depth without GPS+compass)", prepare=prebuild_memories, scene_files=_memory_files,
+              scene_option="memory_root", level_camera=True, run_files=_checkpoint_file, gps_free=True,
+              goals=("instruction",)),
 )}
 # The decoding each policy agent is run (and reported) with when none is given.
 DEFAULT_DECODING = {n: s.options().decoding for n, s in AGENTS.items() if s.drives_policy}

@@ -13,7 +13,8 @@
   variants.
 
 - ``vln_memory``: memory over maps for instructions (:class:`InstructionMemoryAgent`): the instruction's final
-  landmark localised in the pre-scan memory and driven to with the PointNav policy.
+  landmark, in the room the route enters, localised in the pre-scan memory and driven to with the PointNav
+  policy; without GPS+compass (VLN-CE's own configurations) it knows its pose from its actions and depth.
 
 The first three do not read the instruction: they are the floor (random, forward) and the ceiling (oracle).
 """
@@ -28,13 +29,16 @@ from typing import Any
 import numpy as np
 
 from navbench.agents.base import PoseTracker, episode_seed, xz_dist
+from navbench.agents.odometry import DepthOdometry
 from navbench.env.base import resolve_scene_path
 from navbench.env.config import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EnvConfig
 from navbench.env.sensors import AGENT_POSE
 from navbench.episodes.types import Episode
+from navbench.localize.describe import phrase
 from navbench.scene.cache import load_scene_and_navgrid
 from navbench.scene.follower import WaypointFollower
 from navbench.scene.pose import quat_from_yaw
+from navbench.scene.procedural.furniture import ROOM_TYPES
 
 RANDOM_ACTIONS = (STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT)
 RANDOM_PROBS = (0.02, 0.68, 0.15, 0.15)  # RandomAgent.probs
@@ -122,36 +126,87 @@ class ReferencePathOracle:
 
 
 # ------------------------------------------------------------------------------ memory over maps, for instructions
-def instruction_goal(text: str) -> str:
-    """The instruction's final landmark as a description ``navbench localize``'s language queries take:
-    "... and stop next to the pink plant in the kitchen." -> "the pink plant in the kitchen"; without a room,
-    the last "the ..." phrase; "" when there is none."""
-    t = " " + " ".join(re.sub(r"[^a-z ]", " ", str(text).lower()).split())
+INSTRUCTION_SCOPES = ("full", "last")  # what of the instruction vln_memory reads (its ``instruction`` option)
+_ROOMS = sorted((phrase(r) for r in ROOM_TYPES), key=len, reverse=True)
+_LEFT = re.compile(r"\b(leave|exit|out of)$")  # a room named after these is the one the route leaves
+
+
+def _words(text: str) -> str:
+    return " ".join(re.sub(r"[^a-z ]", " ", str(text).lower()).split())
+
+
+def _last_landmark(sentence: str) -> str:
+    """A sentence's last "the ..." phrase, with its "in the <room>" when it has one: "stop next to the pink plant
+    in the kitchen" -> "the pink plant in the kitchen"; "" when there is none."""
+    t = " " + _words(sentence)
     head, sep, room = t.rpartition(" in the ")
     if sep and room and " the " in head:
         return f"the {head.rsplit(' the ', 1)[1]} in the {room}"
     return "the " + t.rsplit(" the ", 1)[1] if " the " in t else ""
 
 
-class InstructionMemoryAgent:
-    """Memory over maps for instructions: the instruction's final landmark (:func:`instruction_goal`) localised
-    in the scene's pre-scan keyframe memory, as ``navbench localize`` localises a language query, then driven to
-    with the PointNav policy by the ObjectNav memory agent (:mod:`navbench.agents.memory_agent`), which stops by
-    it. An honest, simple baseline: it reads only the instruction's last landmark, not the route it describes,
-    so its nDTW reflects how far the shortest way there happens to follow the instruction's."""
+def _entered_room(text: str) -> str | None:
+    """The last room the text names that the route does not leave ("Leave the bedroom. Enter the kitchen." ->
+    "kitchen"), in the room words of ``navbench localize``'s descriptions; None when it names none."""
+    t = " " + _words(text) + " "
+    best: tuple[int, str] | None = None
+    for room in _ROOMS:
+        for m in re.finditer(f" the {room} ", t):
+            if not _LEFT.search(t[:m.start()].rstrip()) and (best is None or m.start() > best[0]):
+                best = (m.start(), room)
+    return None if best is None else best[1]
 
-    def __init__(self, inner: Any):
-        self.inner = inner
+
+def instruction_goal(text: str, scope: str = "full") -> str:
+    """The final landmark of an instruction as a description ``navbench localize``'s language queries take: the
+    last sentence's last "the ..." phrase; with ``scope`` "full", placed in the last room the instruction enters
+    when the phrase names none ("... Enter the kitchen. Stop next to the plant." -> "the plant in the kitchen");
+    with "last", the last sentence alone ("the plant"). "" when there is no landmark."""
+    if scope not in INSTRUCTION_SCOPES:
+        raise ValueError(f"unknown instruction scope {scope!r}: choose from {', '.join(INSTRUCTION_SCOPES)}")
+    sentences = [x for x in re.split(r"[.!?;]", str(text)) if x.strip()]
+    landmark = _last_landmark(sentences[-1]) if sentences else ""
+    if scope == "last" or not landmark or " in the " in landmark:
+        return landmark
+    room = _entered_room(text)
+    return f"{landmark} in the {room}" if room else landmark
+
+
+class InstructionMemoryAgent:
+    """Memory over maps for instructions: the instruction's final landmark (:func:`instruction_goal`; ``scope``
+    "last" reads the last sentence only, the ablation) localised in the scene's pre-scan keyframe memory, as
+    ``navbench localize`` localises a language query, then driven to with the PointNav policy by the ObjectNav
+    memory agent (:mod:`navbench.agents.memory_agent`), which stops by it. An honest, simple baseline: of the
+    route it reads only the room the route enters, which tells the final landmark from others of its kind; its
+    nDTW reflects how far the shortest way there happens to follow the instruction's.
+
+    Its pose starts at the episode's start pose (the frame the pre-scan memory is in; the project's agents take
+    it from the episode, see :class:`~navbench.agents.base.PoseTracker`). Under a configuration with GPS+compass
+    it reads them; without (``r2r-ce``, ``rxr-ce``, as VLN-CE defines the task) it knows its pose from its own
+    actions and depth alone: :class:`~navbench.agents.odometry.DepthOdometry` takes each turn as exact and measures
+    each forward step (which may stop at a wall or slide along it) from depth."""
+
+    def __init__(self, inner: Any, env_config: EnvConfig | None = None, scope: str = "full"):
+        if scope not in INSTRUCTION_SCOPES:
+            raise ValueError(f"unknown instruction scope {scope!r}: choose from {', '.join(INSTRUCTION_SCOPES)}")
+        self.inner, self.scope = inner, scope
         self.sensors = tuple(getattr(inner, "sensors", ()))
         self.goal_text = ""
+        self.odometry: DepthOdometry | None = None
+        if env_config is not None and not env_config.gps_compass:
+            self.odometry = DepthOdometry(env_config)
+            inner._pose = self.odometry  # the memory agent reads its pose here each step
 
     def reset(self, episode: Episode) -> None:
         ins = episode.extra.get("instruction") or {}
-        self.goal_text = instruction_goal(ins.get("instruction_text", ""))
+        self.goal_text = instruction_goal(ins.get("instruction_text", ""), self.scope)
         self.inner.reset(dataclasses.replace(episode, object_category=self.goal_text or "object", goals=[]))
 
     def act(self, observations) -> int:
-        return int(self.inner.act(observations))
+        action = int(self.inner.act(observations))
+        if self.odometry is not None:
+            self.odometry.note(action)
+        return action
 
     def __getattr__(self, name: str) -> Any:  # the inner agent's log and decision, for the run's records
         if name == "inner":

@@ -3,7 +3,11 @@
     navbench generate vlnce               # = generate_vlnce_split(seed=0): episodes/r2r_ce/val/
 
 Each episode is a route from a start in one room to a landmark object in another, through a third room's
-landmark on some routes, written as VLN-CE's R2R-CE files are (:mod:`navbench.episodes.vlnce`):
+landmark on some routes, written as VLN-CE's R2R-CE files are (:mod:`navbench.episodes.vlnce`). The final
+landmark is always of a kind the house holds more than once, more than ``TWIN_DISTANCE`` from the goal, and the
+only one of its kind in rooms of the goal room's type: the last sentence names only the kind ("Stop next to the
+chair."), and only the route before it (the room it enters) says which one is meant. A house without such a
+landmark gives no routes.
 
 - ``reference_path``: viewpoints every ~2 m along the geodesic route (R2R's viewpoints are ~2 m apart), the
   start and the goal included; the goal is the navigable point nearest the landmark.
@@ -12,9 +16,10 @@ landmark on some routes, written as VLN-CE's R2R-CE files are (:mod:`navbench.ep
   ``forward_steps``, ``locations``: the start and the position after each forward step), run on the
   ``r2r-ce`` configuration's body, steps, 15 degree turns and sliding
   (:class:`navbench.scene.follower.WaypointFollower`).
-- ``instruction``: R2R-style text naming the rooms the route leaves, passes and ends in and the landmarks it
-  passes and stops at ("Leave the bedroom, walk past the grey sofa and stop next to the plant in the
-  kitchen."); a landmark's colour is named when the house has more than one of its kind. ``instruction_tokens``
+- ``instruction``: R2R-style sentences naming the rooms the route leaves, passes and enters and the landmarks
+  it passes and stops at ("Leave the bedroom and go through the hallway. Walk past the grey sofa. Enter the
+  kitchen. Stop next to the plant."); a passed landmark's colour is named when the house has more than one of its
+  kind, the final landmark's never. ``instruction_tokens``
   index ``instruction_vocab.word_list`` (``<PAD>`` 0, ``<UNK>`` 1, then the words in sorted order), padded with 0
   to 200.
 
@@ -42,7 +47,7 @@ from navbench.scene.follower import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, W
 from navbench.scene.navigability import NavGridConfig
 from navbench.scene.pose import heading_vector, quat_from_yaw, wrap_angle, yaw_from_quat
 
-VLNCE_SPLIT_VERSION = 1
+VLNCE_SPLIT_VERSION = 2
 TOKENS = 200  # instruction_tokens' padded length
 VOCAB_HEAD = ("<PAD>", "<UNK>")
 # The r2r-ce configuration's body and motion (configs/env/r2r-ce.toml), as the gt rollout runs it.
@@ -51,6 +56,9 @@ FORWARD_STEP, TURN_DEG, SLIDING, MAX_STEPS = 0.25, 15.0, True, 500
 LANDMARK_REACH = 1.0  # a landmark's goal: the navigable point nearest it, at most this far (xz)
 VIEWPOINT_SPACING = 2.0
 PASSED = 1.2  # a landmark within this distance (xz) of the route is walked past
+# A final landmark's twins (its kind elsewhere in the house): at least one this far (geodesic) from the goal, beyond
+# R2R-CE's 3 m success distance, so stopping by the wrong one fails.
+TWIN_DISTANCE = 4.0
 
 
 @dataclass(frozen=True)
@@ -97,6 +105,19 @@ class HouseRoutes:
             if counts[o.category] > 1 and o.colour:
                 label = f"{o.colour} {label}"
             self.landmarks.append((o, label, on))
+        self.goals = [lm for lm in self.landmarks if self._needs_route(lm)]
+
+    def _needs_route(self, landmark) -> bool:
+        """Whether ``landmark`` can end a route: its kind is elsewhere in the house, once at least TWIN_DISTANCE
+        from it, and nowhere else in a room of its room's type (the room then tells it from its twins)."""
+        o, _, at = landmark
+        if not o.room:
+            return False
+        twins = [(t, t_at) for t, _, t_at in self.landmarks if t.category == o.category and t.id != o.id]
+        if any(room_label(t.room or "") == room_label(o.room) for t, _ in twins):
+            return False
+        far = [float(self.grid.geodesic_distance(t_at, at.reshape(1, 3))) for _, t_at in twins]
+        return any(d > TWIN_DISTANCE for d in far)
 
     def room_of(self, p) -> str | None:
         for r in self.rooms:
@@ -169,33 +190,36 @@ def gt_rollout(grid, start: np.ndarray, yaw: float, waypoints: list[np.ndarray])
 
 def instruction_text(h: HouseRoutes, start_room: str, rooms: list[str], passed: list[str], via: str | None,
                      goal_label: str, goal_room: str, rng: np.random.Generator) -> str:
-    """R2R-style text (module docstring) from the route's rooms and landmarks."""
+    """R2R-style sentences (module docstring) from the route's rooms and landmarks; the last names the final
+    landmark by its kind only, the one before it the room the route enters."""
     opening = ["Leave the {r}", "Walk out of the {r}", "Exit the {r}", "Head out of the {r}"]
     middle_room = ["go through the {r}", "walk through the {r}", "continue through the {r}"]
-    middle_pass = ["walk past the {o}", "go past the {o}", "pass the {o}"]
+    middle_pass = ["Walk past the {o}.", "Go past the {o}.", "Pass the {o}."]
     middle_via = ["go to the {o} in the {r}", "walk to the {o} in the {r}"]
-    ending = ["stop next to the {o} in the {g}.", "wait by the {o} in the {g}.", "stop in front of the {o} in the {g}."]
+    enter = ["Enter the {g}.", "Go into the {g}.", "Walk into the {g}."]
+    ending = ["Stop next to the {o}.", "Wait by the {o}.", "Stop in front of the {o}."]
 
     def pick(options: list[str]) -> str:
         return options[int(rng.integers(len(options)))]
-    parts = [pick(opening).format(r=room_label(start_room))]
+    first = pick(opening).format(r=room_label(start_room))
     if via is not None:
-        parts.append(pick(middle_via).format(o=via[0], r=room_label(via[1])))
-    else:
-        for r in rooms[:1]:
-            parts.append(pick(middle_room).format(r=room_label(r)))
+        first += " and " + pick(middle_via).format(o=via[0], r=room_label(via[1]))
+    elif rooms:
+        first += " and " + pick(middle_room).format(r=room_label(rooms[0]))
+    sentences = [first + "."]
     for o in passed[:1]:
-        parts.append(pick(middle_pass).format(o=o))
-    end = pick(ending).format(o=goal_label, g=room_label(goal_room))
-    text = ", ".join(parts[:-1] + [parts[-1] + " and " + end]) if len(parts) > 1 else parts[0] + " and " + end
-    return text[0].upper() + text[1:]
+        sentences.append(pick(middle_pass).format(o=o))
+    sentences.append(pick(enter).format(g=room_label(goal_room)))
+    sentences.append(pick(ending).format(o=goal_label))
+    return " ".join(sentences)
 
 
 def route_episode(h: HouseRoutes, eid: int, rng: np.random.Generator, plan: VLNPlan) -> tuple[dict, dict] | None:
     """One episode and its gt entry, or None when this draw gives no valid route."""
-    if len(h.landmarks) < 2:
+    if len(h.landmarks) < 2 or not h.goals:
         return None
-    goal_obj, goal_label, goal = h.landmarks[int(rng.integers(len(h.landmarks)))]
+    goal_obj, _, goal = h.goals[int(rng.integers(len(h.goals)))]
+    goal_label = object_label(goal_obj.category)  # the kind only: the route says which one
     goal_room = goal_obj.room or None  # the landmark's annotated room (its goal point may stand in a doorway)
     start = h.grid.sample_navigable_point(rng)
     start_room = h.room_of(start)
@@ -245,9 +269,12 @@ def route_episode(h: HouseRoutes, eid: int, rng: np.random.Generator, plan: VLNP
 
 def vlnce_split(houses: list[HouseRoutes], per_scene: int, rng: np.random.Generator, plan: VLNPlan,
                 desc: str = "r2r_ce") -> tuple[dict, dict]:
-    """(episode file object, gt file object): ``per_scene`` routes in each house, tokens over their vocabulary."""
+    """(episode file object, gt file object): ``per_scene`` routes in each house that has a final landmark the
+    route must tell from its twins (none in a house without one), tokens over their vocabulary."""
     episodes, gt = [], {}
     for h in progress(houses, desc=desc):
+        if not h.goals:
+            continue
         made = 0
         for _ in range(plan.max_tries * per_scene):
             if made == per_scene:

@@ -158,21 +158,101 @@ def test_export_r2r_and_rxr_leaderboard_files(r2r_file, tmp_path, capsys):
         assert all(a != b for a, b in zip(x["path"], x["path"][1:]))  # consecutive repeats dropped
 
 
-def test_instruction_goal_is_the_last_landmark():
+def test_instruction_goal_is_the_last_landmark_in_the_room_the_route_enters():
     from navbench.agents.vlnce import instruction_goal
+    text = ("Leave the bedroom and go through the hallway. Walk past the grey sofa. Enter the kitchen. Stop next to "
+            "the plant.")
+    assert instruction_goal(text) == "the plant in the kitchen"
+    assert instruction_goal(text, "last") == "the plant"  # the ablation: the last sentence alone
     assert instruction_goal("Leave the bedroom, walk past the grey sofa and stop next to the plant in the "
                             "kitchen.") == "the plant in the kitchen"
     assert instruction_goal("Exit the office and wait by the tv stand in the living room") == \
         "the tv stand in the living room"
+    assert instruction_goal("Walk out of the office. Stop in front of the sink.") == "the sink"  # a room left
     assert instruction_goal("Walk to the door.") == "the door" and instruction_goal("Go.") == ""
+    with pytest.raises(ValueError, match="unknown instruction scope 'first'"):
+        instruction_goal(text, "first")
+
+
+def test_vln_memory_runs_under_vlnces_own_configurations_and_names_the_ablation():
+    from navbench.agents.odometry import DepthOdometry
+    from navbench.agents.registry import agent_options, check_conditions, run_label
+    from navbench.agents.vlnce import InstructionMemoryAgent
+
+    for name in ("r2r-ce", "rxr-ce"):
+        env = EnvConfig.load(name)
+        assert not env.gps_compass
+        check_conditions("vln_memory", "r2r_ce" if name == "r2r-ce" else "rxr_ce", env)  # no GPS+compass needed
+        inner = type("Inner", (), {"sensors": ("depth",)})()
+        agent = InstructionMemoryAgent(inner, env)
+        assert isinstance(agent.odometry, DepthOdometry) and inner._pose is agent.odometry  # read each step
+    assert InstructionMemoryAgent(object(), EnvConfig.load("navbench-r2r-ce")).odometry is None  # GPS given: read
+    assert run_label("vln_memory", agent_options("vln_memory")) == "vln_memory"
+    assert run_label("vln_memory", agent_options("vln_memory", instruction="last")) == "vln_memory-instruction_last"
+    with pytest.raises(ValueError, match="unknown instruction 'first'"):
+        agent_options("vln_memory", instruction="first")
+
+
+def test_depth_odometry_follows_a_walk_that_collides_and_slides():
+    """Seeded random actions from a bundled R2R-CE start under r2r-ce (sliding), into walls and along them: the
+    pose from actions and depth stays within a metre of the true one, where counting every forward step as a full
+    step drifts several times as far."""
+    import math
+
+    from navbench.agents.odometry import DepthOdometry
+    from navbench.env.base import NavEnv
+    from navbench.scene.pose import heading_vector
+
+    cfg = EnvConfig.load("r2r-ce")
+    env = NavEnv(task="r2r_ce", config=cfg)
+    odo = DepthOdometry(cfg)
+    rng = np.random.default_rng(0)
+    obs, _ = env.reset(options={"episode": 0})
+    odo.reset(env.episode)
+    odo(obs)
+    reckoned, yaw = np.asarray(env.episode.start_position, float), odo.yaw
+    for _ in range(60):
+        a = int(rng.choice([1, 2, 3], p=[0.7, 0.15, 0.15]))
+        obs = env.step(a)[0]
+        odo.note(a)
+        position, odo_yaw = odo(obs)
+        if a == 1:
+            reckoned = reckoned + 0.25 * heading_vector(yaw)
+        else:
+            yaw += math.radians(15.0) * (1 if a == 2 else -1)
+    true = env.agent_position
+    assert abs(math.remainder(odo_yaw - env.agent_yaw, 2 * math.pi)) < 1e-6  # turns are exact
+    odometry_error, reckoning_error = (math.hypot(*(p - true)[[0, 2]]) for p in (position, reckoned))
+    assert odometry_error < 1.0 and reckoning_error > 4 * odometry_error, (odometry_error, reckoning_error)
 
 
 @pytest.mark.slow
 def test_memory_over_maps_follows_an_instruction_on_the_bundled_split(tmp_path):
-    # the pre-scan memory and the PointNav policy: ~40 s on 2 cores
-    s = navbench.evaluate("vln_memory", task="r2r_ce", split="val", env_config="navbench-r2r-ce", limit=2,
-                          out=tmp_path / "mem")
+    # the pre-scan memory and the PointNav policy: ~40 s on 2 cores; VLN-CE's own configuration (no GPS+compass)
+    s = navbench.evaluate("vln_memory", task="r2r_ce", split="val", limit=2, out=tmp_path / "mem")
     assert s["num_episodes"] == 2 and s["num_failed"] == 0 and s["success"] > 0
+
+
+@pytest.mark.slow
+def test_the_route_is_what_tells_the_final_landmark_from_its_twins(tmp_path):
+    # two bundled episodes (one in each of two houses) whose last sentence's landmark has a twin nearer the start:
+    # the whole instruction reaches the goal, its last sentence alone stops by the twin (~2 min on 2 cores)
+    from navbench.paths import split_file
+
+    src = split_file("r2r_ce", "val")
+    data = json.loads(gzip.decompress(src.read_bytes()))
+    gt = json.loads(gzip.decompress((src.parent / "val_gt.json.gz").read_bytes()))
+    keep = ("5", "204")
+    data["episodes"] = [e for e in data["episodes"] if str(e["episode_id"]) in keep]
+    d = tmp_path / "val"
+    d.mkdir()
+    (d / "val.json.gz").write_bytes(gzip.compress(json.dumps(data).encode()))
+    (d / "val_gt.json.gz").write_bytes(gzip.compress(json.dumps({k: gt[k] for k in keep}).encode()))
+    full = navbench.evaluate("vln_memory", task="r2r_ce", episodes=d / "val.json.gz", out=tmp_path / "full")
+    last = navbench.evaluate("vln_memory", task="r2r_ce", episodes=d / "val.json.gz", out=tmp_path / "last",
+                             options={"instruction": "last"})
+    assert full["num_episodes"] == last["num_episodes"] == 2
+    assert full["success"] == 1.0 and last["success"] == 0.0
 
 
 class HabitatInstructionAgent:

@@ -77,14 +77,7 @@ DEFAULTS = {"pointnav": "pointnav", "objectnav": "memory", "imagenav": "memory",
             "goat": "memory", "r2r_ce": "vln_memory", "rxr_ce": "vln_memory"}
 
 
-def _vln_memory_needs_gps():
-    return not AGENTS["vln_memory"].gps_free
-
-
-@pytest.mark.parametrize("task", [
-    pytest.param(t, marks=pytest.mark.xfail(_vln_memory_needs_gps(), strict=True,
-                                            reason="vln_memory knows its pose from GPS+compass"))
-    if DEFAULTS[t] == "vln_memory" else t for t in TASKS])
+@pytest.mark.parametrize("task", list(TASKS))
 def test_every_default_agent_is_a_non_privileged_baseline_that_runs_under_the_tasks_own_conditions(task):
     name = TASKS[task].default_agent
     assert name == DEFAULTS[task] and not AGENTS[name].privileged
