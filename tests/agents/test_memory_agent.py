@@ -694,7 +694,8 @@ def test_on_imagenav_with_look_round_it_searches_its_views_and_tries_the_next_pl
 
     episode = Episode("1", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
     localiser = Localiser()
-    agent = MemoryAgent(localiser, ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True), ENV)
+    agent = MemoryAgent(localiser, ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True, image_tries=2),
+                        ENV)
     agent.reset(episode)
     x, z, yaw = 0.0, 0.0, 0.0
     ids = np.full((H, W, 1), -1, np.int32)

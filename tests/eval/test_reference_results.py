@@ -20,7 +20,8 @@ from navbench.scene.procedural import generate_house
 from navbench.scene.procedural.dataset import write_house
 
 RUNS = RESULTS_DIR / "runs"
-CHOICES = ("perception", "noise", "fusion", "rerank", "keyframe_res", "all_frames", "goal_tracking", "visibility_stop")
+CHOICES = ("perception", "noise", "fusion", "rerank", "keyframe_res", "all_frames", "goal_tracking", "visibility_stop",
+           "look_round")
 
 
 def reference_runs() -> list[Path]:
