@@ -18,6 +18,9 @@ localiser's object candidates do not answer it. Under oracle perception (instanc
 5. **Search**: every free position on a coarse grid round the keyframes most like the goal image (histogram
    intersection of instance-id pixel counts, ``top_k``), or round all keyframes when the goal shows no object;
    then finer grids, finer clouds and finer headings round the best ``keep`` poses of each stage.
+6. **Live views** (:func:`refine_camera`): an agent standing near the estimate searches again round it over its
+   own views (dense, and taken from about where the goal camera stood) joined to the memory's cloud, with finer
+   grids and panoramas (``refine_stages``).
 
 With real embedding models the memory holds no instance ids: the estimate is the camera position of the keyframe
 the FAISS index retrieves for the goal image (:func:`retrieved_camera`), which is as near as the pre-scan came.
