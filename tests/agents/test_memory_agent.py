@@ -715,3 +715,31 @@ def test_on_imagenav_with_look_round_it_searches_its_views_and_tries_the_next_pl
     assert [n for n, _ in localiser.searched] == [12 * (H // 2) * (W // 2)] * 2
     np.testing.assert_allclose(localiser.searched[1][1], [1.0, 0.88, -1.0])
     assert np.hypot(x - 1.3, z + 1.2) < 0.08  # walked onto the second place's pose
+
+
+def test_on_imagenav_with_look_round_it_walks_onto_the_pose_its_views_give_whatever_their_score():
+    from navbench.localize.imagegoal import CameraEstimate
+
+    class Localiser:
+        def image_goal(self, episode):
+            return CameraEstimate(np.array([0.0, 0.88, -1.0]), 0.0, 0.9, [(4, 0.8)],
+                                  [(np.array([1.0, 0.88, -1.0]), 0.5, 0.8)], goal=object())
+
+        def refine_image_goal(self, estimate, points, ids, colours, position, yaw):
+            return CameraEstimate(np.array([0.2, 0.88, -0.6]), 0.0, 0.3, [])  # far under image_accept
+
+    episode = Episode("1", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+    agent = MemoryAgent(Localiser(), ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True), ENV)
+    agent.reset(episode)
+    x, z, yaw = 0.0, 0.0, 0.0
+    for _ in range(60):
+        obs = {**obs_at(wall_depth(2.0), forward=-z, right=x, compass=yaw),
+               "semantic": np.full((H, W, 1), -1, np.int32), "rgb": np.full((H, W, 3), 200, np.uint8)}
+        action = agent.act(obs)
+        if action == STOP:
+            break
+        if action == MOVE_FORWARD:
+            x, z = x - 0.25 * np.sin(yaw), z - 0.25 * np.cos(yaw)
+        yaw += np.radians(30) * (action == TURN_LEFT) - np.radians(30) * (action == TURN_RIGHT)
+    assert action == STOP and [e["event"] for e in agent.episode_log()["events"]].count("look_round") == 1
+    assert np.hypot(x - 0.2, z + 0.6) < 0.08  # one place by default: no alternative is tried
