@@ -2,12 +2,13 @@
 # InstanceImageNav, GOAT-Bench and ImageNav val (docs/tasks.md): `bash results/tasks.sh run` runs the oracle and the
 # memory agent on the InstanceImageNav and GOAT-Bench val splits, the frontier agent on all of GOAT-Bench val and on
 # InstanceImageNav's first FK episodes of each house (it explores: about 15 s an episode on 2 cores; it is refused on
-# ImageNav) and the memory agent on ImageNav val (the oracle's ImageNav run is make results-oracle's), `... tables`
+# ImageNav), the memory agent on ImageNav val and, with --look-round, on its first IK episodes of each house (the
+# oracle's ImageNav run is make results-oracle's), `... tables`
 # writes results/instance_imagenav.md, results/goat.md and results/imagenav.md, `... all` does both (`make
 # results-tasks`). NB: the navbench command; PY: the Python that runs navbench.eval.goat_table; RUNS: the runs' root;
 # LIMIT=N: the first N episodes of each split only (a quick look).
 set -eu
-NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-25}
+NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-25} IK=${IK:-20}
 runs_all() {
   for t in instance_imagenav goat; do for a in oracle memory; do
     $NB run --runs-dir "$RUNS" --overwrite -q --task $t --split val --agent $a ${LIMIT:+--limit $LIMIT}
@@ -16,6 +17,8 @@ runs_all() {
   $NB run --runs-dir "$RUNS" --overwrite -q --task instance_imagenav --split val --agent frontier --per-scene "$FK" \
     ${LIMIT:+--limit $LIMIT}
   $NB run --runs-dir "$RUNS" --overwrite -q --task imagenav --split val --agent memory ${LIMIT:+--limit $LIMIT}
+  $NB run --runs-dir "$RUNS" --overwrite -q --task imagenav --split val --agent memory --look-round --per-scene "$IK" \
+    ${LIMIT:+--limit $LIMIT}
 }
 shown() {  # shown COMMAND...: the command, then what it prints
   echo "\`$*\`" | sed "s#^\`$NB #\`navbench #; s#^\`$PY #\`python #"; echo; "$@"
@@ -39,7 +42,10 @@ tables() {
     echo "Paired on the episodes both ran: \`navbench compare $m/memory $m/oracle\`"; echo
     echo '```'; $NB compare "$m/memory" "$m/oracle"; echo '```'; echo
     echo "How far the memory agent's goal-camera estimates fell from where the goal images were taken (xz):"; echo
-    shown $PY -m navbench.eval.imagegoal_errors "$m/memory"; } > results/imagenav.md
+    shown $PY -m navbench.eval.imagegoal_errors "$m/memory"; echo
+    echo "Looking round near the estimate and searching the live views (\`--look-round\`), paired on the first $IK" \
+      "episodes of each house: \`navbench compare --per-scene $IK $m/memory $m/memory-lookround\`"; echo
+    echo '```'; $NB compare --per-scene "$IK" "$m/memory" "$m/memory-lookround"; echo '```'; } > results/imagenav.md
 }
 case "${1:-tables}" in
   run) runs_all ;;

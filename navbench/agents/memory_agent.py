@@ -47,10 +47,12 @@ from navbench.episodes.goat import SUBTASK_STOP, GoatEpisode
 from navbench.episodes.instance_imagenav import InstanceImageEpisode
 from navbench.episodes.types import Episode
 from navbench.localize.fusion import GoalCandidate
+from navbench.localize.geometry import backproject
 from navbench.localize.grouping import nearest_distances
+from navbench.render.camera import camera_pose
 from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGridConfig
-from navbench.scene.pose import wrap_angle, yaw_towards
+from navbench.scene.pose import quat_from_yaw, wrap_angle, yaw_towards
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,18 @@ class MemoryAgentConfig(ObjectNavAgentConfig):
     # hands the policy the memory's route points one by one, passing those within detour_reached.
     detour_reached: float = 0.5
     max_detours: int = 3
+    # ImageNav with image_look_round, under a localiser that searches live views (oracle perception): within
+    # image_scan_within of an estimated goal camera (or at the policy's STOP) the agent turns a full circle,
+    # searches its views joined to the memory for the goal camera round there, and walks onto the pose found
+    # when its score reaches image_accept; below that it tries the estimate's next alternative (at most
+    # image_tries places), and with none left goes to the best-scoring pose it found. One place by default: on
+    # the first 20 val episodes of each house the alternatives never held the goal where the first place's
+    # views scored low, and a wrong place's views often outscored the right one's.
+    image_look_round: bool = False
+    image_scan_within: float = 0.5
+    image_accept: float = 0.9
+    image_tries: int = 1
+    image_approach_steps: int = 40  # most actions of the walk onto the pose found
     goal_tracking: bool = True  # ablation: off = drive to the candidate's initial goal point
     visibility_stop: bool = True  # ablation: off = STOP on distance alone
 
@@ -135,6 +149,20 @@ class Recovery:
 
 
 @dataclass
+class ImageGoalSearch:
+    """ImageNav: the places the goal image may have been taken, and what the agent found at those it visited."""
+    estimate: object  # the localiser's CameraEstimate
+    places: list[tuple[np.ndarray, float]]  # (floor point, yaw) of each place to try, in order
+    tried: int = 0  # index of the place being driven to or looked round
+    phase: str = "drive"  # drive | scan | approach
+    frames: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # live (points, ids, rgb)
+    found: list[tuple[float, np.ndarray, float]] = field(default_factory=list)  # (score, floor point, yaw)
+    target: np.ndarray | None = None  # the floor point the agent walks onto
+    approach_steps: int = 0
+    plan: list[int] = field(default_factory=list)  # the approach's actions still to take
+
+
+@dataclass
 class Frame:
     """One step's view of the current target (:meth:`MemoryAgent._look`)."""
     observations: dict[str, np.ndarray]
@@ -164,6 +192,39 @@ def nearest_first(cands: Sequence[GoalCandidate], position: np.ndarray,
         route_m = np.asarray(route(position, cands), np.float64)
     straight = [xz_dist(c.centre, position) for c in cands]
     return sorted(range(len(cands)), key=lambda j: (float(route_m[j]), straight[j])), route_m
+
+
+def approach_plan(position: np.ndarray, yaw: float, target: np.ndarray, step: float, turn: float,
+                  most: int = 4, slack: float = 0.02) -> list[int]:
+    """The actions of the plan of at most two straight legs (whole ``turn`` angles, then up to ``most`` ``step``s
+    forward) that ends nearest ``target`` (xz), the fewest actions among plans ending within ``slack`` of the
+    nearest; empty when none ends a centimetre nearer than ``position``. Forward is (-sin yaw, -cos yaw), a left
+    turn adds ``turn`` to the yaw."""
+    n = round(2 * math.pi / turn)
+    turns = np.arange(-(n // 2) + 1, n // 2 + 1)  # signed whole turns from the current heading, left positive
+    heading = yaw + turns * turn
+    moves = np.arange(most + 1)
+    leg = (step * moves[None, :, None] * np.stack([-np.sin(heading), -np.cos(heading)], axis=1)[:, None, :]
+           ).reshape(-1, 2)  # (turns * moves, 2): leg i turns turns[i // len(moves)], moves moves[i % len(moves)]
+    k = np.repeat(turns, len(moves))
+    m = np.tile(moves, len(turns))
+    offset = np.asarray(target, np.float64)[[0, 2]] - np.asarray(position, np.float64)[[0, 2]]
+    dist = np.linalg.norm(offset - (leg[:, None, :] + leg[None, :, :]), axis=2)
+    between = np.abs((k[None, :] - k[:, None] + n // 2) % n - n // 2)  # turns from the first leg's heading
+    cost = np.where(m[:, None] > 0, np.abs(k) + m, 0)[:, None] + np.where(
+        m[None, :] > 0, np.where(m[:, None] > 0, between, np.abs(k)[None, :]) + m[None, :], 0)
+    if dist.min() > float(np.linalg.norm(offset)) - 0.01:
+        return []
+    i, j = np.unravel_index(np.argmin(np.where(dist <= dist.min() + slack, cost, np.iinfo(np.int64).max)), dist.shape)
+    plan: list[int] = []
+    heading_k = 0
+    for leg_k, leg_m in ((int(k[i]), int(m[i])), (int(k[j]), int(m[j]))):
+        if leg_m == 0:
+            continue
+        d = (leg_k - heading_k + n // 2) % n - n // 2
+        plan += [TURN_LEFT if d > 0 else TURN_RIGHT] * abs(d) + [MOVE_FORWARD] * leg_m
+        heading_k = leg_k
+    return plan
 
 
 def log_route(metres: float) -> float | None:
@@ -199,14 +260,21 @@ class MemoryAgent(ObjectNavAgentBase):
         start = np.asarray(episode.start_position, np.float64)
         self._episode = episode
         self.point: np.ndarray | None = None
+        self.search: ImageGoalSearch | None = None
         if self._is_imagenav(episode):
-            # ImageNav: the goal is where the image was taken; drive there with the policy and take its STOP
+            # ImageNav: the goal is where the image was taken; drive there with the policy, then (searching live
+            # views) look round and walk onto the goal camera, or take the policy's STOP
             est = self.localize.image_goal(episode)
             self.point = np.array([est.position[0], start[1], est.position[2]])
             self._subtasks, self.goal = 0, self.point
             self._begin(episode, {"goal_camera": [round(float(v), 3) for v in est.position],
                                   "goal_yaw": round(est.yaw, 3), "match": round(est.score, 3),
                                   "keyframes": est.keyframes, "events": [], **getattr(self.localize, "last", {})})
+            if self.config.image_look_round and getattr(est, "goal", None) is not None \
+                    and hasattr(self.localize, "refine_image_goal"):
+                places = [(self.point, est.yaw)] + [(np.array([p[0], start[1], p[2]]), yaw)
+                                                    for p, yaw, _ in est.alternatives]
+                self.search = ImageGoalSearch(est, places[:self.config.image_tries])
             return
         self.subtask = 0  # a GOAT-Bench episode's active subtask (each answered from the same memory)
         self._subtasks = len(episode.tasks) if isinstance(episode, GoatEpisode) else 0
@@ -225,15 +293,94 @@ class MemoryAgent(ObjectNavAgentBase):
                 and hasattr(self.localize, "image_goal"))
 
     def _drive_to_point(self, observations: dict[str, np.ndarray]) -> int:
-        """ImageNav: the policy's action towards the estimated goal camera's floor point, its STOP taken."""
+        """ImageNav: the policy's action towards the estimated goal camera's floor point; its STOP taken, or,
+        searching live views, the look round there (:meth:`_search_image_goal`)."""
         self.step += 1
         position, yaw = self._pose(observations)
         assert self.point is not None
+        if self.search is not None:
+            return self._search_image_goal(observations, position, yaw)
         goal = pointgoal_polar(self.point, position, yaw)
         action = int(self.policy.act(observations["depth"][None], goal[None])[0])
         if action == STOP:
             self._event("stop", distance=xz_dist(position, self.point))
         return action
+
+    def _search_image_goal(self, observations: dict[str, np.ndarray], position: np.ndarray, yaw: float) -> int:
+        """Drive to the place being tried; within ``image_scan_within`` (or at the policy's STOP) turn a full
+        circle keeping each view; search them for the goal camera; accept the pose found or try the next place;
+        then walk onto the accepted pose (:meth:`_approach`)."""
+        cfg, s = self.config, self.search
+        assert s is not None and self.point is not None
+        if s.phase == "drive":
+            goal = pointgoal_polar(self.point, position, yaw)
+            action = int(self.policy.act(observations["depth"][None], goal[None])[0])
+            if action != STOP and xz_dist(position, self.point) >= cfg.image_scan_within:
+                return action
+            s.phase, s.frames = "scan", []
+            self._event("look_round", place=s.tried, distance=xz_dist(position, self.point))
+        if s.phase == "scan":
+            s.frames.append(self._live_view(observations, position, yaw))
+            if len(s.frames) < round(360 / self.env_config.turn_angle_deg):
+                return TURN_LEFT
+            self._judge_place(position)
+            if s.phase == "drive":  # on to the next place (the policy is asked once this step)
+                return self._search_image_goal(observations, position, yaw)
+        return self._approach(observations, position, yaw)
+
+    def _live_view(self, observations: dict[str, np.ndarray], position: np.ndarray, yaw: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """This frame's depth back-projected (every other pixel) with its instance ids and colours."""
+        c = self.env_config
+        depth = np.where(observations["depth"][..., 0] > 0, self.depth_metres(observations), 0.0)
+        mask = np.zeros(depth.shape, bool)
+        mask[::2, ::2] = True
+        mask &= (depth > c.min_depth) & (depth < c.max_depth)
+        cam = camera_pose(position + np.array([0.0, c.agent_height, 0.0]), quat_from_yaw(yaw))
+        points = backproject(depth, mask, self.K, cam, min_depth=c.min_depth, max_depth=c.max_depth)
+        return points, observations["semantic"][..., 0][mask].astype(np.int32), observations["rgb"][mask][:, :3]
+
+    def _judge_place(self, position: np.ndarray) -> None:
+        """Search the look round's views for the goal camera near the place tried; accept the pose, or drive to
+        the next place, or (none left) approach the best pose found."""
+        cfg, s = self.config, self.search
+        assert s is not None
+        points, ids, rgb = (np.concatenate(parts) for parts in zip(*s.frames))
+        s.frames = []
+        place, yaw = s.places[s.tried]
+        camera = place + np.array([0.0, self.env_config.agent_height, 0.0])
+        found = self.localize.refine_image_goal(s.estimate, points, ids, rgb, camera, yaw)
+        floor_point = np.array([found.position[0], position[1], found.position[2]])
+        s.found.append((float(found.score), floor_point, float(found.yaw)))
+        self._event("image_match", place=s.tried, score=float(found.score), goal=floor_point)
+        if found.score >= cfg.image_accept or s.tried + 1 >= len(s.places):
+            best = max(range(len(s.found)), key=lambda j: s.found[j][0])
+            s.target, s.phase = s.found[best][1], "approach"
+            self.point = s.target
+            self._event("image_goal", place=best, score=s.found[best][0], goal=s.target)
+            return
+        s.tried += 1
+        self.point = s.places[s.tried][0]
+        s.phase = "drive"
+        self.policy.reset_hidden()
+
+    def _approach(self, observations: dict[str, np.ndarray], position: np.ndarray, yaw: float) -> int:
+        """Walk onto the accepted floor point: the policy while it is far, then plans of at most two straight legs
+        (:func:`approach_plan`), each taken whole, until none ends nearer; then STOP."""
+        s, c = self.search, self.env_config
+        assert s is not None and s.target is not None
+        if xz_dist(position, s.target) > 2 * self.config.image_scan_within and s.approach_steps == 0:
+            goal = pointgoal_polar(s.target, position, yaw)
+            action = int(self.policy.act(observations["depth"][None], goal[None])[0])
+            if action != STOP:
+                return action
+        s.approach_steps += 1
+        if not s.plan:  # (re)planned when the last plan is done: a step against a wall may not have moved
+            s.plan = approach_plan(position, yaw, s.target, c.forward_step, math.radians(c.turn_angle_deg))
+        if not s.plan or s.approach_steps > self.config.image_approach_steps:
+            self._event("stop", distance=xz_dist(position, s.target))
+            return STOP
+        return s.plan.pop(0)
 
     def _localize(self, position: np.ndarray) -> tuple[dict, int]:
         """Candidates for the active goal, nearest first from ``position``: what the log keeps of them, and how

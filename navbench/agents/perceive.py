@@ -211,6 +211,22 @@ class SceneLocalizer:
                      "memory_keyframes": memory.stats.keyframes}
         return estimate
 
+    def refine_image_goal(self, estimate: Any, points: np.ndarray, ids: np.ndarray, colours: np.ndarray,
+                          position: np.ndarray, yaw: float) -> Any:
+        """The goal camera of ``estimate`` (from :meth:`image_goal`, oracle perception) searched for again round
+        ``position`` (camera height) and ``yaw`` over the agent's live views there (``points`` with their instance
+        ``ids`` and ``colours``) joined to the memory's cloud, on the floor the memory shows free
+        (:func:`~navbench.localize.imagegoal.refine_camera`)."""
+        from navbench.localize.imagegoal import ImageGoalConfig, memory_cloud, refine_camera
+
+        config = ImageGoalConfig()
+        cloud = memory_cloud(self.memory, config.stride)
+        mp, mi, mc = cloud.voxels(config.stages[-1][2])
+        near = np.hypot(mp[:, 0] - position[0], mp[:, 2] - position[2]) < config.radius
+        free = cloud.free(float(position[1]) - cloud.camera_height, config)
+        return refine_camera(np.concatenate([points, mp[near]]), np.concatenate([ids, mi[near]]),
+                             np.concatenate([colours, mc[near]]), estimate.goal, position, yaw, free, config)
+
     def surfaces(self, config: NavGridConfig) -> LayeredNav | None:
         """The joined walkable surfaces (storeys, stairs, ramps) of the scene last localised in when its
         memory's keyframes stand on more than one storey (their camera heights differ by more than a step);

@@ -148,7 +148,8 @@ def make_memory(cfg):
     from navbench.agents.memory_agent import MemoryAgent, MemoryAgentConfig
     from navbench.agents.perceive import LiveDetector, SceneLocalizer
     o = _options(cfg, MemoryOptions)
-    agent_cfg = MemoryAgentConfig(goal_tracking=o.goal_tracking, visibility_stop=o.visibility_stop)
+    agent_cfg = MemoryAgentConfig(goal_tracking=o.goal_tracking, visibility_stop=o.visibility_stop,
+                                  image_look_round=o.look_round)
     pcfg = _perception_config(cfg)
     # Camera and depth range for the agent and its arrival check; what the env renders is the agent's
     # `sensors` (depth, plus the image the detector segments), which the runner reads off the agent.
@@ -156,9 +157,12 @@ def make_memory(cfg):
 
     def build(policy):
         localizer = SceneLocalizer(cfg.scene_dir, pcfg, env_cfg)
-        return MemoryAgent(localizer, policy, agent_cfg, env_cfg, verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg),
-                           route=localizer.route_lengths, route_path=localizer.route_path,
-                           surfaces=localizer.surfaces, seed=cfg.seed)
+        agent = MemoryAgent(localizer, policy, agent_cfg, env_cfg, verify=LiveDetector(cfg.scene_dir, pcfg, env_cfg),
+                            route=localizer.route_lengths, route_path=localizer.route_path,
+                            surfaces=localizer.surfaces, seed=cfg.seed)
+        if o.look_round and getattr(cfg, "task", None) == "imagenav" and "rgb" not in agent.sensors:
+            agent.sensors += ("rgb",)  # its look round on arrival reads the colours of walls and floors
+        return agent
     return _driving(cfg, build)
 
 
@@ -378,7 +382,7 @@ def run_label(agent: str, options: dict[str, Any], seed: int = 0) -> str:
     """A run's name: the agent, then what differs from its defaults, in a fixed order: the checkpoint's
     stem, the decoding (``sample_t0.5`` with a temperature), ``seedN`` (when the agent draws), the
     perception, the noise profile, then ``norerank``, ``nofusion``, ``notrack``, ``novisstop``, the
-    keyframe resolution and ``allframes``; e.g. ``pointnav``, ``pointnav-argmax``,
+    keyframe resolution, ``allframes`` and ``lookround``; e.g. ``pointnav``, ``pointnav-argmax``,
     ``pointnav-pointnav_2h-seed3``, ``memory-norerank``, ``memory-noise_default``.
 
     Args:

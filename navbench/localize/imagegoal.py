@@ -18,6 +18,9 @@ localiser's object candidates do not answer it. Under oracle perception (instanc
 5. **Search**: every free position on a coarse grid round the keyframes most like the goal image (histogram
    intersection of instance-id pixel counts, ``top_k``), or round all keyframes when the goal shows no object;
    then finer grids, finer clouds and finer headings round the best ``keep`` poses of each stage.
+6. **Live views** (:func:`refine_camera`): an agent standing near the estimate searches again round it over its
+   own views (dense, and taken from about where the goal camera stood) joined to the memory's cloud, with finer
+   grids and panoramas (``refine_stages``).
 
 With real embedding models the memory holds no instance ids: the estimate is the camera position of the keyframe
 the FAISS index retrieves for the goal image (:func:`retrieved_camera`), which is as near as the pre-scan came.
@@ -26,6 +29,7 @@ the FAISS index retrieves for the goal image (:func:`retrieved_camera`), which i
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,6 +54,11 @@ class ImageGoalConfig:
     # (headings), cylinder rows, poses kept for the next stage) of each search stage
     stages: tuple[tuple[float, float, float, int, int, int], ...] = (
         (0.25, 0.0, 0.2, 96, 24, 4), (0.1, 0.3, 0.1, 180, 40, 2), (0.05, 0.2, 0.03, 360, 64, 1))
+    # the stages of a search round one pose over an agent's live views (refine_camera), the first turning within
+    # refine_turn_deg of the pose's yaw
+    refine_stages: tuple[tuple[float, float, float, int, int, int], ...] = (
+        (0.1, 0.6, 0.05, 180, 40, 2), (0.05, 0.15, 0.02, 360, 64, 1), (0.025, 0.075, 0.01, 720, 128, 1))
+    refine_turn_deg: float = 30.0
 
 
 @dataclass
@@ -279,6 +288,9 @@ class CameraEstimate:
     yaw: float
     score: float  # score_headings of the chosen pose (oracle) or the retrieved keyframe's cosine (real models)
     keyframes: list[tuple[int, float]]  # retrieved keyframes and their similarity, best first
+    # other places the image may have been taken (position, yaw, coarse score), best first
+    alternatives: list[tuple[np.ndarray, float, float]] = field(default_factory=list)
+    goal: GoalLabels | None = None  # the goal image as searched for (oracle perception)
 
 
 def _grid(centres: np.ndarray, half: float, step: float) -> np.ndarray:
@@ -315,11 +327,95 @@ def _in_view(points: np.ndarray, poses: list[tuple[float, float, float, float]],
     return seen
 
 
+@dataclass(frozen=True)
+class GoalLabels:
+    """A goal image read for the search: each pixel's label (object id, or -2 - its structure colour's index in
+    ``palette``) and the image's horizontal field of view."""
+    labels: np.ndarray  # (H, W)
+    palette: np.ndarray  # (n, 3) the goal image's structure colours
+    hfov_deg: float
+
+
+def goal_labels(goal_ids: np.ndarray, hfov_deg: float, goal_rgb: np.ndarray | None = None,
+                config: ImageGoalConfig = ImageGoalConfig()) -> GoalLabels:
+    """Label ``goal_ids`` (H, W instance ids, -1 structure), structure by its colour in ``goal_rgb`` (None:
+    structure unlabelled)."""
+    if goal_rgb is not None:
+        palette = _palette(goal_rgb[::4, ::4][goal_ids[::4, ::4] < 0], config.colour_tolerance)
+        goal_struct = -2 - _nearest_colour(goal_rgb.reshape(-1, 3), palette, 1e9).reshape(goal_ids.shape)
+    else:
+        palette = np.zeros((0, 3), np.int32)
+        goal_struct = np.full(goal_ids.shape, _OTHER)
+    return GoalLabels(np.where(goal_ids >= 0, goal_ids, goal_struct), palette, float(hfov_deg))
+
+
+Pose = tuple[float, float, float, float]  # (score, x, z, yaw)
+
+
+def _search(xz: np.ndarray, y: float, cloud: tuple[np.ndarray, np.ndarray, np.ndarray], goal: GoalLabels,
+            stage: tuple[float, float, float, int, int, int], kept: list[Pose], turn: float | None,
+            config: ImageGoalConfig) -> list[Pose]:
+    """One search stage: score the level cameras at ``xz`` (height ``y``) over ``cloud`` (points, ids, colours:
+    already voxelised for the stage); ``turn`` None: every heading, else only headings within ``turn`` of a
+    ``kept`` pose whose position is within the stage's half-width. The best poses, each over a metre from those
+    kept before it, at most the stage's ``keep``."""
+    step, half, _, columns, rows, keep = stage
+    pts, pid, pcol = cloud
+    near = (np.abs(pts[:, 1] - y) < 3.0)
+    lo, hi = xz.min(axis=0) - config.radius, xz.max(axis=0) + config.radius
+    near &= (pts[:, 0] > lo[0]) & (pts[:, 0] < hi[0]) & (pts[:, 2] > lo[1]) & (pts[:, 2] < hi[1])
+    heads = np.arange(columns)
+    if turn is not None:
+        angles = heads * 2 * np.pi / columns
+        heads = heads[np.any([np.abs(np.angle(np.exp(1j * (angles - yaw)))) <= turn for *_, yaw in kept], axis=0)]
+        near &= _in_view(pts, kept, half, np.radians(goal.hfov_deg) / 2 + turn + 2 * np.pi / columns)
+    pts_n = pts[near]
+    labels = point_labels(pid[near], pcol[near], goal.palette, config.colour_tolerance)
+    cyl = goal_cylinder(goal.labels, goal.hfov_deg, columns, rows, config.object_weight)
+    scores = np.empty((len(xz), len(heads)))
+    cams = np.column_stack([xz[:, 0], np.full(len(xz), y), xz[:, 1]])
+    for i in range(0, len(xz), 32):
+        scores[i:i + 32] = score_headings(
+            render_cylinders(pts_n, labels, cams[i:i + 32], columns, rows, cyl.tan_half, config.fill), cyl, heads)
+    if turn is not None:  # each position turns only round the kept pose it is near
+        allowed = np.zeros_like(scores, bool)
+        for _, x, z, yaw in kept:
+            close = np.abs(xz - [x, z]).max(axis=1) <= half + 1e-9
+            facing = np.abs(np.angle(np.exp(1j * (heads * 2 * np.pi / columns - yaw)))) <= turn
+            allowed |= close[:, None] & facing[None, :]
+        scores = np.where(allowed, scores, -1.0)
+    best_heading = np.argmax(scores, axis=1)
+    best = scores[np.arange(len(xz)), best_heading]
+    out: list[Pose] = []
+    for j in np.argsort(-best, kind="stable"):  # the best poses, each over a metre from those kept
+        x, z = float(xz[j, 0]), float(xz[j, 1])
+        if all(np.hypot(x - kx, z - kz) > 1.0 for _, kx, kz, _ in out):
+            out.append((float(best[j]), x, z, float(heads[best_heading[j]] * 2 * np.pi / columns)))
+            if len(out) == keep:
+                break
+    return out
+
+
+def _refine(kept: list[Pose], y: float, voxels: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]],
+            goal: GoalLabels, stages: Sequence[tuple[float, float, float, int, int, int]], turn: float,
+            free: tuple[np.ndarray, np.ndarray] | None, config: ImageGoalConfig) -> list[Pose]:
+    """Finer grids, clouds (``voxels(size)``) and headings round ``kept``, the first turning within ``turn``."""
+    for step, half, voxel, columns, rows, keep in stages:
+        xz = _grid(np.array([[x, z] for _, x, z, _ in kept]), half, step)
+        if free is not None:
+            on = _on_free(xz, free[0], free[1], config.cell)
+            xz = xz[on] if on.any() else np.array([[x, z] for _, x, z, _ in kept])
+        kept = _search(xz, y, voxels(voxel), goal, (step, half, voxel, columns, rows, keep), kept, turn, config)
+        turn = 2 * (2 * np.pi / columns)
+    return kept
+
+
 def estimate_camera(memory: Memory, goal_ids: np.ndarray, hfov_deg: float, goal_rgb: np.ndarray | None = None,
                     config: ImageGoalConfig = ImageGoalConfig()) -> CameraEstimate:
     """Where a level camera of ``hfov_deg`` saw ``goal_ids`` (H, W instance ids, -1 structure) and ``goal_rgb``
     (H, W, 3; None: structure unlabelled), from ``memory`` (module docstring). The camera's height is the
-    retrieved keyframe's."""
+    retrieved keyframe's. The coarse stage's other poses (over a metre from the estimate, on its coarse grid) are
+    the estimate's ``alternatives``."""
     cloud = memory_cloud(memory, config.stride)
     goal_hist = _histogram(goal_ids[::4, ::4])
     sims = np.array([similarity(goal_hist, h) for h in cloud.histograms])
@@ -327,61 +423,47 @@ def estimate_camera(memory: Memory, goal_ids: np.ndarray, hfov_deg: float, goal_
     top = [int(k) for k in order[: config.top_k]] if sims.max() > 0 else []
     y = float(cloud.camera_y[top[0]] if top else np.median(cloud.camera_y))
     same_floor = np.abs(cloud.camera_y - y) < 0.5
-    free, origin = cloud.free(y - cloud.camera_height, config)
-    if goal_rgb is not None:
-        palette = _palette(goal_rgb[::4, ::4][goal_ids[::4, ::4] < 0], config.colour_tolerance)
-        goal_struct = -2 - _nearest_colour(goal_rgb.reshape(-1, 3), palette, 1e9).reshape(goal_ids.shape)
-    else:
-        palette = np.zeros((0, 3), np.int32)
-        goal_struct = np.full(goal_ids.shape, _OTHER)
-    goal_labels = np.where(goal_ids >= 0, goal_ids, goal_struct)
-    kept: list[tuple[float, float, float, float]] = []  # (score, x, z, yaw) of the poses a stage keeps
-    for s, (step, half, voxel, columns, rows, keep) in enumerate(config.stages):
-        if s == 0:
-            centres = cloud.positions[top][:, [0, 2]] if top else cloud.positions[same_floor][:, [0, 2]]
-            xz = _grid(centres, config.reach if top else 0.5, step)
-        else:
-            xz = _grid(np.array([[x, z] for _, x, z, _ in kept]), half, step)
-        xz = xz[_on_free(xz, free, origin, config.cell)]
-        if not len(xz):  # no free floor round the keyframes: their own positions
-            xz = cloud.positions[top or np.nonzero(same_floor)[0]][:, [0, 2]]
-        pts, pid, pcol = cloud.voxels(voxel)
-        near = (np.abs(pts[:, 1] - y) < 3.0)
-        lo, hi = xz.min(axis=0) - config.radius, xz.max(axis=0) + config.radius
-        near &= (pts[:, 0] > lo[0]) & (pts[:, 0] < hi[0]) & (pts[:, 2] > lo[1]) & (pts[:, 2] < hi[1])
-        heads = np.arange(columns)
-        if s:  # finer stages turn within two of the previous stage's heading steps of a kept pose
-            turn = 2 * (2 * np.pi / config.stages[s - 1][3])
-            angles = heads * 2 * np.pi / columns
-            heads = heads[np.any([np.abs(np.angle(np.exp(1j * (angles - yaw)))) <= turn for *_, yaw in kept], axis=0)]
-            near &= _in_view(pts, kept, half, np.radians(hfov_deg) / 2 + turn + 2 * np.pi / columns)
-        pts_n = pts[near]
-        labels = point_labels(pid[near], pcol[near], palette, config.colour_tolerance)
-        goal = goal_cylinder(goal_labels, hfov_deg, columns, rows, config.object_weight)
-        scores = np.empty((len(xz), len(heads)))
-        cams = np.column_stack([xz[:, 0], np.full(len(xz), y), xz[:, 1]])
-        for i in range(0, len(xz), 32):
-            scores[i:i + 32] = score_headings(
-                render_cylinders(pts_n, labels, cams[i:i + 32], columns, rows, goal.tan_half, config.fill), goal, heads)
-        if s:  # each position turns only round the kept pose it is near
-            allowed = np.zeros_like(scores, bool)
-            for _, x, z, yaw in kept:
-                close = np.abs(xz - [x, z]).max(axis=1) <= half + 1e-9
-                facing = np.abs(np.angle(np.exp(1j * (heads * 2 * np.pi / columns - yaw)))) <= turn
-                allowed |= close[:, None] & facing[None, :]
-            scores = np.where(allowed, scores, -1.0)
-        best_heading = np.argmax(scores, axis=1)
-        best = scores[np.arange(len(xz)), best_heading]
-        kept = []
-        for j in np.argsort(-best, kind="stable"):  # the best poses, each over a metre from those kept
-            x, z = float(xz[j, 0]), float(xz[j, 1])
-            if all(np.hypot(x - kx, z - kz) > 1.0 for _, kx, kz, _ in kept):
-                kept.append((float(best[j]), x, z, float(heads[best_heading[j]] * 2 * np.pi / columns)))
-                if len(kept) == keep:
-                    break
+    free = cloud.free(y - cloud.camera_height, config)
+    goal = goal_labels(goal_ids, hfov_deg, goal_rgb, config)
+    first = config.stages[0]
+    centres = cloud.positions[top][:, [0, 2]] if top else cloud.positions[same_floor][:, [0, 2]]
+    xz = _grid(centres, config.reach if top else 0.5, first[0])
+    xz = xz[_on_free(xz, free[0], free[1], config.cell)]
+    if not len(xz):  # no free floor round the keyframes: their own positions
+        xz = cloud.positions[top or np.nonzero(same_floor)[0]][:, [0, 2]]
+    coarse = _search(xz, y, cloud.voxels(first[2]), goal, first, [], None, config)
+    turn = 2 * (2 * np.pi / first[3])
+    kept = _refine(coarse, y, cloud.voxels, goal, config.stages[1:], turn, free, config)
     score, x, z, yaw = kept[0]
-    return CameraEstimate(np.array([x, y, z]), float(np.arctan2(np.sin(yaw), np.cos(yaw))), score,
-                          [(k, round(float(sims[k]), 4)) for k in top])
+    alternatives = [pose for pose in coarse if np.hypot(pose[1] - x, pose[2] - z) > 1.0]
+    return CameraEstimate(np.array([x, y, z]), _wrap(yaw), score, [(k, round(float(sims[k]), 4)) for k in top],
+                          [(np.array([ax, y, az]), _wrap(ayaw), ascore) for ascore, ax, az, ayaw in alternatives],
+                          goal)
+
+
+def _wrap(yaw: float) -> float:
+    return float(np.arctan2(np.sin(yaw), np.cos(yaw)))
+
+
+def refine_camera(points: np.ndarray, ids: np.ndarray, colours: np.ndarray, goal: GoalLabels, position: np.ndarray,
+                  yaw: float, free: tuple[np.ndarray, np.ndarray] | None = None,
+                  config: ImageGoalConfig = ImageGoalConfig()) -> CameraEstimate:
+    """The goal camera searched for again round ``position`` (its height kept) and ``yaw`` over a cloud of
+    ``points`` with their ``ids`` and ``colours`` (the live views of an agent that stands near it, with the
+    memory's): ``config.refine_stages``, the first turning within ``config.refine_turn`` of ``yaw``, positions
+    on ``free`` floor (a grid and its origin; None: anywhere). Its score is how well the cloud shows the goal
+    image from there."""
+    cache: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def voxels(size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if size not in cache:
+            kept = voxel_firsts(points, size)
+            cache[size] = points[kept], ids[kept], colours[kept]
+        return cache[size]
+    start: list[Pose] = [(0.0, float(position[0]), float(position[2]), float(yaw))]
+    score, x, z, a = _refine(start, float(position[1]), voxels, goal, config.refine_stages,
+                             np.radians(config.refine_turn_deg), free, config)[0]
+    return CameraEstimate(np.array([x, float(position[1]), z]), _wrap(a), score, [], [], goal)
 
 
 def retrieved_camera(memory: Memory, query_vector: np.ndarray) -> CameraEstimate:

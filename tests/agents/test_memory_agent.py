@@ -655,3 +655,91 @@ def test_on_imagenav_it_drives_to_the_estimated_goal_camera_and_takes_the_policy
     policy.action = STOP
     assert agent.act(obs_at(wall_depth(4.0), forward=2.9)) == STOP  # no visibility test, no detector: its STOP
     assert agent.episode_log()["events"][-1]["event"] == "stop"
+
+
+def test_approach_plan_walks_onto_a_point_within_a_few_centimetres():
+    from navbench.agents.memory_agent import approach_plan
+
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        p, yaw = np.zeros(3), float(rng.uniform(-np.pi, np.pi))
+        target = np.array([rng.uniform(-1.5, 1.5), 0.0, rng.uniform(-1.5, 1.5)])
+        taken = 0
+        while plan := approach_plan(p, yaw, target, 0.25, np.radians(30)):
+            for a in plan:
+                taken += 1
+                if a == MOVE_FORWARD:
+                    p = p + 0.25 * np.array([-np.sin(yaw), 0.0, -np.cos(yaw)])
+                yaw += np.radians(30) * (a == TURN_LEFT) - np.radians(30) * (a == TURN_RIGHT)
+            assert taken < 40
+        assert np.hypot(*(p - target)[[0, 2]]) < 0.08
+
+
+def test_on_imagenav_with_look_round_it_searches_its_views_and_tries_the_next_place_when_they_disagree():
+    from navbench.localize.imagegoal import CameraEstimate
+
+    class Localiser:
+        def __init__(self):
+            self.searched = []  # (number of points, camera position) of each search
+
+        def image_goal(self, episode):
+            return CameraEstimate(np.array([0.0, 0.88, -1.0]), 0.0, 0.9, [(4, 0.8)],
+                                  [(np.array([1.0, 0.88, -1.0]), 0.5, 0.8)], goal=object())
+
+        def refine_image_goal(self, estimate, points, ids, colours, position, yaw):
+            self.searched.append((len(points), position.copy()))
+            if len(self.searched) == 1:  # the first place's views do not show the goal image
+                return CameraEstimate(np.array([0.1, 0.88, -1.1]), 0.0, 0.5, [])
+            return CameraEstimate(np.array([1.3, 0.88, -1.2]), 0.5, 0.97, [])
+
+    episode = Episode("1", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+    localiser = Localiser()
+    agent = MemoryAgent(localiser, ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True, image_tries=2),
+                        ENV)
+    agent.reset(episode)
+    x, z, yaw = 0.0, 0.0, 0.0
+    ids = np.full((H, W, 1), -1, np.int32)
+    rgb = np.full((H, W, 3), 200, np.uint8)
+    for _ in range(100):
+        obs = {**obs_at(wall_depth(2.0), forward=-z, right=x, compass=yaw), "semantic": ids, "rgb": rgb}
+        action = agent.act(obs)
+        if action == STOP:
+            break
+        if action == MOVE_FORWARD:
+            x, z = x - 0.25 * np.sin(yaw), z - 0.25 * np.cos(yaw)
+        yaw += np.radians(30) * (action == TURN_LEFT) - np.radians(30) * (action == TURN_RIGHT)
+    assert action == STOP
+    events = [e["event"] for e in agent.episode_log()["events"]]
+    assert events.count("look_round") == 2 and events.count("image_match") == 2
+    # every view of a full circle is searched, round each place's estimated camera
+    assert [n for n, _ in localiser.searched] == [12 * (H // 2) * (W // 2)] * 2
+    np.testing.assert_allclose(localiser.searched[1][1], [1.0, 0.88, -1.0])
+    assert np.hypot(x - 1.3, z + 1.2) < 0.08  # walked onto the second place's pose
+
+
+def test_on_imagenav_with_look_round_it_walks_onto_the_pose_its_views_give_whatever_their_score():
+    from navbench.localize.imagegoal import CameraEstimate
+
+    class Localiser:
+        def image_goal(self, episode):
+            return CameraEstimate(np.array([0.0, 0.88, -1.0]), 0.0, 0.9, [(4, 0.8)],
+                                  [(np.array([1.0, 0.88, -1.0]), 0.5, 0.8)], goal=object())
+
+        def refine_image_goal(self, estimate, points, ids, colours, position, yaw):
+            return CameraEstimate(np.array([0.2, 0.88, -0.6]), 0.0, 0.3, [])  # far under image_accept
+
+    episode = Episode("1", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+    agent = MemoryAgent(Localiser(), ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True), ENV)
+    agent.reset(episode)
+    x, z, yaw = 0.0, 0.0, 0.0
+    for _ in range(60):
+        obs = {**obs_at(wall_depth(2.0), forward=-z, right=x, compass=yaw),
+               "semantic": np.full((H, W, 1), -1, np.int32), "rgb": np.full((H, W, 3), 200, np.uint8)}
+        action = agent.act(obs)
+        if action == STOP:
+            break
+        if action == MOVE_FORWARD:
+            x, z = x - 0.25 * np.sin(yaw), z - 0.25 * np.cos(yaw)
+        yaw += np.radians(30) * (action == TURN_LEFT) - np.radians(30) * (action == TURN_RIGHT)
+    assert action == STOP and [e["event"] for e in agent.episode_log()["events"]].count("look_round") == 1
+    assert np.hypot(x - 0.2, z + 0.6) < 0.08  # one place by default: no alternative is tried

@@ -21,7 +21,7 @@ from navbench.scene.procedural.dataset import write_house
 
 RUNS = RESULTS_DIR / "runs"
 CHOICES = ("perception", "noise", "fusion", "rerank", "keyframe_res", "all_frames", "goal_tracking", "visibility_stop",
-           "instruction")
+           "instruction", "look_round")
 
 
 def reference_runs() -> list[Path]:
@@ -76,7 +76,8 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
                                   "pointnav/val/optimistic", "objectnav/val_unseen/memory-pointnav_v2",
                                   "objectnav/val_unseen/oracle", "objectnav/val_unseen/memory",
                                   "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier",
-                                  "imagenav/val/oracle", "imagenav/val/memory", "instance_imagenav/val/oracle",
+                                  "imagenav/val/oracle", "imagenav/val/memory", "imagenav/val/memory-lookround",
+                                  "instance_imagenav/val/oracle",
                                   "instance_imagenav/val/memory", "instance_imagenav/val/frontier", "goat/val/oracle",
                                   "goat/val/memory", "goat/val/frontier"])
 def test_reference_run_reproduces_first_episodes(name, tmp_path, monkeypatch):

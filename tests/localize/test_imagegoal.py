@@ -105,3 +105,58 @@ def test_estimate_camera_finds_where_goal_images_were_taken(oracle_memory, oracl
         errors.append(float(np.hypot(*(est.position - eye)[[0, 2]])))
         assert abs(est.position[1] - eye[1]) < 0.05
     assert max(errors) < 0.25, errors
+
+
+def test_refine_camera_finds_the_goal_camera_from_live_views_taken_near_it(oracle_memory, oracle_scene):
+    """An agent that stands 0.3-0.4 m from where a goal image of house 011 was taken and turns a full circle: the
+    search over its views (depth, ids, colours) joined to the memory puts the camera within 0.15 m, with a score
+    above that of the same search started a room away (where the image was not taken)."""
+    from navbench.env.config import EnvConfig
+    from navbench.episodes.instance_imagenav import ImageGoal
+    from navbench.localize.geometry import backproject
+    from navbench.localize.imagegoal import goal_labels, memory_cloud, refine_camera
+    from navbench.paths import split_file
+    from navbench.render.camera import CameraConfig, camera_pose, intrinsics
+    from navbench.render.goal_images import render_image_goal_ids
+    from navbench.render.renderer import Renderer
+    from navbench.scene.pose import quat_from_yaw
+    from navbench.tasks import get_task
+    from navbench.tasks.imagenav import goal_rotation, goal_yaw
+
+    c = EnvConfig()
+    cam = CameraConfig(width=c.width, height=c.height, hfov_deg=c.hfov_deg)
+    config = ImageGoalConfig()
+    cloud = memory_cloud(oracle_memory, config.stride)
+    mp, mi, mc = cloud.voxels(config.stages[-1][2])
+    episodes = {e.episode_id: e for e in get_task("imagenav").read_episodes(split_file("imagenav", "val")).episodes
+                if e.scene_id.endswith("house_011.glb")}
+
+    def look_round(renderer, eye):
+        parts = []
+        for k in range(12):
+            yaw = k * np.pi / 6
+            out = renderer.render(eye, quat_from_yaw(yaw), rgb=True, depth=True, ids=True)
+            mask = np.zeros(out.depth.shape, bool)
+            mask[::2, ::2] = True
+            mask &= (out.depth > c.min_depth) & (out.depth < c.max_depth)
+            parts.append((backproject(out.depth, mask, intrinsics(cam), camera_pose(eye, quat_from_yaw(yaw))),
+                          out.ids[mask], out.rgb[..., :3][mask]))
+        pts, ids, rgb = (np.concatenate(p) for p in zip(*parts))
+        near = np.hypot(mp[:, 0] - eye[0], mp[:, 2] - eye[2]) < config.radius
+        return np.concatenate([pts, mp[near]]), np.concatenate([ids, mi[near]]), np.concatenate([rgb, mc[near]])
+
+    free = cloud.free(float(cloud.camera_y[0]) - cloud.camera_height, config)
+    with Renderer(oracle_scene, cam) as renderer:
+        for eid, offset in (("300", (0.3, -0.2)), ("304", (-0.25, 0.3))):
+            e = episodes[eid]
+            eye = np.asarray(e.goals[0].position) + [0.0, c.agent_height, 0.0]
+            q = goal_rotation(eid)
+            rgb, ids = render_image_goal_ids(oracle_scene, ImageGoal(tuple(eye), tuple(q), c.hfov_deg, c.height,
+                                                                     c.width))
+            goal = goal_labels(ids, c.hfov_deg, rgb, config)
+            start = eye + [offset[0], 0.0, offset[1]]
+            found = refine_camera(*look_round(renderer, start), goal, start, goal_yaw(eid) + 0.3, free, config)
+            assert np.hypot(*(found.position - eye)[[0, 2]]) < 0.15, (eid, found.position, eye)
+            elsewhere = eye + [2.5, 0.0, 0.0] if eid == "300" else eye + [0.0, 0.0, 2.5]
+            wrong = refine_camera(*look_round(renderer, elsewhere), goal, elsewhere, goal_yaw(eid), free, config)
+            assert wrong.score < found.score - 0.1, (eid, wrong.score, found.score)
