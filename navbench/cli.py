@@ -475,7 +475,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("table", help="render run summaries side by side",
                        description="One row per run (or per agent, a column per split) in each task's own "
-                       "measures, each with its 95%% interval. Runs under different protocols are shown side by "
+                       "measures, each with its 95% interval. Runs under different protocols are shown side by "
                        "side: a protocol column, one column per protocol field that differs and a note say so "
                        "(navbench compare refuses to pair them).")
     t.add_argument("run_dirs", nargs="+")

@@ -99,8 +99,8 @@ def test_memory_ablations_are_recorded_and_labelled_in_one_order():
                     "models": {}}
     assert _run("--agent", "memory", "--rerank", "none")[1] == "memory-norerank"
     assert _run("--agent", "memory", "--noise", "default")[1] == "memory-noise_default"
-    opts, label = _run("--agent", "memory", "--look-round")
-    assert opts["look_round"] is True and label == "memory-lookround"
+    opts, label = _run("--agent", "memory", "--no-look-round")
+    assert opts["look_round"] is False and label == "memory-nolookround"
     _, label = _run("--agent", "memory", "--all-frames", "--keyframe-res", "160x120", "--no-visibility-stop",
                     "--no-tracking", "--no-fusion", "--rerank", "none", "--noise", "heavy", "--decoding", "least-tried",
                     "--seed", "1", "--checkpoint", "policies/pointnav_2h.pth")

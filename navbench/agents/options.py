@@ -223,8 +223,9 @@ class MemoryOptions(PerceptionOptions):
     all_frames: bool = _opt(False, "store every pre-scan frame, not keyframes")
     goal_tracking: bool = _opt(True, "no dynamic goal tracking", flag="--no-tracking")
     visibility_stop: bool = _opt(True, "STOP on distance alone")
-    look_round: bool = _opt(False, "ImageNav: look round near the estimated goal camera and search the live "
-                                   "views for it (oracle perception)")
+    look_round: bool = _opt(True, "ImageNav: take the policy's STOP near the estimated goal camera, without "
+                                  "looking round there and searching the live views (oracle perception)",
+                            flag="--no-look-round")
     # Where the keyframe memories are kept (default: navbench's cache); set on a Ray worker to its copy.
     memory_root: str | None = _opt(None, "", internal=True)
 
@@ -234,8 +235,8 @@ class MemoryOptions(PerceptionOptions):
 
     def to_record(self) -> dict[str, Any]:
         out = super().to_record()
-        if self.look_round:  # recorded when on: the runs made without it keep their records
-            out["look_round"] = True
+        if not self.look_round:  # recorded when off: the other tasks' runs, which it never changes, keep their records
+            out["look_round"] = False
         if self.memory_root is not None:
             out["memory_root"] = self.memory_root
         return out
@@ -249,8 +250,8 @@ class MemoryOptions(PerceptionOptions):
             parts.append(self.keyframe_res)
         if self.all_frames:
             parts.append("allframes")
-        if self.look_round:
-            parts.append("lookround")
+        if not self.look_round:
+            parts.append("nolookround")
         return parts
 
 

@@ -382,7 +382,7 @@ def run_label(agent: str, options: dict[str, Any], seed: int = 0) -> str:
     """A run's name: the agent, then what differs from its defaults, in a fixed order: the checkpoint's
     stem, the decoding (``sample_t0.5`` with a temperature), ``seedN`` (when the agent draws), the
     perception, the noise profile, then ``norerank``, ``nofusion``, ``notrack``, ``novisstop``, the
-    keyframe resolution, ``allframes`` and ``lookround``; e.g. ``pointnav``, ``pointnav-argmax``,
+    keyframe resolution, ``allframes`` and ``nolookround``; e.g. ``pointnav``, ``pointnav-argmax``,
     ``pointnav-pointnav_2h-seed3``, ``memory-norerank``, ``memory-noise_default``.
 
     Args:

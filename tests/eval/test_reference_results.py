@@ -76,7 +76,7 @@ def assert_reproduces(cfg: RunConfig, ref_dir: Path, out: Path, n: int = 8) -> N
                                   "pointnav/val/optimistic", "objectnav/val_unseen/memory-pointnav_v2",
                                   "objectnav/val_unseen/oracle", "objectnav/val_unseen/memory",
                                   "objectnav/val_unseen/memory-least-tried", "objectnav/val_unseen/frontier",
-                                  "imagenav/val/oracle", "imagenav/val/memory", "imagenav/val/memory-lookround",
+                                  "imagenav/val/oracle", "imagenav/val/memory", "imagenav/val/memory-nolookround",
                                   "instance_imagenav/val/oracle",
                                   "instance_imagenav/val/memory", "instance_imagenav/val/frontier", "goat/val/oracle",
                                   "goat/val/memory", "goat/val/frontier"])
