@@ -24,6 +24,10 @@ def test_a_line_for_the_episodes_in_flight_at_a_modest_rate():
     slow.live([("s", "1", 6, -1, -1)], 0, 1)
     slow.live([("s", "1", 7, -1, -1)], 0, 1)
     assert slow.stream.getvalue().splitlines() == ["[0/1] running 0:00:31 | s ep 1: step 6"]
+    bar = Progress(stream=io.StringIO(), tty=True)  # on a terminal: the bar's postfix
+    bar.last_live -= 2
+    bar.live([("s", "1", 9, 0, 5)], 0, 1)
+    assert "s ep 1: step 9, subtasks 0/5 closed" in bar.stream.getvalue()
 
 
 class _Live:
