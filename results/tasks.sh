@@ -33,6 +33,9 @@ tables() {
     echo '```'; echo
     shown $NB table --long "$i/oracle" "$i/memory"; } > results/instance_imagenav.md
   { echo "# GOAT-Bench val (\`make results-tasks\`)"; echo
+    echo "These runs use navbench's body (the task's default configuration: camera 0.88 m above the floor, 224 x 224" \
+      "RGB-D, 79° HFOV, GPS+compass, 30° turns, 5000 steps), not GOAT-Bench's (\`--env-config goat-bench\`:" \
+      "camera 1.41 m, 360 x 640 portrait, 42° HFOV), so they are not GOAT-Bench's own figures."; echo
     shown $NB table "$g/oracle" "$g/memory" "$g/frontier"; echo
     echo "Paired by episode: \`navbench compare $g/frontier $g/memory\`"; echo
     echo '```'; $NB compare "$g/frontier" "$g/memory"; echo '```'; echo

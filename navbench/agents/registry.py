@@ -131,7 +131,7 @@ def _step_policy(cfg, num_envs: int = 1):
     from navbench.policy.checkpoint import load_checkpoint
     from navbench.policy.net import PointNavAgentPolicy
     return PointNavAgentPolicy(load_checkpoint(_options(cfg, PolicyOptions).checkpoint or DEFAULT_CHECKPOINT),
-                               num_envs=num_envs, config=_inference_config(cfg), device=_device(cfg))
+                               num_envs=num_envs, config=_inference_config(cfg), device=_device(cfg), frozen=True)
 
 
 def _driving(cfg, build: Callable[[Any], Any]):

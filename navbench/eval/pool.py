@@ -33,26 +33,32 @@ from navbench.eval.worker import (
     Tracker,
     failed_record,
     failure_reason,
+    step_counts,
     step_timeout_reason,
 )
+
+_LIVE_EVERY = 1.0  # seconds between the driver's looks at the episodes in flight (run_pool's live)
 
 
 class _PipeTracker(Tracker):
     """Tells the driver where each slot's episode is: a message when it begins, shared counters after the
-    env's reset (the start's geodesic distance) and each step."""
+    env's reset (the start's geodesic distance) and each step (with a GOAT-Bench episode's subtasks closed)."""
 
-    def __init__(self, conn, steps, dist, d0) -> None:
+    def __init__(self, conn, steps, dist, d0, closed, subtasks) -> None:
         self.conn, self.steps, self.dist, self.d0 = conn, steps, dist, d0
+        self.closed, self.subtasks = closed, subtasks
 
     def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
         self.steps[slot], self.dist[slot], self.d0[slot] = 0, d0, d0
+        self.closed[slot] = self.subtasks[slot] = -1
         self.conn.send((Msg.BEGIN, (slot, (record["scene_id"], record["episode_id"]), record)))
 
     def started(self, slot: int, d0: float) -> None:
         self.dist[slot] = self.d0[slot] = d0
 
     def step(self, slot: int, info: dict[str, Any]) -> None:
-        self.steps[slot], self.dist[slot] = info["num_steps"], info["distance_to_goal"]
+        self.steps[slot], self.closed[slot], self.subtasks[slot] = step_counts(info)
+        self.dist[slot] = info["distance_to_goal"]
 
 
 def _send_exception(conn, exc: BaseException) -> None:
@@ -71,14 +77,14 @@ def _more(conn) -> list[Key]:
     return keys
 
 
-def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0) -> None:
+def _serve(conn, cfg, make_agent, limit, busy, steps, dist, d0, closed, subtasks) -> None:
     try:
         worker = EpisodeWorker(cfg, make_agent, single_thread=True)
     except Exception as exc:
         exc.add_note(traceback.format_exc())
         _send_exception(conn, exc)
         return
-    clock, tracker = Clock(limit, busy), _PipeTracker(conn, steps, dist, d0)
+    clock, tracker = Clock(limit, busy), _PipeTracker(conn, steps, dist, d0, closed, subtasks)
     try:
         conn.send((Msg.READY, None))
         while True:
@@ -108,9 +114,12 @@ class _Worker:
         self.steps = ctx.Array("l", n_slots, lock=False)
         self.dist = ctx.Array("d", n_slots, lock=False)
         self.d0 = ctx.Array("d", n_slots, lock=False)
+        self.closed = ctx.Array("l", n_slots, lock=False)
+        self.subtasks = ctx.Array("l", n_slots, lock=False)
         self.conn, child = ctx.Pipe()
         self.proc = ctx.Process(target=_serve, daemon=True,
-                                args=(child, cfg, make_agent, limit, self.busy, self.steps, self.dist, self.d0))
+                                args=(child, cfg, make_agent, limit, self.busy, self.steps, self.dist, self.d0,
+                                      self.closed, self.subtasks))
         self.proc.start()
         child.close()
         self.ready = False
@@ -134,6 +143,11 @@ class _Worker:
             return f"worker died (signal {-code})"
         return f"worker died (exit code {code})"
 
+    def in_flight(self) -> list[tuple[str, str, int, int, int]]:
+        """(scene_id, episode_id, steps, subtasks closed, subtasks) of the episodes running on this worker."""
+        return [(*key, int(self.steps[slot]), int(self.closed[slot]), int(self.subtasks[slot]))
+                for slot, (key, _) in sorted(self.begun.items()) if key not in self.done]
+
     def stop(self) -> None:
         try:
             self.conn.send(None)
@@ -148,8 +162,10 @@ class _Worker:
 
 
 def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str, Any]], None], workers: int,
-             n_slots: int, retries: int = 2, step_timeout: float | None = None) -> None:
-    """Run ``tasks`` on ``workers`` processes, handing every record (run or failed) to ``finish``.
+             n_slots: int, retries: int = 2, step_timeout: float | None = None,
+             live: Callable[[list[tuple[str, str, int, int, int]]], None] | None = None) -> None:
+    """Run ``tasks`` on ``workers`` processes, handing every record (run or failed) to ``finish``, and about once a
+    second the episodes in flight to ``live`` (see :meth:`_Worker.in_flight`).
 
     Bad input raised in a worker (a bad episode or scene, an agent that cannot be built) is raised here
     after the records sent before it are finished; ``finish`` may raise to stop the run.
@@ -181,13 +197,15 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
         else:
             pool.remove(w)
 
+    last_live = time.monotonic()
     try:
         pool.extend(spawn() for _ in range(max(1, min(workers, len(tasks)))))
         while queue or any(w.task is not None for w in pool):
             for w in pool:
                 if w.ready and w.task is None and queue:
                     w.give(queue.popleft())
-            ready = wait([w.conn for w in pool], timeout=0.2 if step_timeout is not None else None)
+            timeout = 0.2 if step_timeout is not None else _LIVE_EVERY if live is not None else None
+            ready = wait([w.conn for w in pool], timeout=timeout)
             for conn in ready:
                 w = next((w for w in pool if w.conn is conn), None)
                 if w is None:
@@ -214,6 +232,9 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
                     w.task = None
                 elif kind is Msg.ERROR:
                     raise value
+            if live is not None and time.monotonic() - last_live >= _LIVE_EVERY:
+                last_live = time.monotonic()
+                live([e for w in pool if w.ready for e in w.in_flight()])
             if step_timeout is not None:
                 now = time.monotonic()
                 for w in pool:

@@ -50,7 +50,7 @@ from navbench.eval.provenance import (
 from navbench.eval.records import EpisodeRecord, RunSummary, json_ready, summary_text
 from navbench.eval.rundir import RecordFile, RunError, RunLock, make_run_dir, read_records, write_atomic
 from navbench.eval.stats import add_intervals
-from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, run_dataset, task_size
+from navbench.eval.worker import AgentFactory, Clock, EpisodeWorker, LiveTracker, Tracker, run_dataset, task_size
 from navbench.metrics import aggregate
 from navbench.safeio import read_input
 from navbench.tasks import get_task
@@ -197,7 +197,9 @@ def run(cfg: RunConfig, make_agent: AgentFactory, out: Path, resume: bool = Fals
         out: the run directory.
         resume: keep the records already there (each episode once; failed episodes are rerun); without
             it (or ``overwrite``) a directory that already holds a run is refused.
-        progress: called as ``progress(record, done, total)`` after each episode.
+        progress: called as ``progress(record, done, total)`` after each episode; one with a ``live(in_flight,
+            done, total)`` method also hears, about once a second, of the episodes in flight (local backend):
+            (scene_id, episode_id, steps, subtasks closed, subtasks), the last two -1 without subtasks.
         overwrite: replace the run in ``out``.
         execution: how the episodes are run (default: one worker in this process, 2 retries); see
             :class:`~navbench.eval.config.Execution`. It is not part of config.json, so a run may resume
@@ -255,6 +257,11 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
     try:
         recorded = [total - len(todo)]  # episodes of this selection already in the file
 
+        # A progress with a live() hears of the episodes in flight: (scene, episode, steps, subtasks closed, of)
+        show = getattr(progress, "live", None)
+        live = (lambda in_flight: show(in_flight, recorded[0], total)) if callable(show) else None
+        tracker = LiveTracker(live) if live is not None else None
+
         def finish(rec):
             if rec.get("failed") and execution.fail_fast:
                 raise RunError(f"{cfg.episodes}: episode {rec['episode_id']} ({rec['scene_id']}) failed: "
@@ -262,6 +269,8 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
             fh.append(rec)
             records.append(rec)
             recorded[0] += 1
+            if tracker is not None:
+                tracker.ended((rec["scene_id"], rec["episode_id"]))
             if progress:
                 progress(rec, recorded[0], total)
 
@@ -280,12 +289,12 @@ def _run_locked(cfg, make_agent, out, resume, progress, overwrite, execution: Ex
         elif not pool or not todo:
             if todo:
                 with EpisodeWorker(wcfg, make_agent) as worker:
-                    worker.run(todo, finish, Clock(step_timeout))
+                    worker.run(todo, finish, Clock(step_timeout), tracker or Tracker())
         else:
             from navbench.eval.pool import run_pool
             run_pool(wcfg, make_agent, [todo[i:i + size] for i in range(0, len(todo), size)], finish,
                      workers=workers, n_slots=wcfg.envs_per_worker, retries=execution.retries,
-                     step_timeout=step_timeout)
+                     step_timeout=step_timeout, live=live)
         complete = True
     finally:
         fh.close()

@@ -133,6 +133,43 @@ class Tracker:
 _NO_TRACKER = Tracker()
 
 
+def step_counts(info: dict[str, Any]) -> tuple[int, int, int]:
+    """How far an episode in flight is, from the env's last ``info``: (steps, subtasks closed, subtasks), the
+    last two -1 for a task without subtasks (GOAT-Bench's ``subtasks_closed`` and ``subtask_success``)."""
+    subtasks = info.get("subtask_success")
+    if subtasks is None:
+        return int(info["num_steps"]), -1, -1
+    return int(info["num_steps"]), int(info.get("subtasks_closed", 0)), len(subtasks)
+
+
+class LiveTracker(Tracker):
+    """Hands the episodes in flight, (scene_id, episode_id, steps, subtasks closed, subtasks) each, to ``live`` at
+    most once every ``every`` seconds, from the steps of a worker in the driver's own process. ``ended(key)``
+    drops an episode whose record came (an idle slot keeps nothing)."""
+
+    every = 1.0
+
+    def __init__(self, live: Callable[[list[tuple[str, str, int, int, int]]], None]) -> None:
+        self.live = live
+        self.slots: dict[int, list] = {}  # slot -> [scene_id, episode_id, steps, closed, subtasks]
+        self.last = time.monotonic()
+
+    def begin(self, slot: int, record: dict[str, Any], d0: float) -> None:
+        self.slots[slot] = [record["scene_id"], record["episode_id"], 0, -1, -1]
+
+    def step(self, slot: int, info: dict[str, Any]) -> None:
+        self.slots[slot][2:] = step_counts(info)
+        now = time.monotonic()
+        if now - self.last >= self.every:
+            self.last = now
+            self.live([tuple(v) for _, v in sorted(self.slots.items())])
+
+    def ended(self, key: Key) -> None:
+        for slot, v in list(self.slots.items()):
+            if (v[0], v[1]) == key:
+                del self.slots[slot]
+
+
 def _action(env: NavEnv, action: Any) -> int:
     n = env.action_space.n
     try:

@@ -16,6 +16,7 @@ Actions: 0 STOP, 1 MOVE_FORWARD, 2 TURN_LEFT, 3 TURN_RIGHT.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -344,14 +345,24 @@ class PointNavAgentPolicy:
 
     Keeps per environment the recurrent state, the previous action, whether the next step starts an
     episode, and the last goal position in world coordinates (when the caller provides it).
+
+    ``frozen=True`` (an evaluation: the weights never change) reuses the visual encoding of one of the last
+    ``FRAMES_KEPT`` calls when the same envs hand in the same frames again (an agent pressed against a wall,
+    its FORWARD refused, or turning back and forth on the spot sees the same depth again); the encoder is
+    deterministic, so the actions are those of encoding the frames again.
     """
+
+    FRAMES_KEPT = 16
 
     def __init__(
         self, policy: PointNavResNetPolicy, num_envs: int = 1, config: InferenceConfig = InferenceConfig(),
-        device: torch.device | str | None = None,
+        device: torch.device | str | None = None, frozen: bool = False,
     ) -> None:
         self.config = config
         self.num_envs = num_envs
+        self.frozen = frozen
+        # (envs, hash of the input) -> (input, its encoding), the last FRAMES_KEPT calls' (frozen only)
+        self._encoded: OrderedDict[tuple, tuple[torch.Tensor, torch.Tensor]] = OrderedDict()
         # the network and its recurrent state live on `device` (None: where the policy's weights are, as a
         # trainer's shared learner); decoding and its draws stay on the CPU
         self.device = torch.device(device) if device is not None else next(policy.parameters()).device
@@ -448,7 +459,7 @@ class PointNavAgentPolicy:
         dev = self.device
         with torch.inference_mode(), torch.autocast(dev.type, dtype=torch.bfloat16, enabled=self.config.bf16):
             # The two halves of PointNavResNetPolicy.forward, so the encoder output can be handed out.
-            visual = self.policy.net.encode_depth(x.to(dev))
+            visual = self._encode(x, envs)
             logits, _, hidden = self.policy.forward_features(visual[None], goal.to(dev)[None],
                                                              self.prev_actions[idx][None], self.masks[idx][None],
                                                              self.hidden[idx])
@@ -465,6 +476,22 @@ class PointNavAgentPolicy:
             self.prev_actions[idx] = actions
         self.masks[idx] = True
         return actions.cpu().numpy().astype(np.int64), visual.float()  # an inference tensor: read it, or copy it
+
+    def _encode(self, x: torch.Tensor, envs: list[int]) -> torch.Tensor:
+        """The visual encoding of the frames ``x`` of ``envs``, reused when a frozen policy encoded them lately."""
+        if not self.frozen:
+            return self.policy.net.encode_depth(x.to(self.device))
+        frames = x.contiguous()
+        key = (tuple(envs), hash(frames.numpy().tobytes()))
+        kept = self._encoded.get(key)
+        if kept is not None and torch.equal(kept[0], frames):
+            self._encoded.move_to_end(key)
+            return kept[1]
+        visual = self.policy.net.encode_depth(x.to(self.device))
+        self._encoded[key] = (frames.clone(), visual)  # x may share the caller's array
+        if len(self._encoded) > self.FRAMES_KEPT:
+            self._encoded.popitem(last=False)
+        return visual
 
     def _decode(self, logits: torch.Tensor, goal: torch.Tensor, envs: list[int]) -> torch.Tensor:
         """Actions (len(envs),) from the logits (len(envs), A) of ``envs`` as ``config.decoding`` says."""

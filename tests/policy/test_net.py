@@ -403,3 +403,24 @@ def test_decoding_is_one_of_three_and_temperature_belongs_to_sample() -> None:
     with pytest.raises(ValueError, match="temperature"):
         InferenceConfig(decoding="least-tried", temperature=0.5)
     assert InferenceConfig(decoding="sample", temperature=0.5).temperature == 0.5
+
+def test_a_frozen_policy_encodes_a_repeated_frame_once_with_the_same_actions(policy: PointNavResNetPolicy) -> None:
+    # an agent pressed against a wall, or turning back and forth, sees the same depth again: the encoding is
+    # reused, the actions and the recurrent state unchanged
+    rng = np.random.default_rng(3)
+    frames = rng.random((3, 2, 224, 224, 1), dtype=np.float32)
+    goals = rng.uniform(0.5, 3.0, (6, 2, 2)).astype(np.float32)
+    order = [0, 0, 1, 1, 0, 2]  # frame per step: repeats, and a frame again after another
+    fresh = PointNavAgentPolicy(copy.deepcopy(policy), 2)
+    frozen = PointNavAgentPolicy(copy.deepcopy(policy), 2, frozen=True)
+    encode = frozen.policy.net.encode_depth
+    calls = []
+    frozen.policy.net.encode_depth = lambda x: calls.append(1) or encode(x)
+    for k, g in zip(order, goals):
+        depth = frames[k].copy()
+        np.testing.assert_array_equal(frozen.act(depth, g), fresh.act(frames[k], g))
+        depth[:] = 0.0  # the caller's buffer, overwritten after the call: not what the next call compares with
+        torch.testing.assert_close(frozen.hidden, fresh.hidden, rtol=0, atol=0)
+    assert len(calls) == 3
+    frozen.act(frames[2][:1], goals[0][:1], rows=[1])  # another set of envs: encoded afresh
+    assert len(calls) == 4
