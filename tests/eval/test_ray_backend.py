@@ -191,6 +191,7 @@ def make(cfg):
 '''
 
 
+@pytest.mark.slow  # three dead actors in a row, each a fresh Ray worker (~20-50 s): make test-slow
 def test_an_episode_whose_actor_always_dies_is_recorded_as_failed(tmp_path, monkeypatch, pointnav_file):
     """On a local Ray instance: retried ``retries`` times on fresh actors, then a failed record; the rest run."""
     pytest.importorskip("ray")
