@@ -151,8 +151,9 @@ class NavEnv(gym.Env):
         habitat-lab's ShortestPathFollower reads ``sim.get_agent_state()``; no score depends on it."""
         self._agent_pose = True
         big = np.finfo(np.float32).max
-        self.observation_space = spaces.Dict({**self.observation_space.spaces,
-                                              AGENT_POSE: spaces.Box(-big, big, (3,), np.float32)})
+        space = self.observation_space
+        assert isinstance(space, spaces.Dict)  # the env's observations are always a Dict
+        self.observation_space = spaces.Dict({**space.spaces, AGENT_POSE: spaces.Box(-big, big, (3,), np.float32)})
 
     # ------------------------------------------------------------------ scene
     def _load_scene(self, scene_id: str, start_y: float | None = None) -> None:
