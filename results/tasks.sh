@@ -2,13 +2,13 @@
 # InstanceImageNav, GOAT-Bench and ImageNav val (docs/tasks.md): `bash results/tasks.sh run` runs the oracle and the
 # memory agent on the InstanceImageNav and GOAT-Bench val splits, the frontier agent on all of GOAT-Bench val and on
 # InstanceImageNav's first FK episodes of each house (it explores: about 15 s an episode on 2 cores; it is refused on
-# ImageNav), the memory agent on ImageNav val's first IK episodes of each house and, without its look round at the
-# goal (--no-look-round), on all of ImageNav val (the oracle's ImageNav run is make results-oracle's), `... tables`
+# ImageNav), the memory agent on ImageNav val with and without its look round at the goal (--no-look-round; the
+# oracle's ImageNav run is make results-oracle's), `... tables`
 # writes results/instance_imagenav.md, results/goat.md and results/imagenav.md, `... all` does both (`make
 # results-tasks`). NB: the navbench command; PY: the Python that runs navbench.eval.goat_table; RUNS: the runs' root;
 # LIMIT=N: the first N episodes of each split only (a quick look).
 set -eu
-NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-25} IK=${IK:-20}
+NB=${NB:-navbench} PY=${PY:-python} RUNS=${RUNS:-results/runs} LIMIT=${LIMIT:-} FK=${FK:-25}
 runs_all() {
   for t in instance_imagenav goat; do for a in oracle memory; do
     $NB run --runs-dir "$RUNS" --overwrite -q --task $t --split val --agent $a ${LIMIT:+--limit $LIMIT}
@@ -16,8 +16,7 @@ runs_all() {
   $NB run --runs-dir "$RUNS" --overwrite -q --task goat --split val --agent frontier ${LIMIT:+--limit $LIMIT}
   $NB run --runs-dir "$RUNS" --overwrite -q --task instance_imagenav --split val --agent frontier --per-scene "$FK" \
     ${LIMIT:+--limit $LIMIT}
-  $NB run --runs-dir "$RUNS" --overwrite -q --task imagenav --split val --agent memory --per-scene "$IK" \
-    ${LIMIT:+--limit $LIMIT}
+  $NB run --runs-dir "$RUNS" --overwrite -q --task imagenav --split val --agent memory ${LIMIT:+--limit $LIMIT}
   $NB run --runs-dir "$RUNS" --overwrite -q --task imagenav --split val --agent memory --no-look-round \
     ${LIMIT:+--limit $LIMIT}
 }
@@ -43,12 +42,11 @@ tables() {
   local m=$RUNS/imagenav/val
   { echo "# ImageNav val (\`make results-tasks\`; the oracle's run: \`make results-oracle\`)"; echo
     shown $NB table "$m/oracle" "$m/memory" "$m/memory-nolookround"; echo
-    echo "The memory agent (the first $IK episodes of each house) paired with the oracle: \`navbench compare" \
-      "$m/memory $m/oracle\`"; echo
+    echo "Paired on the episodes both ran: \`navbench compare $m/memory $m/oracle\`"; echo
     echo '```'; $NB compare "$m/memory" "$m/oracle"; echo '```'; echo
-    echo "What its look round at the goal adds, paired on the first $IK episodes of each house: \`navbench compare" \
-      "--per-scene $IK $m/memory-nolookround $m/memory\`"; echo
-    echo '```'; $NB compare --per-scene "$IK" "$m/memory-nolookround" "$m/memory"; echo '```'; echo
+    echo "What its look round at the goal adds, paired by episode: \`navbench compare $m/memory-nolookround" \
+      "$m/memory\`"; echo
+    echo '```'; $NB compare "$m/memory-nolookround" "$m/memory"; echo '```'; echo
     echo "How far the goal-camera estimates (before any look round) fell from where the goal images were taken (xz)," \
       "all 400 episodes:"; echo
     shown $PY -m navbench.eval.imagegoal_errors "$m/memory-nolookround"; } > results/imagenav.md
