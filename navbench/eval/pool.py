@@ -167,8 +167,9 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
     """Run ``tasks`` on ``workers`` processes, handing every record (run or failed) to ``finish``, and about once a
     second the episodes in flight to ``live`` (see :meth:`_Worker.in_flight`).
 
-    Bad input raised in a worker (a bad episode or scene, an agent that cannot be built) is raised here
-    after the records sent before it are finished; ``finish`` may raise to stop the run.
+    Bad input raised in a worker (a bad episode or scene, an agent that cannot be built) ends the run: no
+    further episode is handed out, the episodes other workers have in flight finish and are recorded, then it
+    is raised here; ``finish`` may raise to stop the run.
     """
     ctx = get_context("spawn")  # torch and OSMesa state must not be forked
     queue: deque[list[Key]] = deque(tasks)
@@ -198,6 +199,7 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
             pool.remove(w)
 
     last_live = time.monotonic()
+    error: BaseException | None = None  # the first bad input a worker raised: raised once the others are done
     try:
         pool.extend(spawn() for _ in range(max(1, min(workers, len(tasks)))))
         while queue or any(w.task is not None for w in pool):
@@ -231,7 +233,9 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
                 elif kind is Msg.DONE:
                     w.task = None
                 elif kind is Msg.ERROR:
-                    raise value
+                    error = error or value
+                    w.task = None
+                    queue.clear()  # nothing more is handed out; what other workers have begun finishes
             if live is not None and time.monotonic() - last_live >= _LIVE_EVERY:
                 last_live = time.monotonic()
                 live([e for w in pool if w.ready for e in w.in_flight()])
@@ -242,6 +246,8 @@ def run_pool(cfg, make_agent, tasks: list[list[Key]], finish: Callable[[dict[str
                     if w.task is not None and w.kill_reason is None and t and now - t > step_timeout:
                         w.kill_reason = step_timeout_reason(now - t, step_timeout)
                         w.proc.kill()  # its pipe then reads EOF: lost() records the call's episodes
+        if error is not None:
+            raise error
     finally:
         for w in pool:
             w.stop()
