@@ -91,7 +91,7 @@ results-benchmark: setup  # the generated 36-house benchmark's val_unseen (docs/
 	h=$(RUNS)/objectnav/val_unseen_h36; { echo '# Generated benchmark (36 houses), val_unseen: `make results-benchmark`'; \
 	  echo; $(NB) table $$h/*; echo; echo '```'; $(NB) compare $$h/frontier $$h/memory; echo '```'; } > results/benchmark_h36.md
 results-realistic: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/realistic.sh all  # docs/realistic.md; resumable
-results-vlnce: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/vlnce.sh > results/vlnce.md  # R2R-CE baselines, ~40 min
+results-vlnce: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/vlnce.sh > results/vlnce.md  # R2R-CE baselines, ~20 min
 results-tasks: setup ; NB="$(NB)" PY=$(BIN)/python RUNS=$(RUNS) bash results/tasks.sh all  # InstanceImageNav, GOAT, ImageNav
 figures: setup  # docs/img/topdown.png and docs/img/report.png, the README's pictures
 	NB=$(NB) bash docs/figures.sh

@@ -6,7 +6,7 @@
 # simulator's pose); the memory agent's GPS run under navbench-r2r-ce (the same plus GPS+compass, which no measure
 # reads).
 set -eu
-NB=${NB:-navbench} RUNS=${RUNS:-results/runs} MK=${MK:-6}
+NB=${NB:-navbench} RUNS=${RUNS:-results/runs} MK=${MK:-30}
 RUN="$NB run --runs-dir $RUNS --overwrite -q --task r2r_ce --split val"
 D=$RUNS/r2r_ce/val
 $RUN --agent vln_random >&2
