@@ -675,6 +675,24 @@ def test_approach_plan_walks_onto_a_point_within_a_few_centimetres():
         assert np.hypot(*(p - target)[[0, 2]]) < 0.08
 
 
+def _walk_before_a_wall(agent, steps: int) -> tuple[int, float, float]:
+    """Step ``agent`` (facing a plain wall 2 m ahead, no object in view) until it STOPs or ``steps`` run out,
+    moving it as its actions say; its last action and where it stands (x, z)."""
+    x, z, yaw = 0.0, 0.0, 0.0
+    ids = np.full((H, W, 1), -1, np.int32)
+    rgb = np.full((H, W, 3), 200, np.uint8)
+    action = STOP
+    for _ in range(steps):
+        obs = {**obs_at(wall_depth(2.0), forward=-z, right=x, compass=yaw), "semantic": ids, "rgb": rgb}
+        action = agent.act(obs)
+        if action == STOP:
+            break
+        if action == MOVE_FORWARD:
+            x, z = x - 0.25 * np.sin(yaw), z - 0.25 * np.cos(yaw)
+        yaw += np.radians(30) * (action == TURN_LEFT) - np.radians(30) * (action == TURN_RIGHT)
+    return action, x, z
+
+
 def test_on_imagenav_with_look_round_it_searches_its_views_and_tries_the_next_place_when_they_disagree():
     from navbench.localize.imagegoal import CameraEstimate
 
@@ -697,17 +715,7 @@ def test_on_imagenav_with_look_round_it_searches_its_views_and_tries_the_next_pl
     agent = MemoryAgent(localiser, ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True, image_tries=2),
                         ENV)
     agent.reset(episode)
-    x, z, yaw = 0.0, 0.0, 0.0
-    ids = np.full((H, W, 1), -1, np.int32)
-    rgb = np.full((H, W, 3), 200, np.uint8)
-    for _ in range(100):
-        obs = {**obs_at(wall_depth(2.0), forward=-z, right=x, compass=yaw), "semantic": ids, "rgb": rgb}
-        action = agent.act(obs)
-        if action == STOP:
-            break
-        if action == MOVE_FORWARD:
-            x, z = x - 0.25 * np.sin(yaw), z - 0.25 * np.cos(yaw)
-        yaw += np.radians(30) * (action == TURN_LEFT) - np.radians(30) * (action == TURN_RIGHT)
+    action, x, z = _walk_before_a_wall(agent, 100)
     assert action == STOP
     events = [e["event"] for e in agent.episode_log()["events"]]
     assert events.count("look_round") == 2 and events.count("image_match") == 2
@@ -731,15 +739,6 @@ def test_on_imagenav_with_look_round_it_walks_onto_the_pose_its_views_give_whate
     episode = Episode("1", "houses/val/house_008.glb", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
     agent = MemoryAgent(Localiser(), ScriptedPolicy(STOP), MemoryAgentConfig(image_look_round=True), ENV)
     agent.reset(episode)
-    x, z, yaw = 0.0, 0.0, 0.0
-    for _ in range(60):
-        obs = {**obs_at(wall_depth(2.0), forward=-z, right=x, compass=yaw),
-               "semantic": np.full((H, W, 1), -1, np.int32), "rgb": np.full((H, W, 3), 200, np.uint8)}
-        action = agent.act(obs)
-        if action == STOP:
-            break
-        if action == MOVE_FORWARD:
-            x, z = x - 0.25 * np.sin(yaw), z - 0.25 * np.cos(yaw)
-        yaw += np.radians(30) * (action == TURN_LEFT) - np.radians(30) * (action == TURN_RIGHT)
+    action, x, z = _walk_before_a_wall(agent, 60)
     assert action == STOP and [e["event"] for e in agent.episode_log()["events"]].count("look_round") == 1
     assert np.hypot(x - 0.2, z + 0.6) < 0.08  # one place by default: no alternative is tried
