@@ -183,3 +183,30 @@ def test_vector_env_workers_import_navbench_habitat_sim(method):
         assert all(s[0]["depth"].shape == (256, 256, 1) for s in steps)
     finally:
         envs.close()
+
+
+def test_r2r_instruction_and_reset_geodesic_are_navbenchs():
+    from habitat.tasks.nav.shortest_path_follower import ShortestPathFollower
+
+    from navbench.env.base import NavEnv
+    from navbench.env.config import EnvConfig
+
+    data, cfg = _bundled("benchmark/nav/vln_r2r.yaml", "r2r_ce", "val")
+    # vln_r2r.yaml keeps habitat-lab's default body: radius 0.1 m, height 1.5 m, climb 0.2 m
+    ours = NavEnv(task="r2r_ce", dataset=data,
+                  config=EnvConfig(agent_radius=0.1, agent_height=1.5, max_climb=0.2, rgb=False, depth=False))
+    with habitat.Env(config=cfg) as env:
+        try:
+            obs = env.reset()
+            ep = env.current_episode
+            theirs, info = ours.reset(options={"episode": ep.episode_id})
+            assert obs["instruction"]["text"] == ep.instruction.instruction_text == theirs["instruction"]["text"]
+            assert env.get_metrics()["distance_to_goal"] == pytest.approx(info["geodesic_distance"], abs=1e-9)
+            # habitat-lab's VLN success: STOP within success_distance (0.2 m in vln_r2r.yaml)
+            follower = ShortestPathFollower(env.sim, goal_radius=0.15, return_one_hot=False)
+            while not env.episode_over:
+                env.step(follower.get_next_action(ep.goals[0].position))
+            metrics = env.get_metrics()
+            assert metrics["success"] == 1.0 and metrics["spl"] > 0.8, metrics
+        finally:
+            ours.close()
