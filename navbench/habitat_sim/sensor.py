@@ -3,9 +3,13 @@
 A :class:`Sensor` is a scene node under its agent's body, placed by its spec (``position`` relative to the body,
 ``orientation`` Euler radians applied about x, then y, then z in the body frame, as habitat-sim's
 ``Sensor::setTransformationFromSpec``); the simulator renders it at the node's absolute pose with navbench's
-renderer at the spec's own resolution, hfov, near and far. Observations are habitat-sim's: COLOR ``uint8 (H, W, 4)``
-RGBA, DEPTH ``float32 (H, W)`` z-depth in metres with 0 where nothing was hit, SEMANTIC ``uint32 (H, W)``, the
-instance ids ``semantic_scene`` lists, 0 for structure and background.
+renderer at the spec's own resolution, near and far. A PINHOLE camera sees ``hfov`` across; an ORTHOGRAPHIC one
+looks along parallel rays over ``1 / ortho_scale`` metres across and ``H / W / ortho_scale`` down (habitat-sim's
+``projectionMatrixInternal``, ``src/esp/sensor/CameraSensor.cpp``). Observations are habitat-sim's: COLOR
+``uint8 (H, W, 4)`` RGBA, DEPTH ``float32 (H, W)`` z-depth in metres with 0 where nothing was hit (for both
+projections; habitat-sim itself unprojects an orthographic depth buffer with the perspective formula of
+``src/esp/gfx_batch/DepthUnprojection.cpp``, so its orthographic DEPTH is not in metres), SEMANTIC
+``uint32 (H, W)``, the instance ids ``semantic_scene`` lists, 0 for structure and background.
 """
 
 from __future__ import annotations
@@ -76,12 +80,15 @@ def check_spec(spec: SensorSpec) -> None:
     if isinstance(spec, (EquirectangularSensorSpec, FisheyeSensorSpec)) or spec.sensor_subtype in (
             SensorSubType.FISHEYE, SensorSubType.EQUIRECTANGULAR):
         raise NotImplementedError(f"{name}: {spec.sensor_subtype.name} sensors are not supported ({COVERAGE} with "
-                                  "pinhole cameras)")
+                                  "pinhole and orthographic cameras)")
     if not isinstance(spec, CameraSensorSpec):
-        raise NotImplementedError(f"{name}: {type(spec).__name__} is not supported ({COVERAGE} with pinhole cameras)")
-    if spec.sensor_subtype != SensorSubType.PINHOLE:
-        raise NotImplementedError(f"{name}: sensor_subtype {spec.sensor_subtype.name} is not supported yet (PINHOLE "
-                                  "is)")
+        raise NotImplementedError(f"{name}: {type(spec).__name__} is not supported ({COVERAGE} with pinhole and "
+                                  "orthographic cameras)")
+    if spec.sensor_subtype not in (SensorSubType.PINHOLE, SensorSubType.ORTHOGRAPHIC):
+        raise NotImplementedError(f"{name}: sensor_subtype {spec.sensor_subtype.name} is not supported (PINHOLE and "
+                                  "ORTHOGRAPHIC are)")
+    if spec.sensor_subtype == SensorSubType.ORTHOGRAPHIC and not float(spec.ortho_scale) > 0.0:
+        raise ValueError(f"{name}: ortho_scale must be greater than 0, got {spec.ortho_scale}")
     if spec.sensor_type not in (SensorType.COLOR, SensorType.DEPTH, SensorType.SEMANTIC):
         raise NotImplementedError(f"{name}: sensor_type {spec.sensor_type.name} is not supported (COLOR, DEPTH "
                                   "and SEMANTIC are)")

@@ -20,7 +20,7 @@ import numpy as np
 from navbench.habitat_sim import magnum as mn
 from navbench.habitat_sim.agent.agent import Agent, AgentState
 from navbench.habitat_sim.agent.controls import ObjectControls
-from navbench.habitat_sim.config import Configuration, SensorType
+from navbench.habitat_sim.config import Configuration, SensorSubType, SensorType
 from navbench.habitat_sim.nav import GreedyGeodesicFollower, PathFinder, nav_grid_config
 from navbench.habitat_sim.scene import SceneNode, SemanticCategory, SemanticObject, SemanticScene
 from navbench.habitat_sim.sensor import COVERAGE, Sensor, apply_noise, check_spec
@@ -180,8 +180,9 @@ class Simulator:
         from navbench.render.renderer import Renderer
 
         h, w = (int(v) for v in np.asarray(spec.resolution).reshape(2))
+        ortho = float(spec.ortho_scale) if spec.sensor_subtype == SensorSubType.ORTHOGRAPHIC else None
         camera = CameraConfig(width=w, height=h, hfov_deg=float(spec.hfov), znear=float(spec.near),
-                              zfar=float(spec.far))
+                              zfar=float(spec.far), ortho_scale=ortho)
         if camera not in self._nb_renderers:
             self._nb_renderers[camera] = Renderer(self._nb_asset, camera)
         return self._nb_renderers[camera]
@@ -192,8 +193,9 @@ class Simulator:
         for s in sensors:
             pos, rot = s.world_pose()
             spec = s.specification()
+            ortho = float(spec.ortho_scale) if spec.sensor_subtype == SensorSubType.ORTHOGRAPHIC else None
             key = (tuple(np.asarray(spec.resolution).reshape(2).tolist()), float(spec.hfov), float(spec.near),
-                   float(spec.far), pos.tobytes(), rot.tobytes())
+                   float(spec.far), ortho, pos.tobytes(), rot.tobytes())
             groups.setdefault(key, []).append(s)
         out: dict[str, np.ndarray] = {}
         for members in groups.values():
