@@ -2,13 +2,15 @@
 draws.
 
 * HM3D (``{name}.semantic.txt`` + semantic mesh), as habitat-sim's ``SemanticScene::buildHM3DHouse``
-  (``src/esp/scene/HM3DSemanticScene.cpp``): ``objects`` are object 0 (category ``"Unknown"``, region -1) and every
-  row of semantic.txt, ordered by instance id; ``objects[k].id`` is ``"{raw name}_{instance id}"``; categories are
-  the raw names, indexed in order of first appearance from ``"Unknown"`` = 0 (listed by index: habitat-sim lists
-  them in hash order); regions are the region ids (ordered, -1 first), ``id`` ``"_{region id}"``, no category;
-  no levels. An object's ``aabb`` (and unrotated ``obb``) bounds its faces of the render mesh (habitat-sim bounds
-  the largest connected part of its semantic-mesh vertices). The sensor draws every listed object's id (walls
-  and floors too) and 0 where the colour is not listed.
+  (``src/esp/scene/HM3DSemanticScene.cpp``): ``objects`` are object 0 (category ``"Unknown"``, region -1) and
+  every row of semantic.txt, ordered by instance id; ``objects[k].id`` is ``"{raw name}_{instance id}"``. Where
+  semantic.txt skips an id, habitat-sim's list is shorter and no longer indexed by id (habitat-lab's ObjectNav
+  goal lookup then fails); here the gap holds an ``"Unknown"`` object, so ``objects[i]`` is always instance
+  ``i``. Categories are the raw names, indexed in order of first appearance from ``"Unknown"`` = 0 (listed by
+  index; habitat-sim lists them in hash order); regions are the region ids (ordered, -1 first), ``id``
+  ``"_{region id}"``, no category; no levels. An object's ``aabb`` (and unrotated ``obb``) bounds its faces of
+  the render mesh (habitat-sim bounds the largest connected part of its semantic-mesh vertices). The sensor
+  draws every listed object's id (walls and floors too) and 0 where the colour is not listed.
 * MP3D (``{name}.house`` + ``{name}_semantic.ply``), as ``SemanticScene::buildMp3dHouse``
   (``src/esp/scene/Mp3dSemanticScene.cpp``): levels, regions, categories and objects in file order; ``L``, ``R``
   and ``O`` positions and boxes turned from Matterport's z-up frame into Habitat's, as habitat-sim's default
@@ -120,8 +122,8 @@ def hm3d_scene(asset, txt: Path, sem_mesh: Path, frame) -> tuple[SemanticScene, 
     for name, region in [("Unknown", -1)] + [(n, r) for _, _, n, r in records]:  # first appearance, as habitat-sim
         categories.setdefault(name, SemanticCategory(len(categories), name))
         regions.setdefault(region, SemanticRegion(region))
-    for oid in sorted(rows):
-        name, region = rows[oid]
+    for oid in range(max(rows) + 1):  # an id semantic.txt skips is an Unknown object (see the module docstring)
+        name, region = rows.get(oid, ("Unknown", -1))
         obj = SemanticObject(oid, categories[name], boxes.get(oid, mn.Range3D()), regions[region])
         regions[region].objects.append(obj)
         scene.objects.append(obj)

@@ -64,6 +64,18 @@ def test_hm3d_semantic_scene_is_habitat_sims(tmp_path):
         assert sem.objects[k].semantic_id == k and sem.objects[k].id.endswith(f"_{k}")
 
 
+def test_hm3d_id_missing_from_semantic_txt_keeps_objects_indexed_by_id(tmp_path):
+    mesh = F.write_hm3d_scene(tmp_path / "scene_datasets" / "hm3d")
+    txt = mesh.parent / "abcDEFghiJK.semantic.txt"
+    txt.write_text("".join(line for line in txt.read_text().splitlines(True) if not line.startswith("2,")))
+    with _sim(mesh) as sim:
+        sem = sim.semantic_scene
+        ids = _ids_towards_the_wall(sim)
+    # habitat-sim would list 4 objects with tv_4 at index 3; habitat-lab's ObjectNav looks goals up by index
+    assert [o.id for o in sem.objects] == ["Unknown_0", "floor_1", "Unknown_2", "armchair_3", "tv_4"]
+    assert 2 not in ids and {1, 3, 4} <= set(np.unique(ids).tolist())  # the wall's colour is no longer listed
+
+
 def test_mp3d_semantic_scene_is_habitat_sims(tmp_path):
     with _sim(F.write_mp3d_scene(tmp_path / "scene_datasets" / "mp3d")) as sim:
         sem = sim.semantic_scene
