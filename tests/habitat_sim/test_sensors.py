@@ -127,3 +127,27 @@ def test_orthographic_depth_is_linearized_alike_on_both_draw_paths(wall_scene):
     assert np.array_equal(direct.ids, pyr.ids)
     np.testing.assert_allclose(pyr.depth, direct.depth, atol=1e-3)
     np.testing.assert_allclose(pyr.depth[pyr.ids < 0], -WALL_Z, atol=1e-3)
+
+
+def test_constrained_look_stops_at_the_constraint_as_habitat_sim():
+    from navbench.habitat_sim import magnum as mn
+    from navbench.habitat_sim.agent import controls
+    from navbench.habitat_sim.scene import SceneNode
+
+    def pitch(node):  # degrees above level of the node's front
+        front = np.asarray(node.rotation.transform_vector(mn.Vector3(0.0, 0.0, -1.0)), np.float64)
+        return np.degrees(np.arctan2(front[1], -front[2]))
+
+    node = SceneNode()
+    up = hs.ActuationSpec(amount=20.0, constraint=30.0)
+    controls.look_up(node, up)
+    assert pitch(node) == pytest.approx(20.0, abs=1e-4)
+    controls.look_up(node, up)  # cut short at the constraint (habitat-sim's default_controls._rotate_local)
+    assert pitch(node) == pytest.approx(30.0, abs=1e-4)
+    controls.look_down(node, hs.ActuationSpec(amount=75.0, constraint=30.0))
+    assert pitch(node) == pytest.approx(-30.0, abs=1e-4)
+    controls.look_down(node, hs.ActuationSpec(amount=10.0))  # no constraint: no limit
+    assert pitch(node) == pytest.approx(-40.0, abs=1e-4)
+    node.rotate_y_local(mn.Deg(10.0))
+    with pytest.raises(RuntimeError, match="singular look action"):
+        controls.look_up(node, up)
