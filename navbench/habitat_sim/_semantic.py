@@ -53,10 +53,12 @@ def load_semantics(asset) -> tuple[SemanticScene, np.ndarray]:
     (-1, drawn as 0, where none)."""
     from navbench.scene import datasets
     from navbench.scene.asset import semantic_path
+    from navbench.scene.datasets import instances
 
     path = Path(asset.path)
     found = None
-    if path.is_file() and not semantic_path(path).is_file():
+    # the files navbench.scene.asset.load_scene read the annotations from: a sidecar or a scene instance are its own
+    if path.is_file() and not semantic_path(path).is_file() and not instances.is_scene_instance(path):
         found = datasets.annotation_files(path, datasets.stage_attributes(path))
     if found is None:
         return own_scene(asset), np.asarray(asset.face_ids, np.int32)
