@@ -57,8 +57,9 @@ class OBB:
 
     @property
     def world_to_local(self) -> mn.Matrix4:
-        inv = (self._r / self._half).T
-        return mn.Matrix4.from_(inv, -inv @ self._center)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a flat box: inf, as habitat-sim's float division
+            inv = (self._r / self._half).T
+            return mn.Matrix4.from_(inv, -inv @ self._center)
 
     def to_aabb(self) -> mn.Range3D:
         """The axis-aligned box bounding this one."""
@@ -66,8 +67,9 @@ class OBB:
         return mn.Range3D(corners.min(axis=0), corners.max(axis=0))
 
     def contains(self, p, epsilon: float = 1e-6) -> bool:
-        local = (np.asarray(p, np.float64) - self._center) @ self._r / self._half
-        return bool(np.all(np.abs(local) <= 1.0 + epsilon))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            local = (np.asarray(p, np.float64) - self._center) @ self._r / self._half
+        return not bool(np.any(np.abs(local) > 1.0 + epsilon))  # habitat-sim's test (NaN counts as inside)
 
     def closest_point(self, p) -> mn.Vector3:
         d = (np.asarray(p, np.float64) - self._center) @ self._r
