@@ -1,4 +1,5 @@
-"""``habitat_sim.scene``: scene-graph nodes (a translation and a rotation under a parent) and the semantic scene.
+"""``habitat_sim.scene``: scene-graph nodes (a translation and a rotation under a parent) and the semantic scene's
+types (objects, categories, levels, regions).
 
 A :class:`SceneNode` is Magnum's TranslationRotationScalingTransformation3D without scaling: its local
 transformation is ``T(translation) R(rotation)``, its absolute one the parent's times that. Agents and sensors
@@ -12,6 +13,7 @@ import enum
 import numpy as np
 
 from navbench.habitat_sim import magnum as mn
+from navbench.habitat_sim.geo import OBB
 
 
 class SceneNodeType(enum.Enum):
@@ -109,6 +111,9 @@ class SceneNode:
 
 
 class SemanticCategory:
+    """An object or region category: ``index(mapping)`` and ``name(mapping)``. habitat-sim's HM3D categories and
+    navbench's own answer ``""`` and ``"category"``; other mappings give ``"UNKNOWN"`` (index unchanged)."""
+
     def __init__(self, index: int, name: str) -> None:
         self._index, self._name = index, name
 
@@ -116,43 +121,122 @@ class SemanticCategory:
         return self._index
 
     def name(self, mapping: str = "") -> str:
+        return self._name if mapping in ("", "category") else "UNKNOWN"
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._index}, {self._name!r})"
+
+
+class Mp3dObjectCategory(SemanticCategory):
+    """A ``.house`` ``C`` record: ``index()`` / ``name()`` are its mpcat40 index and name (mapping ``""`` or
+    ``"mpcat40"``), ``index("raw")`` / ``name("raw")`` its category mapping's; -1 and ``""`` for another
+    mapping and for an object without a category (habitat-sim's ``Mp3dSemanticScene.cpp``)."""
+
+    def __init__(self, index: int = -1, raw_index: int = -1, raw_name: str = "", mpcat40_index: int = -1,
+                 mpcat40_name: str = "") -> None:
+        super().__init__(mpcat40_index, mpcat40_name)
+        self.category_index = index
+        self._raw_index, self._raw_name = raw_index, raw_name
+
+    def index(self, mapping: str = "") -> int:
+        return self._index if mapping in ("", "mpcat40") else self._raw_index if mapping == "raw" else -1
+
+    def name(self, mapping: str = "") -> str:
+        return self._name if mapping in ("", "mpcat40") else self._raw_name if mapping == "raw" else ""
+
+
+# habitat-sim's kRegionCategoryMap (Mp3dSemanticScene.cpp): a region's one-letter label -> its name; the index is
+# the label's rank in this table ordered by character, as std::map orders it
+MP3D_REGION_NAMES = {
+    "a": "bathroom", "b": "bedroom", "c": "closet", "d": "dining room", "e": "entryway/foyer/lobby",
+    "f": "familyroom/lounge", "g": "garage", "h": "hallway", "i": "library", "j": "laundryroom/mudroom",
+    "k": "kitchen", "l": "living room", "m": "meetingroom/conferenceroom", "n": "lounge", "o": "office",
+    "p": "porch/terrace/deck", "r": "rec/game", "s": "stairs", "t": "toilet", "u": "utilityroom/toolroom",
+    "v": "tv", "w": "workout/gym/exercise", "x": "outdoor", "y": "balcony", "z": "other room", "B": "bar",
+    "C": "classroom", "D": "dining booth", "S": "spa/sauna", "Z": "junk"}
+_MP3D_REGION_ORDER = sorted(MP3D_REGION_NAMES)
+
+
+class Mp3dRegionCategory(SemanticCategory):
+    """A region's label code: ``index()`` its rank in habitat-sim's table, ``name()`` its name; a code outside
+    the table (``-``, unlabeled) ranks after the table, named ``"unlabeled"`` (habitat-sim raises there)."""
+
+    def __init__(self, label_code: str) -> None:
+        code = label_code[:1]
+        rank = _MP3D_REGION_ORDER.index(code) if code in MP3D_REGION_NAMES else len(_MP3D_REGION_ORDER)
+        super().__init__(rank, MP3D_REGION_NAMES.get(code, "unlabeled"))
+        self.label_code = code
+
+    def name(self, mapping: str = "") -> str:
         return self._name
 
 
 class SemanticLevel:
-    def __init__(self, id: str = "0") -> None:  # noqa: A002  (habitat-sim's name)
+    """A storey: ``id`` (its index as a string), ``aabb``, its ``regions`` and ``objects``."""
+
+    def __init__(self, id: str = "0", aabb: mn.Range3D | None = None) -> None:  # noqa: A002  (habitat-sim's name)
         self.id = id
-        self.aabb = mn.Range3D()
+        self.aabb = mn.Range3D() if aabb is None else aabb
+        self.position = mn.Vector3()
         self.objects: list[SemanticObject] = []
         self.regions: list[SemanticRegion] = []
 
 
 class SemanticRegion:
-    def __init__(self, id: str, category: SemanticCategory, aabb: mn.Range3D) -> None:  # noqa: A002
-        self.id = id
+    """A room: ``id`` (its name if it has one, else ``"{level id}_{index}"``, or ``"_{index}"`` without a level, as
+    habitat-sim's ``SemanticRegion::id``), ``category`` (None where the dataset gives none), ``aabb``, ``level``,
+    ``objects``."""
+
+    def __init__(self, index: int, category: SemanticCategory | None = None, aabb: mn.Range3D | None = None,
+                 level: SemanticLevel | None = None, name: str = "") -> None:
+        self.index = index
+        self.name = name
         self.category = category
-        self.aabb = aabb
-        self.level: SemanticLevel | None = None
+        self.aabb = mn.Range3D() if aabb is None else aabb
+        self.position = mn.Vector3()
+        self.level = level
         self.objects: list[SemanticObject] = []
+
+    @property
+    def id(self) -> str:
+        if self.name:
+            return self.name
+        return f"{self.level.id}_{self.index}" if self.level is not None else f"_{self.index}"
 
 
 class SemanticObject:
-    """An annotated object: ``id`` ``"{category}_{semantic_id}"``, ``semantic_id`` (the SEMANTIC sensor's value),
-    ``category``, ``aabb`` (an ``mn.Range3D``), ``region``."""
+    """An annotated object: ``semantic_id`` (the SEMANTIC sensor's value), ``id``, ``category``, ``aabb`` (an
+    ``mn.Range3D``), ``obb`` (a ``geo.OBB``), ``region``.
+
+    ``id`` is ``"{category name}_{semantic_id}"`` (habitat-sim's HM3D objects, and navbench's own), or, with
+    ``id_from_region``, ``"{region id}_{semantic_id}"`` (habitat-sim's ``SemanticObject::id``, MP3D's objects)."""
 
     def __init__(self, semantic_id: int, category: SemanticCategory, aabb: mn.Range3D,
-                 region: SemanticRegion | None = None) -> None:
+                 region: SemanticRegion | None = None, obb: OBB | None = None, id_from_region: bool = False) -> None:
         self.semantic_id = semantic_id
-        self.id = f"{category.name()}_{semantic_id}"
         self.category = category
+        self.obb = OBB(aabb) if obb is None else obb
         self.aabb = aabb
-        self.obb = None
         self.region = region
+        self._id_from_region = id_from_region
+        self._name = f"{category.name()}_{semantic_id}"
+
+    @property
+    def id(self) -> str:
+        if not self._id_from_region:
+            return self._name
+        return f"{self.region.id}_{self.semantic_id}" if self.region is not None else f"_{self.semantic_id}"
+
+    def __repr__(self) -> str:
+        return f"SemanticObject({self.id!r}, semantic_id={self.semantic_id})"
 
 
 class SemanticScene:
+    """Objects, categories, levels and regions of the loaded scene (see :mod:`navbench.habitat_sim._semantic` for
+    how each dataset's files fill them)."""
+
     def __init__(self) -> None:
-        self.objects: list[SemanticObject | None] = []
+        self.objects: list[SemanticObject] = []
         self.categories: list[SemanticCategory] = []
         self.levels: list[SemanticLevel] = []
         self.regions: list[SemanticRegion] = []

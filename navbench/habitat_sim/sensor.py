@@ -3,9 +3,13 @@
 A :class:`Sensor` is a scene node under its agent's body, placed by its spec (``position`` relative to the body,
 ``orientation`` Euler radians applied about x, then y, then z in the body frame, as habitat-sim's
 ``Sensor::setTransformationFromSpec``); the simulator renders it at the node's absolute pose with navbench's
-renderer at the spec's own resolution, hfov, near and far. Observations are habitat-sim's: COLOR ``uint8 (H, W, 4)``
-RGBA, DEPTH ``float32 (H, W)`` z-depth in metres with 0 where nothing was hit, SEMANTIC ``uint32 (H, W)``, the
-instance ids ``semantic_scene`` lists, 0 for structure and background.
+renderer at the spec's own resolution, near and far. A PINHOLE camera sees ``hfov`` across; an ORTHOGRAPHIC one
+looks along parallel rays over ``1 / ortho_scale`` metres across and ``H / W / ortho_scale`` down (habitat-sim's
+``projectionMatrixInternal``, ``src/esp/sensor/CameraSensor.cpp``). Observations are habitat-sim's: COLOR
+``uint8 (H, W, 4)`` RGBA, DEPTH ``float32 (H, W)`` z-depth in metres with 0 where nothing was hit (for both
+projections; habitat-sim itself unprojects an orthographic depth buffer with the perspective formula of
+``src/esp/gfx_batch/DepthUnprojection.cpp``, so its orthographic DEPTH is not in metres), SEMANTIC
+``uint32 (H, W)``, the instance ids ``semantic_scene`` lists, 0 for structure and background.
 """
 
 from __future__ import annotations
@@ -43,12 +47,15 @@ NOISE_MODELS: dict[str, tuple[SensorType, ...]] = {
     "SaltAndPepperNoiseModel": (SensorType.COLOR,)}
 NOISE_KWARGS: dict[str, set[str]] = {
     "None": set(), "": set(), "RedwoodDepthNoiseModel": {"noise_multiplier"},
-    "GaussianNoiseModel": {"intensity_constant", "mean", "sigma"}, "SpeckleNoiseModel": {"intensity_constant"},
+    "GaussianNoiseModel": {"intensity_constant", "mean", "sigma"},
+    "SpeckleNoiseModel": {"intensity_constant", "mean", "sigma"},
     "PoissonNoiseModel": set(), "SaltAndPepperNoiseModel": {"amount", "s_vs_p"}}
 
 
 def apply_noise(spec: SensorSpec, obs: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """``obs`` with the spec's noise model applied (COLOR: to the RGB channels), drawn from ``rng``."""
+    """``obs`` with the spec's noise model applied, drawn from ``rng``. A COLOR observation is noised whole, alpha
+    included, as habitat-sim 0.3.3's ``Sensor.get_observation`` hands its RGBA buffer to the noise model
+    (``src_python/habitat_sim/simulator.py``): salt and pepper then reaches the blue channel and never alpha."""
     from navbench.env import noise
 
     model, kw = str(spec.noise_model), dict(spec.noise_model_kwargs or {})
@@ -56,18 +63,13 @@ def apply_noise(spec: SensorSpec, obs: np.ndarray, rng: np.random.Generator) -> 
         return obs
     if model == "RedwoodDepthNoiseModel":
         return noise.redwood_depth(obs, float(kw.get("noise_multiplier", 1.0)), rng)
-    rgb = np.ascontiguousarray(obs[..., :3])
     if model == "GaussianNoiseModel":
-        rgb = noise.gaussian_rgb(rgb, float(kw.get("intensity_constant", 0.2)), rng)
-    elif model == "SpeckleNoiseModel":
-        rgb = noise.speckle_rgb(rgb, float(kw.get("intensity_constant", 0.2)), rng)
-    elif model == "PoissonNoiseModel":
-        rgb = noise.poisson_rgb(rgb, rng)
-    else:
-        rgb = noise.salt_and_pepper_rgb(rgb, rng, float(kw.get("amount", 0.05)), float(kw.get("s_vs_p", 0.5)))
-    out = obs.copy()
-    out[..., :3] = rgb
-    return out
+        return noise.gaussian_rgb(obs, float(kw.get("intensity_constant", 0.2)), rng)
+    if model == "SpeckleNoiseModel":
+        return noise.speckle_rgb(obs, float(kw.get("intensity_constant", 0.2)), rng)
+    if model == "PoissonNoiseModel":
+        return noise.poisson_rgb(obs, rng)
+    return noise.salt_and_pepper_rgb(obs, rng, float(kw.get("amount", 0.05)), float(kw.get("s_vs_p", 0.5)))
 
 
 def check_spec(spec: SensorSpec) -> None:
@@ -76,12 +78,15 @@ def check_spec(spec: SensorSpec) -> None:
     if isinstance(spec, (EquirectangularSensorSpec, FisheyeSensorSpec)) or spec.sensor_subtype in (
             SensorSubType.FISHEYE, SensorSubType.EQUIRECTANGULAR):
         raise NotImplementedError(f"{name}: {spec.sensor_subtype.name} sensors are not supported ({COVERAGE} with "
-                                  "pinhole cameras)")
+                                  "pinhole and orthographic cameras)")
     if not isinstance(spec, CameraSensorSpec):
-        raise NotImplementedError(f"{name}: {type(spec).__name__} is not supported ({COVERAGE} with pinhole cameras)")
-    if spec.sensor_subtype != SensorSubType.PINHOLE:
-        raise NotImplementedError(f"{name}: sensor_subtype {spec.sensor_subtype.name} is not supported yet (PINHOLE "
-                                  "is)")
+        raise NotImplementedError(f"{name}: {type(spec).__name__} is not supported ({COVERAGE} with pinhole and "
+                                  "orthographic cameras)")
+    if spec.sensor_subtype not in (SensorSubType.PINHOLE, SensorSubType.ORTHOGRAPHIC):
+        raise NotImplementedError(f"{name}: sensor_subtype {spec.sensor_subtype.name} is not supported (PINHOLE and "
+                                  "ORTHOGRAPHIC are)")
+    if spec.sensor_subtype == SensorSubType.ORTHOGRAPHIC and not float(spec.ortho_scale) > 0.0:
+        raise ValueError(f"{name}: ortho_scale must be greater than 0, got {spec.ortho_scale}")
     if spec.sensor_type not in (SensorType.COLOR, SensorType.DEPTH, SensorType.SEMANTIC):
         raise NotImplementedError(f"{name}: sensor_type {spec.sensor_type.name} is not supported (COLOR, DEPTH "
                                   "and SEMANTIC are)")
@@ -95,8 +100,9 @@ def check_spec(spec: SensorSpec) -> None:
     unknown = set(kwargs) - NOISE_KWARGS[model]
     if unknown:
         raise ValueError(f"{name}: noise_model {model!r} takes {sorted(NOISE_KWARGS[model])}, got {sorted(unknown)}")
-    if model == "GaussianNoiseModel" and (float(kwargs.get("mean", 0.0)), float(kwargs.get("sigma", 1.0))) != (0, 1):
-        raise NotImplementedError(f"{name}: GaussianNoiseModel with mean or sigma other than 0 and 1 is not supported")
+    if model in ("GaussianNoiseModel", "SpeckleNoiseModel") and (
+            float(kwargs.get("mean", 0.0)), float(kwargs.get("sigma", 1.0))) != (0, 1):
+        raise NotImplementedError(f"{name}: {model} with mean or sigma other than 0 and 1 is not supported")
     h, w = (int(v) for v in np.asarray(spec.resolution).reshape(2))
     if h <= 0 or w <= 0:
         raise ValueError(f"{name}: resolution must be positive [H, W], got {[h, w]}")

@@ -5,8 +5,9 @@ Semantics follow habitat-sim's ``src_python/habitat_sim/simulator.py``: each age
 point with a random yaw (drawn from the simulator's generator, seeded by ``sim_cfg.random_seed`` and :meth:`seed`);
 :meth:`reset` returns the agents to that state; :meth:`step` acts, filters body moves through the path finder
 (``try_step``, or ``try_step_no_sliding`` without ``allow_sliding``) and returns the observations with
-``"collided"``; :meth:`reconfigure` reloads only what a changed configuration changes. Physics, the batch
-renderer and object templates are refused in one line.
+``"collided"``; :meth:`reconfigure` reloads only what a changed configuration changes. ``semantic_scene`` and the
+SEMANTIC sensor's ids follow habitat-sim's loaders for HM3D and MP3D (:mod:`navbench.habitat_sim._semantic`).
+Physics, the batch renderer and object templates are refused in one line.
 """
 
 from __future__ import annotations
@@ -17,12 +18,13 @@ from typing import Any
 
 import numpy as np
 
+from navbench.habitat_sim import _semantic
 from navbench.habitat_sim import magnum as mn
 from navbench.habitat_sim.agent.agent import Agent, AgentState
 from navbench.habitat_sim.agent.controls import ObjectControls
-from navbench.habitat_sim.config import Configuration, SensorType
+from navbench.habitat_sim.config import Configuration, SensorSubType, SensorType
 from navbench.habitat_sim.nav import GreedyGeodesicFollower, PathFinder, nav_grid_config
-from navbench.habitat_sim.scene import SceneNode, SemanticCategory, SemanticObject, SemanticScene
+from navbench.habitat_sim.scene import SceneNode, SemanticScene
 from navbench.habitat_sim.sensor import COVERAGE, Sensor, apply_noise, check_spec
 from navbench.habitat_sim.utils.common import quat_from_angle_axis
 
@@ -36,26 +38,6 @@ class _ObjectTemplateManager:
         raise NotImplementedError(f"object templates ({path!r}): {COVERAGE} (no objects beside the scene)")
 
 
-def semantic_scene_of(asset) -> SemanticScene:
-    """The semantic scene of a navbench scene, in habitat-sim's HM3D layout: ``objects[i]`` is the object of instance
-    id ``i`` (its ``semantic_id``, the SEMANTIC sensor's value, and the suffix of its ``id``), ``objects[0]`` and ids
-    no object has are category "Unknown" (0 is also structure and background)."""
-    scene = SemanticScene()
-    unknown = SemanticCategory(0, "Unknown")
-    categories: dict[str, SemanticCategory] = {"Unknown": unknown}
-    top = max((int(k) for k in asset.objects), default=0)
-    for oid in range(top + 1):
-        obj = asset.objects.get(oid)
-        if obj is None:
-            scene.objects.append(SemanticObject(oid, unknown, mn.Range3D()))
-            continue
-        name = str(obj.category)
-        cat = categories.setdefault(name, SemanticCategory(len(categories), name))
-        scene.objects.append(SemanticObject(oid, cat, mn.Range3D(obj.aabb_min, obj.aabb_max)))
-    scene.categories = list(categories.values())
-    return scene
-
-
 class Simulator:
     """habitat-sim's simulator over a navbench scene; ``config`` is a :class:`Configuration`."""
 
@@ -67,6 +49,7 @@ class Simulator:
         self.random = np.random.default_rng(0)
         self._nb_scene_key: tuple | None = None
         self._nb_asset = None
+        self._nb_render_asset = None  # the asset with the SEMANTIC sensor's per-face ids (habitat-sim's)
         self._nb_renderers: dict[Any, Any] = {}
         self._nb_last_state: dict[int, AgentState] = {}
         self._nb_closed = False
@@ -115,7 +98,8 @@ class Simulator:
         self._nb_close_renderers()
         self._nb_asset, grid = load_scene_and_navgrid(path, nav_grid_config(sim_cfg.navmesh_settings))
         self.pathfinder.load_grid(grid, sim_cfg.navmesh_settings)
-        self.semantic_scene = semantic_scene_of(self._nb_asset)
+        self.semantic_scene, face_ids = _semantic.load_semantics(self._nb_asset)
+        self._nb_render_asset = _semantic.render_asset(self._nb_asset, face_ids)
 
     @property
     def _default_agent_id(self) -> int:
@@ -180,10 +164,11 @@ class Simulator:
         from navbench.render.renderer import Renderer
 
         h, w = (int(v) for v in np.asarray(spec.resolution).reshape(2))
+        ortho = float(spec.ortho_scale) if spec.sensor_subtype == SensorSubType.ORTHOGRAPHIC else None
         camera = CameraConfig(width=w, height=h, hfov_deg=float(spec.hfov), znear=float(spec.near),
-                              zfar=float(spec.far))
+                              zfar=float(spec.far), ortho_scale=ortho)
         if camera not in self._nb_renderers:
-            self._nb_renderers[camera] = Renderer(self._nb_asset, camera)
+            self._nb_renderers[camera] = Renderer(self._nb_render_asset, camera)
         return self._nb_renderers[camera]
 
     def _nb_render(self, sensors: list[Sensor]) -> dict[str, np.ndarray]:
@@ -192,8 +177,9 @@ class Simulator:
         for s in sensors:
             pos, rot = s.world_pose()
             spec = s.specification()
+            ortho = float(spec.ortho_scale) if spec.sensor_subtype == SensorSubType.ORTHOGRAPHIC else None
             key = (tuple(np.asarray(spec.resolution).reshape(2).tolist()), float(spec.hfov), float(spec.near),
-                   float(spec.far), pos.tobytes(), rot.tobytes())
+                   float(spec.far), ortho, pos.tobytes(), rot.tobytes())
             groups.setdefault(key, []).append(s)
         out: dict[str, np.ndarray] = {}
         for members in groups.values():

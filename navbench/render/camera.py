@@ -1,4 +1,5 @@
-"""The pinhole camera of the renderer: its configuration, intrinsics, poses and the inverse projection.
+"""The camera of the renderer (pinhole, or orthographic with ``ortho_scale``): its configuration, intrinsics,
+poses and the inverse projection.
 
 Conventions (Habitat): metres, y up, a camera with identity rotation looks along -z with +y up (also
 OpenGL's camera frame); quaternions are ``[x, y, z, w]``. Images have row 0 at the top. Depth is
@@ -24,13 +25,20 @@ class RenderError(ValueError):
 
 @dataclass(frozen=True)
 class CameraConfig:
-    """Pinhole camera: image size in pixels, horizontal field of view, clip planes in metres."""
+    """Pinhole camera: image size in pixels, horizontal field of view, clip planes in metres.
+
+    With ``ortho_scale`` set the projection is orthographic instead, as habitat-sim's ORTHOGRAPHIC camera
+    (``projectionMatrixInternal`` in habitat-sim's ``src/esp/sensor/CameraSensor.cpp``): the image spans
+    ``1 / ortho_scale`` metres across and ``height / width / ortho_scale`` metres down, and ``hfov_deg`` is not
+    used. Depth stays z-depth in metres.
+    """
 
     width: int = 224
     height: int = 224
     hfov_deg: float = 79.0
     znear: float = 0.05
     zfar: float = 50.0
+    ortho_scale: float | None = None
 
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
@@ -39,6 +47,19 @@ class CameraConfig:
             raise RenderError(f"camera hfov_deg must be in (0, 180), got {self.hfov_deg}")
         if not 0.0 < self.znear < self.zfar:
             raise RenderError(f"camera needs 0 < znear < zfar, got znear={self.znear} zfar={self.zfar}")
+        if self.ortho_scale is not None and not 0.0 < self.ortho_scale < math.inf:
+            raise RenderError(f"camera ortho_scale must be positive, got {self.ortho_scale}")
+
+    @property
+    def orthographic(self) -> bool:
+        return self.ortho_scale is not None
+
+    @property
+    def ortho_extent(self) -> tuple[float, float]:
+        """(width, height) in metres of an orthographic camera's view."""
+        if self.ortho_scale is None:
+            raise RenderError("ortho_extent: the camera is a pinhole camera")
+        return 1.0 / self.ortho_scale, self.height / self.width / self.ortho_scale
 
     @property
     def yfov(self) -> float:
@@ -52,6 +73,8 @@ def intrinsics(cfg: CameraConfig) -> np.ndarray:
     ``fx = (W / 2) / tan(hfov / 2)``, ``fy = fx`` (square pixels), principal point
     ``((W - 1) / 2, (H - 1) / 2)``: pixel centres sit at integer coordinates (module docstring).
     """
+    if cfg.orthographic:
+        raise RenderError("intrinsics: an orthographic camera has no pinhole matrix")
     fx = (cfg.width / 2.0) / np.tan(np.radians(cfg.hfov_deg) / 2.0)
     cx, cy = (cfg.width - 1) / 2.0, (cfg.height - 1) / 2.0
     return np.array([[fx, 0.0, cx], [0.0, fx, cy], [0.0, 0.0, 1.0]], dtype=np.float64)

@@ -115,7 +115,7 @@ class DirectDraw:
         self._make_current = functools.partial(OSMesaMakeCurrent, platform._context, platform._buffer,
                                                GL.GL_UNSIGNED_BYTE, camera.width, camera.height)
         self._w, self._h = camera.width, camera.height
-        self._znear, self._zfar = camera.znear, camera.zfar
+        self._znear, self._zfar, self._ortho = camera.znear, camera.zfar, camera.orthographic
         self._centre = (box_min + box_max) / 2.0
         r = gl._renderer
         platform.make_current()
@@ -257,8 +257,13 @@ class DirectDraw:
     def _read_depth(self) -> np.ndarray:
         z = self._zbuf
         self._gl["glReadPixels"](0, 0, self._w, self._h, GL_DEPTH_COMPONENT, GL_FLOAT, z.ctypes.data)
-        # pyrender's linearization, operation for operation in float32 (so the values are its values).
         near, far = self._znear, self._zfar
+        if self._ortho:  # an orthographic depth buffer is linear in z: near at 0, far at 1
+            d = np.multiply(z, far - near)
+            d += near
+            np.copyto(d, 0.0, where=z == 1.0)
+            return d
+        # pyrender's linearization, operation for operation in float32 (so the values are its values).
         d = np.multiply(z, 2.0)
         d -= 1.0
         d *= far - near

@@ -24,8 +24,9 @@ A thin layer over pyrender on OSMesa (default) or EGL, built for a few CPU cores
   (:mod:`navbench.render.frame`). It is drawn, FLAT and single-sampled, only when ids are asked for;
   depth+ids without RGB is one pass.
 
-Camera conventions are :mod:`navbench.render.camera`'s. Depth is linear z-depth along the optical
-axis, float32 metres, 0 where nothing was hit within ``[znear, zfar]``.
+Camera conventions are :mod:`navbench.render.camera`'s (pinhole, or orthographic with ``ortho_scale``).
+Depth is linear z-depth along the optical axis, float32 metres, 0 where nothing was hit within
+``[znear, zfar]``.
 
 Importing this module binds PyOpenGL's platform (:mod:`navbench.render.gl_platform`) and patches
 pyrender's shader cache (:mod:`navbench.render.pyrender_fixes`). It never creates a GL context;
@@ -129,15 +130,23 @@ class Renderer:
         self.platform = platform
         self.frustum_culling = frustum_culling
         # Scan-sized scenes: chunks hidden behind walls are skipped too (see PotentiallyVisible).
-        self.occlusion_culling = (len(asset.mesh.faces) >= OCCLUSION_MIN_FACES if occlusion_culling is None
-                                  else occlusion_culling)
+        # (Not for an orthographic camera, whose rays do not start at the camera's cell.)
+        self.occlusion_culling = (len(asset.mesh.faces) >= OCCLUSION_MIN_FACES and not camera.orthographic
+                                  if occlusion_culling is None else occlusion_culling)
+        if self.occlusion_culling and camera.orthographic:
+            raise RenderError("occlusion_culling needs a pinhole camera (an orthographic view is not seen from "
+                              "the camera's cell)")
         if self.occlusion_culling:
             max_chunk_faces = min(max_chunk_faces, OCCLUSION_CHUNK_FACES)
 
         self._scene = pyrender.Scene(bg_color=np.zeros(4), ambient_light=np.zeros(3))
-        self._cam = pyrender.PerspectiveCamera(
-            yfov=camera.yfov, znear=camera.znear, zfar=camera.zfar, aspectRatio=camera.width / camera.height
-        )
+        if camera.orthographic:  # pyrender's magnifications are half the view's extent
+            half_w, half_h = (e / 2.0 for e in camera.ortho_extent)
+            self._cam = pyrender.OrthographicCamera(xmag=half_w, ymag=half_h, znear=camera.znear, zfar=camera.zfar)
+        else:
+            self._cam = pyrender.PerspectiveCamera(
+                yfov=camera.yfov, znear=camera.znear, zfar=camera.zfar, aspectRatio=camera.width / camera.height
+            )
         self._cam_node = self._scene.add(self._cam, pose=np.eye(4))
         self._proj = self._cam.get_projection_matrix(camera.width, camera.height)
 
@@ -217,15 +226,15 @@ class Renderer:
             if rgb:
                 colour, z = self._draw(gl, RenderFlags.FLAT)
                 out.rgb = np.ascontiguousarray(colour)
-                out.depth = z if depth else None
+                out.depth = self._linear(z) if depth else None
             else:
-                out.depth = self._draw(gl, RenderFlags.DEPTH_ONLY)
+                out.depth = self._linear(self._draw(gl, RenderFlags.DEPTH_ONLY))
         if ids:
             self._show(colour=None, ids=keep)
             id_colour, z = self._draw(gl, RenderFlags.FLAT)
             out.ids = decode_ids(id_colour)
             if depth and out.depth is None:
-                out.depth = z  # same geometry, so the id pass's depth is the depth image
+                out.depth = self._linear(z)  # same geometry, so the id pass's depth is the depth image
         return out
 
     def close(self) -> None:
@@ -273,6 +282,18 @@ class Renderer:
         if self._pvs is not None:
             keep &= self._pvs(pose[:3, 3])
         return keep
+
+    def _linear(self, depth: np.ndarray) -> np.ndarray:
+        """pyrender's depth image as z-depth in metres. pyrender linearizes every depth buffer with the
+        perspective formula ``D = 2 n f / (f + n - x (f - n))`` of its value ``x`` in [-1, 1]; an orthographic
+        buffer is linear, ``D = (x (f - n) + f + n) / 2``, which is ``f + n - n f / D_perspective``."""
+        if not self.camera.orthographic:
+            return depth
+        n, f = self.camera.znear, self.camera.zfar
+        d = depth.astype(np.float64)
+        hit = d > 0
+        d[hit] = f + n - n * f / d[hit]
+        return d.astype(np.float32)
 
     def _show(self, colour: np.ndarray | None, ids: np.ndarray | None) -> None:
         """Make the chunks flagged in ``colour`` / ``ids`` visible in that node set; None hides the set.

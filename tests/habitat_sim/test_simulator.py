@@ -230,8 +230,13 @@ def test_noise_models_are_navbenchs_seeded_by_the_simulator(scene_path):
     spec = _spec("c", hs.SensorType.COLOR)
     spec.noise_model, spec.noise_model_kwargs = "GaussianNoiseModel", {"intensity_constant": 0.1}
     rgb, _ = noisy(spec, 3)
-    assert (rgb[..., 3] == 255).all()
-    assert np.array_equal(rgb[..., :3], gaussian_rgb(clean_rgb[..., :3], 0.1, np.random.default_rng([3, 1])))
+    # habitat-sim 0.3.3 noises the whole RGBA buffer, alpha included
+    assert np.array_equal(rgb, gaussian_rgb(clean_rgb, 0.1, np.random.default_rng([3, 1])))
+    spec.noise_model, spec.noise_model_kwargs = "SaltAndPepperNoiseModel", {"amount": 0.2}
+    changed = noisy(spec, 3)[0] != clean_rgb
+    assert changed[..., 2].any() and not changed[..., 3].any()  # upstream's index quirk: never the last channel
+    spec.noise_model, spec.noise_model_kwargs = "SpeckleNoiseModel", {"intensity_constant": 0.1, "mean": 0, "sigma": 1}
+    assert not np.array_equal(noisy(spec, 3)[0], clean_rgb)
 
     for model, kwargs, kind, message in [("FancyNoise", {}, hs.SensorType.COLOR, "not supported"),
                                          ("RedwoodDepthNoiseModel", {}, hs.SensorType.COLOR, "applies to DEPTH"),

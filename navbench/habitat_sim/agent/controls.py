@@ -3,12 +3,14 @@
 
 ``move_forward`` adds ``-amount`` times the node's rotated z axis to its translation; turns rotate the node about
 its own y axis by ``amount`` degrees (left positive) and renormalise; ``look_up`` / ``look_down`` rotate it about
-its own x axis. Body actions pass through the move filter (the path finder's ``try_step``), and the collision flag
-is habitat-sim's: ``|filtered - start|^2 + 1e-5 < |end - start|^2``.
+its own x axis (with an ActuationSpec ``constraint``, no further than that many degrees from level). Body actions
+pass through the move filter (the path finder's ``try_step``), and the collision flag is habitat-sim's:
+``|filtered - start|^2 + 1e-5 < |end - start|^2``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -27,11 +29,23 @@ def _move_along(node: SceneNode, distance: float, axis: int) -> None:
 
 def _rotate_local(node: SceneNode, theta_deg: float, axis: int, constraint: float | None = None) -> None:
     if constraint is not None:
-        # look_up / look_down with a constraint: stop at +-constraint degrees about x (default_controls.py)
-        rotation = node.rotation * mn.Quaternion.rotation(mn.Deg(theta_deg), mn.Vector3(np.eye(3)[axis]))
-        angle = float(mn.Deg(rotation.angle())) * (1.0 if rotation.vector[axis] >= 0 else -1.0)
-        if abs(angle) > constraint:
-            return
+        # default_controls.py: the look angle (of the node's front about ``axis``) is clamped to +-constraint
+        # degrees, the rotation cut short to reach it; only for a node turned about that axis alone
+        rotation = node.rotation
+        if float(rotation.angle()) > 0 and 1.0 - abs(float(np.asarray(rotation.axis())[axis])) > 1e-3:
+            raise RuntimeError("Constrained look only works for a singular look action type")
+        look = np.asarray(rotation.transform_vector(mn.Vector3(0.0, 0.0, -1.0)), np.float64)
+        if axis == 0:
+            look_angle = math.degrees(math.atan2(look[1], -look[2]))
+        elif axis == 1:
+            look_angle = -math.degrees(math.atan2(look[0], -look[2]))
+        else:
+            raise NotImplementedError("a constrained rotation about z is not supported (habitat-sim has no look "
+                                      "angle about z)")
+        if look_angle + theta_deg > constraint:
+            theta_deg = constraint - look_angle
+        elif look_angle + theta_deg < -constraint:
+            theta_deg = -constraint - look_angle
     node.rotate_local(mn.Deg(theta_deg), mn.Vector3(np.eye(3)[axis]))
     node.rotation = node.rotation.normalized()
 

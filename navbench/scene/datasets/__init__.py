@@ -135,20 +135,30 @@ def _asset(mesh_path: Path, stage: dict, key: str, default: str) -> Path:
     return p if p.is_absolute() else Path(mesh_path).parent / p
 
 
-def load_annotations(mesh_path: Path, mesh: trimesh.Trimesh, stage: dict):
-    """(face_ids, objects, rooms) from the dataset's annotation files beside the mesh, or None if it has none."""
-    from navbench.scene.datasets import hm3d, mp3d
-
+def annotation_files(mesh_path: Path, stage: dict) -> tuple[str, Path, Path, np.ndarray | None] | None:
+    """(``"hm3d"`` or ``"mp3d"``, descriptor file, semantic mesh, the semantic mesh's frame rotation) of the
+    dataset's annotation files beside the mesh, or None if it has none."""
     name = scene_name(mesh_path)
     txt = _asset(mesh_path, stage, "semantic_descriptor_filename", f"{name}.semantic.txt")
     if txt.suffix == ".txt" and txt.is_file():
         sem_mesh = _asset(mesh_path, stage, "semantic_asset", f"{name}.semantic.glb")
-        return hm3d.load(txt, sem_mesh, mesh, frame_rotation(_semantic_frame(stage)))
+        return "hm3d", txt, sem_mesh, frame_rotation(_semantic_frame(stage))
     house = Path(mesh_path).parent / f"{name}.house"
     ply = _asset(mesh_path, stage, "semantic_asset", f"{name}_semantic.ply")
     if house.is_file() or ply.suffix == ".ply" and ply.is_file():
-        return mp3d.load(house, ply, mesh, frame_rotation(_semantic_frame(stage)))
+        return "mp3d", house, ply, frame_rotation(_semantic_frame(stage))
     return None
+
+
+def load_annotations(mesh_path: Path, mesh: trimesh.Trimesh, stage: dict):
+    """(face_ids, objects, rooms) from the dataset's annotation files beside the mesh, or None if it has none."""
+    from navbench.scene.datasets import hm3d, mp3d
+
+    found = annotation_files(mesh_path, stage)
+    if found is None:
+        return None
+    kind, descriptor, sem_mesh, frame = found
+    return (hm3d if kind == "hm3d" else mp3d).load(descriptor, sem_mesh, mesh, frame)
 
 
 def _semantic_frame(stage: dict) -> dict:

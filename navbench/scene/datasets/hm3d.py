@@ -66,24 +66,16 @@ def face_colours(mesh: trimesh.Trimesh, uv: np.ndarray | None, face_texture: np.
     return out
 
 
-def load(txt: Path, sem_mesh_path: Path, mesh: trimesh.Trimesh, frame: np.ndarray | None):
-    """(face_ids, objects, rooms) for the render ``mesh`` from an HM3D semantic.txt/semantic.glb pair."""
-    records = read_semantic_txt(txt)
+def face_labels(records: list[tuple[int, int, str, int]], txt: Path, sem_mesh_path: Path, mesh: trimesh.Trimesh,
+                frame: np.ndarray | None) -> np.ndarray:
+    """(F,) int32: the instance id of each face of the render ``mesh`` (every id of ``records``, the rows of
+    ``txt``), from the colours of the semantic mesh; -1 where the colour is not listed."""
     if not sem_mesh_path.is_file():
         raise SceneError(f"{txt}: its semantic mesh is missing: {sem_mesh_path}")
     sem, _, uv, face_tex, textures = read_mesh(sem_mesh_path)
     if frame is not None:
         sem.vertices = sem.vertices @ frame.T
-    colour_to_id = {}
-    info = {}
-    region_of = {}
-    for oid, colour, name, region in records:
-        colour_to_id[colour] = oid
-        region_of[oid] = region
-        cat = map_category(name)
-        if cat is not None:
-            info[oid] = {"category": cat, "room": f"region_{region}",
-                         "rgb": ((colour >> 16) & 255, (colour >> 8) & 255, colour & 255), "raw": name}
+    colour_to_id = {colour: oid for oid, colour, _, _ in records}
     cols = face_colours(sem, uv, face_tex, textures)
     keys = np.array(sorted(colour_to_id), dtype=np.int64)
     vals = np.array([colour_to_id[k] for k in keys], dtype=np.int64)
@@ -91,7 +83,21 @@ def load(txt: Path, sem_mesh_path: Path, mesh: trimesh.Trimesh, frame: np.ndarra
     if len(keys):
         pos = np.clip(np.searchsorted(keys, cols), 0, len(keys) - 1)
         sem_ids = np.where(keys[pos] == cols, vals[pos], -1)
-    labels = transfer_face_labels(sem, np.asarray(sem_ids, np.int64), mesh)
+    return transfer_face_labels(sem, np.asarray(sem_ids, np.int64), mesh)
+
+
+def load(txt: Path, sem_mesh_path: Path, mesh: trimesh.Trimesh, frame: np.ndarray | None):
+    """(face_ids, objects, rooms) for the render ``mesh`` from an HM3D semantic.txt/semantic.glb pair."""
+    records = read_semantic_txt(txt)
+    info = {}
+    region_of = {}
+    for oid, colour, name, region in records:
+        region_of[oid] = region
+        cat = map_category(name)
+        if cat is not None:
+            info[oid] = {"category": cat, "room": f"region_{region}",
+                         "rgb": ((colour >> 16) & 255, (colour >> 8) & 255, colour & 255), "raw": name}
+    labels = face_labels(records, txt, sem_mesh_path, mesh, frame)
     rmax = max(region_of.values(), default=-1)
     rlut = np.full(max(max(region_of, default=0), 0) + 2, -1, np.int64)
     for oid, r in region_of.items():

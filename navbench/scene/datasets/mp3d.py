@@ -85,6 +85,14 @@ def _category(raw: str, mpcat40: str) -> str | None:
     return map_category(raw)
 
 
+def face_labels(ply: Path, mesh: trimesh.Trimesh, frame: np.ndarray | None) -> np.ndarray:
+    """(F,) int32: the ``.house`` object index of each face of the render ``mesh``, from the semantic PLY."""
+    sem, face_obj = read_face_objects(ply)
+    if frame is not None:
+        sem.vertices = np.asarray(sem.vertices) @ frame.T
+    return transfer_face_labels(sem, face_obj, mesh)
+
+
 def load(house: Path, ply: Path, mesh: trimesh.Trimesh, frame: np.ndarray | None):
     """(face_ids, objects, rooms) for the render ``mesh`` from an MP3D ``.house`` + ``_semantic.ply`` pair."""
     if not house.is_file():
@@ -92,10 +100,7 @@ def load(house: Path, ply: Path, mesh: trimesh.Trimesh, frame: np.ndarray | None
     if not ply.is_file():
         raise SceneError(f"{house}: its semantic mesh is missing: {ply}")
     cats, objs, regions = read_house(house)
-    sem, face_obj = read_face_objects(ply)
-    if frame is not None:
-        sem.vertices = np.asarray(sem.vertices) @ frame.T
-    labels = transfer_face_labels(sem, face_obj, mesh)
+    labels = face_labels(ply, mesh, frame)
     counts: dict[str, int] = {}
     names: dict[int, str] = {}
     for r, label in sorted(regions.items()):
