@@ -1,0 +1,174 @@
+"""habitat-lab's numbers on navbench are navbench's: the same actions through ``habitat.Env`` and through navbench's
+own env give the same poses, collisions, distance to goal, success and SPL; the same seed gives the same episodes,
+trajectories and metrics in one process, in a ``VectorEnv`` and across processes. Skipped unless the ``habitat``
+extra and ``compat/habitat-sim`` are installed (``pip install -e ".[habitat]" -e compat/habitat-sim``)."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+habitat_sim = pytest.importorskip("habitat_sim", reason="navbench-habitat-sim (compat/habitat-sim) not installed")
+if not hasattr(habitat_sim, "__navbench__"):
+    pytest.skip("habitat_sim here is not navbench's", allow_module_level=True)
+habitat = pytest.importorskip("habitat", reason="habitat-lab (the habitat extra) not installed")
+
+from navbench.paths import EPISODES_DIR, SCENES_DIR  # noqa: E402
+
+SPLIT = EPISODES_DIR / "pointnav" / "val" / "val.json.gz"
+# habitat-lab's HabitatSimActions and navbench's PointNav action names
+NAMES = {0: "STOP", 1: "MOVE_FORWARD", 2: "TURN_LEFT", 3: "TURN_RIGHT"}
+
+
+def lab_config(seed: int = 100, shuffle: bool = False):
+    """habitat-lab's PointNav test benchmark on navbench's bundled split, without the cameras (no measure reads
+    them)."""
+    from habitat.config.default import get_config
+
+    return get_config("benchmark/nav/pointnav/pointnav_habitat_test.yaml", overrides=[
+        f"habitat.dataset.data_path={SPLIT}", f"habitat.dataset.scenes_dir={SCENES_DIR}", "habitat.dataset.split=val",
+        f"habitat.environment.iterator_options.shuffle={shuffle}", f"habitat.seed={seed}",
+        "~habitat.simulator.agents.main_agent.sim_sensors.rgb_sensor",
+        "~habitat.simulator.agents.main_agent.sim_sensors.depth_sensor"])
+
+
+def navbench_env():
+    """navbench's own PointNav env with the body and motion of habitat-lab's config: radius 0.1 m, height 1.5 m,
+    0.25 m steps, 10 degree turns, sliding, success within 0.2 m."""
+    from navbench.env.base import NavEnv
+    from navbench.env.config import EnvConfig
+
+    return NavEnv(task="pointnav", dataset=SPLIT, config=EnvConfig(
+        agent_radius=0.1, agent_height=1.5, max_climb=0.2, forward_step=0.25, turn_angle_deg=10.0, allow_sliding=True,
+        success_distance=0.2, max_steps=500, rgb=False, depth=False))
+
+
+def drive(env, episodes: int, seed: int) -> list[dict]:
+    """habitat-lab's ShortestPathFollower over ``episodes`` episodes of ``env``, one action in four drawn from a
+    generator seeded by ``seed`` instead (so the agent also meets walls); per episode the actions, the poses
+    after each one, the collisions and the final metrics."""
+    from habitat.tasks.nav.shortest_path_follower import ShortestPathFollower
+
+    follower = ShortestPathFollower(env.sim, goal_radius=0.2, return_one_hot=False)
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(episodes):
+        env.reset()
+        ep = env.current_episode
+        goal = ep.goals[0].position
+        actions, poses, collided = [], [], []
+        while not env.episode_over:
+            a = int(follower.get_next_action(goal))
+            if len(actions) % 4 == 3 and a != 0:
+                a = int(rng.integers(1, 4))
+            env.step(a)
+            state = env.sim.get_agent_state()
+            actions.append(a)
+            poses.append([*map(float, state.position), *map(float, state.rotation.components)])
+            collided.append(bool(env.sim.previous_step_collided))
+        m = env.get_metrics()
+        out.append({"episode_id": ep.episode_id, "actions": actions, "poses": poses, "collided": collided,
+                    **{k: float(m[k]) for k in ("distance_to_goal", "success", "spl")}})
+    return out
+
+
+def test_same_actions_give_navbenchs_poses_and_metrics():
+    ours = navbench_env()
+    try:
+        with habitat.Env(config=lab_config()) as env:
+            runs = drive(env, 4, seed=0)
+        assert sum(sum(r["collided"]) for r in runs) > 0  # the random actions run into walls
+        for run in runs:
+            _, info = ours.reset(options={"episode": run["episode_id"]})
+            collisions = 0
+            for a, pose, hit in zip(run["actions"], run["poses"], run["collided"]):
+                _, _, _, _, info = ours.step(ours.actions.index(NAMES[a]))
+                assert np.allclose(pose[:3], ours.agent_position, atol=1e-5), run["episode_id"]
+                assert info["collisions"] - collisions == int(hit)
+                collisions = info["collisions"]
+            assert info["success"] == run["success"], run["episode_id"]
+            assert info["distance_to_goal"] == pytest.approx(run["distance_to_goal"], abs=1e-4)
+            assert info["spl"] == pytest.approx(run["spl"], abs=1e-4)
+    finally:
+        ours.close()
+
+
+def test_same_seed_same_episodes_trajectories_and_metrics_in_one_process():
+    same, other = lab_config(seed=7, shuffle=True), lab_config(seed=8, shuffle=True)
+    with habitat.Env(config=same) as a, habitat.Env(config=same) as b, habitat.Env(config=other) as c:
+        runs = [drive(env, 2, seed=1) for env in (a, b, c)]
+        points = []
+        for env in (a, b, c):
+            env.sim.seed(5)
+            points.append([list(map(float, env.sim.pathfinder.get_random_navigable_point())) for _ in range(3)])
+    assert runs[0] == runs[1] and points[0] == points[1]
+    # the seed is what decides: another one shuffles the episodes otherwise
+    assert [r["episode_id"] for r in runs[2]] != [r["episode_id"] for r in runs[0]]
+
+
+RUN_ONCE = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import test_faithful as t
+with t.habitat.Env(config=t.lab_config(seed=7, shuffle=True)) as env:
+    print(json.dumps(t.drive(env, 2, seed=3)))
+"""
+
+
+@pytest.mark.slow
+def test_same_seed_same_trajectories_and_metrics_across_processes():
+    outs = []
+    for hash_seed in ("1", "2"):  # set iteration order must not leak into a run
+        done = subprocess.run([sys.executable, "-c", RUN_ONCE, str(Path(__file__).parent)], capture_output=True,
+                              text=True, timeout=300, env={**os.environ, "PYTHONHASHSEED": hash_seed})
+        assert done.returncode == 0, done.stderr[-2000:]
+        outs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert outs[0] == outs[1] and len(outs[0]) == 2 and outs[0][0]["poses"]
+
+
+def _gym_env(config):
+    from habitat.gym import make_gym_from_config
+
+    return make_gym_from_config(config)
+
+
+@pytest.mark.slow
+def test_same_seed_same_trajectories_and_metrics_in_a_vector_env():
+    from habitat.core.vector_env import VectorEnv
+
+    cfg = lab_config(seed=7, shuffle=True)
+    actions = np.random.default_rng(4).integers(1, 4, size=40).tolist() + [0]
+
+    def play(envs):
+        obs = [envs.reset()]
+        infos = []
+        for a in actions:
+            steps = envs.step([a] * envs.num_envs)
+            obs.append([s[0] for s in steps])
+            infos.append([{k: s[3][k] for k in ("distance_to_goal", "success", "spl")} for s in steps])
+            if any(s[2] for s in steps):
+                break
+        return [[{k: np.asarray(v).tolist() for k, v in o.items()} for o in step] for step in obs], infos
+
+    envs = VectorEnv(make_env_fn=_gym_env, env_fn_args=[(cfg,), (cfg,)], multiprocessing_start_method="forkserver")
+    try:
+        obs, infos = play(envs)
+    finally:
+        envs.close()
+    # both workers, made from one config, walk the same trajectory; in-process, the same env does too
+    assert len(obs) > 10 and all(o[0] == o[1] for o in obs) and all(i[0] == i[1] for i in infos)
+    single = _gym_env(cfg)
+    try:
+        first = single.reset()
+        assert {k: np.asarray(v).tolist() for k, v in first.items()} == obs[0][0]
+        for a, o in zip(actions, obs[1:]):
+            got, _, done, _ = single.step(a)
+            if done:  # a VectorEnv worker resets its env at the end of an episode
+                got = single.reset()
+            assert {k: np.asarray(v).tolist() for k, v in got.items()} == o[0]
+    finally:
+        single.close()
