@@ -114,7 +114,7 @@ class Simulator:
             raise FileNotFoundError(f"{path}: scene file not found (SimulatorConfiguration.scene_id)")
         self._nb_close_renderers()
         self._nb_asset, grid = load_scene_and_navgrid(path, nav_grid_config(sim_cfg.navmesh_settings))
-        self.pathfinder.load_grid(grid, sim_cfg.navmesh_settings)
+        self.pathfinder.load_grid(grid, sim_cfg.navmesh_settings, self._nb_asset)
         self.semantic_scene = semantic_scene_of(self._nb_asset)
 
     @property
