@@ -172,3 +172,43 @@ def test_same_seed_same_trajectories_and_metrics_in_a_vector_env():
             assert {k: np.asarray(v).tolist() for k, v in got.items()} == o[0]
     finally:
         single.close()
+
+
+def test_goal_upstairs_is_measured_and_reached_through_habitat_lab(tmp_path):
+    import gzip
+
+    from habitat.config.default import get_config
+    from habitat.tasks.nav.shortest_path_follower import ShortestPathFollower
+
+    from navbench.env.config import EnvConfig
+    from navbench.env.pointnav import PointNavEnv
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "scene"))
+    from storeys import UPPER, house
+
+    house("stairs").export(tmp_path / "house.glb")
+    start, goal = [1.0, 0.0, 2.6], [9.0, UPPER, 2.6]
+    episode = {"episode_id": "0", "scene_id": "house.glb", "start_position": start,
+               "start_rotation": [0.0, 0.0, 0.0, 1.0], "goals": [{"position": goal, "radius": None}], "info": {}}
+    (tmp_path / "val").mkdir()
+    with gzip.open(tmp_path / "val" / "val.json.gz", "wt") as f:
+        json.dump({"episodes": [episode]}, f)
+    (tmp_path / "val.json").write_text(json.dumps({"episodes": [episode]}))
+    cfg = get_config("benchmark/nav/pointnav/pointnav_habitat_test.yaml", overrides=[
+        f"habitat.dataset.data_path={tmp_path / 'val' / 'val.json.gz'}", f"habitat.dataset.scenes_dir={tmp_path}",
+        "habitat.dataset.split=val", "~habitat.simulator.agents.main_agent.sim_sensors.rgb_sensor",
+        "~habitat.simulator.agents.main_agent.sim_sensors.depth_sensor"])
+    ours = PointNavEnv(tmp_path / "val.json", scene_dir=tmp_path, config=EnvConfig(
+        agent_radius=0.1, agent_height=1.5, max_climb=0.2, rgb=False, depth=False))
+    _, info = ours.reset(options={"episode": 0})
+    ours.close()
+    with habitat.Env(config=cfg) as env:
+        env.reset()
+        # navbench's env starts the episode on its start's span centre, 3.5 cm from the start habitat-lab keeps
+        assert env.get_metrics()["distance_to_goal"] == pytest.approx(info["distance_to_goal"], abs=0.036)
+        follower = ShortestPathFollower(env.sim, goal_radius=0.2, return_one_hot=False)
+        while not env.episode_over:
+            env.step(follower.get_next_action(goal))
+        metrics = env.get_metrics()
+        assert metrics["success"] == 1.0 and metrics["spl"] > 0.9, metrics
+        assert env.sim.get_agent_state().position[1] == pytest.approx(UPPER, abs=1e-3)
