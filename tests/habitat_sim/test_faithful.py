@@ -212,3 +212,31 @@ def test_goal_upstairs_is_measured_and_reached_through_habitat_lab(tmp_path):
         metrics = env.get_metrics()
         assert metrics["success"] == 1.0 and metrics["spl"] > 0.9, metrics
         assert env.sim.get_agent_state().position[1] == pytest.approx(UPPER, abs=1e-3)
+
+
+@pytest.mark.parametrize("config, task, drop", [
+    ("benchmark/nav/vln_r2r.yaml", "r2r_ce", ("rgb_sensor", "depth_sensor")),
+    pytest.param("benchmark/nav/imagenav/imagenav_test.yaml", "imagenav", ("depth_sensor",),  # goal images: RGB
+                 marks=pytest.mark.slow),
+])
+def test_reset_geodesic_equals_navbench_d0_on_more_tasks(config, task, drop):
+    from habitat.config.default import get_config
+
+    from navbench.env.base import NavEnv
+    from navbench.env.config import EnvConfig
+
+    data = EPISODES_DIR / task / "val" / "val.json.gz"
+    cfg = get_config(config, overrides=[
+        f"habitat.dataset.data_path={data}", f"habitat.dataset.scenes_dir={SCENES_DIR}", "habitat.dataset.split=val",
+        "habitat.environment.iterator_options.shuffle=False",
+        *(f"~habitat.simulator.agents.main_agent.sim_sensors.{s}" for s in drop)])
+    # both configs' body is habitat-lab's default: radius 0.1 m, height 1.5 m
+    ours = NavEnv(task=task, dataset=data, config=EnvConfig(agent_radius=0.1, agent_height=1.5, rgb=False, depth=False))
+    try:
+        with habitat.Env(config=cfg) as env:
+            for _ in range(3):
+                env.reset()
+                _, info = ours.reset(options={"episode": env.current_episode.episode_id})
+                assert env.get_metrics()["distance_to_goal"] == pytest.approx(info["geodesic_distance"], abs=1e-9)
+    finally:
+        ours.close()
