@@ -367,8 +367,8 @@ class PathFinder:
             cx, cz = lay.origin[0] + jj * cs, lay.origin[1] + ii * cs
             free = np.zeros(ii.shape, bool)
             for a, b in zip(*np.nonzero((ii >= 0) & (ii < h) & (jj >= 0) & (jj < w))):
-                c = ii[a, b] * w + jj[a, b]
-                own = np.arange(lay._start[c], lay._start[c] + lay._count[c])
+                c = int(ii[a, b] * w + jj[a, b])
+                own = np.arange(int(lay._start[c]), int(lay._start[c] + lay._count[c]))
                 reach = lay.config.max_climb + math.hypot(cx[a, b] - q[0], cz[a, b] - q[2])
                 free[a, b] = bool((lay.navigable[own] & (np.abs(lay.height[own] - q[1]) <= reach)).any())
             cx, cz = cx[~free], cz[~free]
