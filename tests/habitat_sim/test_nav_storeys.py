@@ -16,6 +16,7 @@ from storeys import RISE, UPPER, X0, X1, house  # noqa: E402
 
 START, GOAL = [1.0, 0.0, 2.6], [9.0, UPPER, 2.6]
 ON_FLIGHT = [5.0, 7 * RISE, 2.6]  # on the 7th tread
+UPSTAIRS = ([1.0, UPPER, 1.0], [9.0, UPPER, 5.0])  # an episode on the upper storey, round the stairwell
 FACING_PLUS_X = [0.0, -math.sqrt(0.5), 0.0, math.sqrt(0.5)]
 
 
@@ -31,9 +32,9 @@ def setup(request, tmp_path_factory):
     join = request.param
     d = tmp_path_factory.mktemp(f"house_{join}")
     house(join).export(d / "house.glb")
-    episodes = {"episodes": [{"episode_id": "0", "scene_id": "house.glb", "start_position": START,
-                              "start_rotation": FACING_PLUS_X, "goals": [{"position": GOAL, "radius": None}],
-                              "info": {}}]}
+    episodes = {"episodes": [{"episode_id": str(k), "scene_id": "house.glb", "start_position": start,
+                              "start_rotation": FACING_PLUS_X, "goals": [{"position": goal, "radius": None}],
+                              "info": {}} for k, (start, goal) in enumerate([(START, GOAL), UPSTAIRS])]}
     (d / "eps.json").write_text(json.dumps(episodes))
     env = PointNavEnv(d / "eps.json", scene_dir=d, config=EnvConfig(rgb=False, depth=False))
     asset, grid = load_scene_and_navgrid(d / "house.glb", env.nav_config)
@@ -79,6 +80,16 @@ def test_goal_upstairs_is_measured_over_the_stairs_as_navbenchs_env_does(setup):
     multi.requested_start = START
     multi.requested_ends = np.array([[60.0, 0.0, 60.0], GOAL, [1.0, UPPER, 5.5]], np.float32)
     assert pf.find_path(multi) and multi.closest_end_point_index == 1
+
+
+def test_an_episode_upstairs_is_measured_on_the_upper_storeys_grid_as_navbenchs_env_does(setup):
+    _, pf, env = setup
+    _, info = env.reset(options={"episode": 1})
+    assert not env.crosses_storeys and env.navgrid.floor_height == pytest.approx(UPPER, abs=0.01)
+    path = ShortestPath()
+    path.requested_start, path.requested_end = UPSTAIRS
+    assert pf.find_path(path) and path.geodesic_distance == pytest.approx(info["distance_to_goal"], abs=1e-9)
+    assert all(abs(float(p[1]) - UPPER) < 0.01 for p in path.points)
 
 
 def test_agent_climbs_the_stairs_with_try_step(setup):
