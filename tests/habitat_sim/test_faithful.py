@@ -80,7 +80,7 @@ def test_same_actions_give_navbenchs_poses_and_metrics():
     ours = navbench_env()
     try:
         with habitat.Env(config=lab_config()) as env:
-            runs = drive(env, 4, seed=0)
+            runs = drive(env, 3, seed=0)
         assert sum(sum(r["collided"]) for r in runs) > 0  # the random actions run into walls
         for run in runs:
             _, info = ours.reset(options={"episode": run["episode_id"]})
@@ -100,14 +100,18 @@ def test_same_actions_give_navbenchs_poses_and_metrics():
 def test_same_seed_same_episodes_trajectories_and_metrics_in_one_process():
     same, other = lab_config(seed=7, shuffle=True), lab_config(seed=8, shuffle=True)
     with habitat.Env(config=same) as a, habitat.Env(config=same) as b, habitat.Env(config=other) as c:
-        runs = [drive(env, 2, seed=1) for env in (a, b, c)]
+        runs = [drive(env, 2, seed=1) for env in (a, b)]
         points = []
-        for env in (a, b, c):
+        for env in (a, b):
             env.sim.seed(5)
             points.append([list(map(float, env.sim.pathfinder.get_random_navigable_point())) for _ in range(3)])
+        others = []
+        for _ in range(2):
+            c.reset()
+            others.append(c.current_episode.episode_id)
     assert runs[0] == runs[1] and points[0] == points[1]
     # the seed is what decides: another one shuffles the episodes otherwise
-    assert [r["episode_id"] for r in runs[2]] != [r["episode_id"] for r in runs[0]]
+    assert others != [r["episode_id"] for r in runs[0]]
 
 
 @pytest.mark.slow
