@@ -95,7 +95,7 @@ class ShortestPath:
         self._points: Any = []
 
     @property
-    def points(self) -> list[np.ndarray]:
+    def points(self) -> list[mn.Vector3]:
         if callable(self._points):
             self._points = self._points()
         return self._points
@@ -461,7 +461,7 @@ class PathFinder:
         return True
 
     @staticmethod
-    def _polyline(g: NavGrid, field, start: np.ndarray) -> list[np.ndarray]:
+    def _polyline(g: NavGrid, field, start: np.ndarray) -> list[mn.Vector3]:
         """Points from ``start`` to the field's nearest goal on grid ``g``: down the field's values from cell to
         neighbouring cell until the goal is in straight navigable line, then each point joined to the farthest
         later one in straight navigable line."""
@@ -505,10 +505,10 @@ class PathFinder:
                 j += 1
             out.append(trail[j])
             i = j
-        return [np.asarray(q, np.float32) for q in out]
+        return [mn.Vector3(np.asarray(q, np.float32)) for q in out]
 
     @staticmethod
-    def _layered_polyline(lay: LayeredNav, field, start: np.ndarray) -> list[np.ndarray]:
+    def _layered_polyline(lay: LayeredNav, field, start: np.ndarray) -> list[mn.Vector3]:
         """Points from ``start`` to the field's nearest goal on the joined surfaces: span to span down the
         field's values (each step the one that reaches the goal shortest), at the surface's height smoothed over
         treads (a flight of steps is the ramp through it, as a navmesh's polygons over it are), each point joined
@@ -538,7 +538,7 @@ class PathFinder:
             while j + 1 < len(pts) and _near_segment(pts[i + 1:j + 1], pts[i], pts[j + 1], lay.cell_size / 2):
                 j += 1
             out.append(j)
-        return [np.asarray(pts[k], np.float32) for k in out]
+        return [mn.Vector3(np.asarray(pts[k], np.float32)) for k in out]
 
     # ------------------------------------------------------------------ motion
     def _step(self, start, end, sliding: bool) -> mn.Vector3:

@@ -71,6 +71,7 @@ def test_points_form_a_navigable_polyline_from_start_to_end(finder):
         path = ShortestPath()
         path.requested_start, path.requested_end = a, b
         assert finder.find_path(path)
+        assert all(isinstance(p, mn.Vector3) for p in path.points)  # habitat-sim's type: a list of Vector3
         pts = [np.asarray(p, np.float64) for p in path.points]
         assert np.allclose(pts[0][[0, 2]], a[[0, 2]]) and np.allclose(pts[-1][[0, 2]], b[[0, 2]], atol=1e-4)
         for p, q in zip(pts, pts[1:]):
