@@ -18,7 +18,8 @@ habitat-sim's conventions (``navmesh-spec.md``: §4 geodesics, §5 try_step, §6
   start unchanged when it or the target is not located or on another island; a step that the storey's grid stops
   and the joined surfaces carry onto a stair or a ramp is taken on them.
 * ``get_bounds`` is the scene mesh's box (what habitat-sim reports for a navmesh it builds); random points are
-  uniform over the navigable area (every storey's, on a scene of several); islands are the main storey grid's.
+  uniform over the main storey's navigable cells, from a numpy generator ``seed`` seeds; islands are the main
+  storey grid's.
 * ``NavMeshSettings`` maps to :class:`~navbench.scene.navigability.NavGridConfig` (agent radius, height, max
   climb, cell size); the grid's walkable slope is fixed at 45 degrees, so another ``agent_max_slope`` is refused.
 """
