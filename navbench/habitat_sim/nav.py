@@ -1,16 +1,25 @@
 """``habitat_sim.nav``: the path finder, shortest-path queries and the greedy geodesic follower over navbench's
-navigability grid (:class:`navbench.scene.navigability.NavGrid`).
+navigability: the grid of each storey (:class:`navbench.scene.navigability.NavGrid`) and, on a scene of several
+storeys, the walkable surfaces joining them over stairs and ramps (:class:`navbench.scene.layers.LayeredNav`).
 
-habitat-sim answers these queries on a Detour navmesh; here they are answered on navbench's grid of the scene's
-main storey, with habitat-sim's conventions (``navmesh-spec.md``: §4 geodesics, §5 try_step, §6 other queries):
+habitat-sim answers these queries on a Detour navmesh (``src/esp/nav/PathFinder.cpp``, bound in
+``src/esp/bindings/ShortestPathBindings.cpp``); here they are answered as navbench's own env answers them, with
+habitat-sim's conventions (``navmesh-spec.md``: §4 geodesics, §5 try_step, §6 other queries, §7 sampling):
 
-* ``geodesic_distance`` is navbench's geodesic field at the snapped start (what navbench's own env measures
-  ``d0`` and distance to goal with), ``inf`` when no end is reachable; query points are taken to 10
-  micrometres. ``points`` is the string-pulled polyline down the field (computed when first read).
-* snapping searches within :data:`SNAP_RADIUS` metres in xz of the point and 4 m in y (Detour's query box
-  ``(2, 4, 2)``), and returns NaNs when nothing navigable lies there.
+* A point is located as ``projectToPoly`` does: on the grid of the storey its height stands on, the point itself
+  when navigable, else the nearest navigable cell centre inside Detour's query box (half extents 2, 4, 2 m);
+  on a scene of several storeys, a point on a flight or a ramp (off every storey's grid) on the joined surfaces.
+  Nothing in the box: NaNs, ``inf``, not navigable.
+* ``geodesic_distance`` is navbench's: the storey grid's geodesic field at the located start; when an end lies on
+  another storey the joined surfaces reach, their field (as navbench's env measures an episode across storeys);
+  ``inf`` when no end is reachable. Query points are taken to 10 micrometres. ``points`` is the string-pulled
+  polyline down the field (computed when first read).
 * ``try_step`` / ``try_step_no_sliding`` are the grid's collision rule (navbench's own motion) and return the
-  start unchanged when it or the target is off the navigable area or on another island.
+  start unchanged when it or the target is not located or on another island; a step that the storey's grid stops
+  and the joined surfaces carry onto a stair or a ramp is taken on them.
+* ``get_bounds`` is the scene mesh's box (what habitat-sim reports for a navmesh it builds); random points are
+  uniform over the main storey's navigable cells, from a numpy generator ``seed`` seeds; islands are the main
+  storey grid's.
 * ``NavMeshSettings`` maps to :class:`~navbench.scene.navigability.NavGridConfig` (agent radius, height, max
   climb, cell size); the grid's walkable slope is fixed at 45 degrees, so another ``agent_max_slope`` is refused.
 """
@@ -18,6 +27,7 @@ main storey, with habitat-sim's conventions (``navmesh-spec.md``: §4 geodesics,
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -26,10 +36,13 @@ from navbench.habitat_sim import errors
 from navbench.habitat_sim import magnum as mn
 from navbench.habitat_sim.config import NavMeshSettings
 from navbench.habitat_sim.scene import SceneNode
+from navbench.scene.layers import LayeredNav
 from navbench.scene.navigability import NavGrid, NavGridConfig
 
-SNAP_RADIUS = 2.0  # metres in xz (Detour's findNearestPoly half extents: 2, 4, 2)
+# projectToPoly's findNearestPoly half extents (PathFinder.cpp: polyPickExt = {2, 4, 2})
+SNAP_EXTENT = 2.0
 SNAP_HEIGHT = 4.0
+NAVIGABLE_XZ = 0.01  # isNavigable: the snapped point within 1 cm of the query in xz (PathFinder.cpp)
 QUERY_DECIMALS = 5  # find_path's points, in metres: episode files' precision
 WALKABLE_SLOPE_DEG = 45.0  # navbench's floor-like test: a normal within 45 degrees of vertical
 
@@ -57,6 +70,21 @@ def _vec(p) -> np.ndarray:
     return a
 
 
+def _nan3() -> mn.Vector3:
+    return mn.Vector3(np.full(3, np.nan))
+
+
+def _xz(a, b) -> float:
+    return math.hypot(float(a[0]) - float(b[0]), float(a[2]) - float(b[2]))
+
+
+def _near_segment(points: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    """Whether every one of ``points`` lies within ``tol`` of the segment from ``a`` to ``b``."""
+    ab = b - a
+    t = np.clip((points - a) @ ab / max(float(ab @ ab), 1e-18), 0.0, 1.0)
+    return bool((np.linalg.norm(points - (a + t[:, None] * ab), axis=1) <= tol).all())
+
+
 class ShortestPath:
     """A query from ``requested_start`` to ``requested_end``; ``find_path`` fills ``geodesic_distance`` and
     ``points``."""
@@ -68,7 +96,7 @@ class ShortestPath:
         self._points: Any = []
 
     @property
-    def points(self) -> list[np.ndarray]:
+    def points(self) -> list[mn.Vector3]:
         if callable(self._points):
             self._points = self._points()
         return self._points
@@ -100,21 +128,35 @@ class MultiGoalShortestPath:
     points = ShortestPath.points
 
 
+Engine = NavGrid | LayeredNav
+
+
 class PathFinder:
-    """habitat-sim's ``PathFinder`` over a :class:`NavGrid` (``load_grid``); queries before a grid is loaded
+    """habitat-sim's ``PathFinder`` over a scene's navigability (``load_grid``: the main storey's grid, and the
+    scene whose other storeys and stairs it builds when a query reaches them); queries before anything is loaded
     answer as habitat-sim's do without a navmesh (not navigable, NaN points, inf distances)."""
 
     def __init__(self) -> None:
         self._grid: NavGrid | None = None
+        self._asset: Any = None
         self._settings: NavMeshSettings | None = None
         self._rng = np.random.default_rng(0)
-        self._island_radius: dict[int, float] = {}
+        self._reset_caches()
+
+    def _reset_caches(self) -> None:
+        self._storeys: dict[float, NavGrid] = {}
+        self._floors: np.ndarray | None = None
+        self._layers: LayeredNav | None = None
+        self._island_radius: dict[tuple[int, int], float] = {}
 
     # ------------------------------------------------------------------ loading
-    def load_grid(self, grid: NavGrid, settings: NavMeshSettings | None = None) -> None:
+    def load_grid(self, grid: NavGrid, settings: NavMeshSettings | None = None, asset: Any = None) -> None:
+        """Answer on ``grid`` (the main storey's); with the scene ``asset`` it was built from, also on the scene's
+        other storeys and the stairs and ramps joining them."""
         self._grid = grid
         self._settings = settings
-        self._island_radius = {}
+        self._asset = asset
+        self._reset_caches()
 
     def load_nav_mesh(self, path: str) -> bool:
         raise NotImplementedError(f"PathFinder.load_nav_mesh({path!r}): navbench's habitat_sim builds its "
@@ -130,87 +172,249 @@ class PathFinder:
 
     @property
     def grid(self) -> NavGrid:
-        """navbench's grid behind this path finder."""
+        """navbench's grid of the main storey behind this path finder."""
         if self._grid is None:
             raise RuntimeError("PathFinder: no navigability loaded")
         return self._grid
 
     def seed(self, new_seed: int) -> None:
-        """Seeds :meth:`get_random_navigable_point`."""
+        """Seeds :meth:`get_random_navigable_point` and :meth:`get_random_navigable_point_near`."""
         self._rng = np.random.default_rng(int(new_seed))
 
-    # ------------------------------------------------------------------ snapping
-    def _snap(self, p: np.ndarray) -> np.ndarray | None:
-        g = self._grid
-        if g is None or not np.isfinite(p).all() or abs(p[1] - g.floor_height) > SNAP_HEIGHT:
+    # ------------------------------------------------------------------ storeys
+    def _multi_storey(self) -> bool:
+        """Whether the scene has a walkable level above the main storey (then stairs may join them)."""
+        return self._asset is not None and self._grid is not None and math.isfinite(self._grid.storey_top)
+
+    def _grid_for(self, y: float) -> NavGrid:
+        """The grid of the storey a point at height ``y`` stands on, chosen as navbench's env chooses an episode's
+        (:func:`navbench.scene.cache.navgrid_for` with the height as its hint), each built once."""
+        g = self.grid
+        c = g.config
+        if self._asset is None or abs(y - g.floor_height) <= c.agent_height / 2:
+            return g
+        if self._floors is None:
+            levels = NavGrid._levels(self._asset.mesh, c)
+            self._floors = np.array([g.floor_height]) if levels is None or not len(levels) else levels
+        floors = self._floors
+        below = floors[floors <= y + c.max_climb]
+        floor = round(float(below.max() if len(below) else floors[np.argmin(np.abs(floors - y))]), 4)
+        if abs(floor - g.floor_height) <= c.max_climb / 2:
+            return g
+        if floor not in self._storeys:
+            from navbench.scene.cache import navgrid_for
+
+            self._storeys[floor] = navgrid_for(self._asset, c, floor_hint=float(y))
+        return self._storeys[floor]
+
+    def _layered(self) -> LayeredNav:
+        """The scene's joined walkable surfaces (disk-cached as navbench's env caches them)."""
+        if self._layers is None:
+            from navbench.scene.cache import layers_for
+
+            self._layers = layers_for(self._asset, self.grid.config)
+        return self._layers
+
+    # ------------------------------------------------------------------ locating
+    @staticmethod
+    def _snap_grid(g: NavGrid, p: np.ndarray) -> np.ndarray | None:
+        """``p`` on ``g`` (y the floor's): itself if navigable, else the nearest navigable cell centre inside the
+        query box; None when there is none or the floor is more than 4 m off in height."""
+        if abs(p[1] - g.floor_height) > SNAP_HEIGHT:
             return None
-        s = g.snap_point(p, SNAP_RADIUS)
-        return s if np.isfinite(s).all() else None
+        x, z = float(p[0]), float(p[2])
+        s = g._snap_xz(x, z, SNAP_EXTENT)  # the nearest within 2 m: inside the box, and nearest in it
+        if s is None:  # only the box's corners are left
+            cs, (h, w) = g.cell_size, g.navigable.shape
+            i0 = max(int(math.ceil((z - SNAP_EXTENT - g.origin[1]) / cs)), 0)
+            i1 = min(int(math.floor((z + SNAP_EXTENT - g.origin[1]) / cs)) + 1, h)
+            j0 = max(int(math.ceil((x - SNAP_EXTENT - g.origin[0]) / cs)), 0)
+            j1 = min(int(math.floor((x + SNAP_EXTENT - g.origin[0]) / cs)) + 1, w)
+            if i0 >= i1 or j0 >= j1:
+                return None
+            ii, jj = np.nonzero(g.navigable[i0:i1, j0:j1])
+            if len(ii) == 0:
+                return None
+            cx, cz = g.origin[0] + (jj + j0) * cs, g.origin[1] + (ii + i0) * cs
+            k = int(np.argmin(np.hypot(cx - x, cz - z)))
+            s = (float(cx[k]), float(cz[k]))
+        return np.array([s[0], g.floor_height, s[1]])
+
+    def _locate(self, p: np.ndarray) -> tuple[Engine, np.ndarray] | None:
+        """Where ``p`` stands (see the module docstring): the engine that answers for it and the located point."""
+        if self._grid is None or not np.isfinite(p).all():
+            return None
+        g = self._grid_for(float(p[1]))
+        s = self._snap_grid(g, p)
+        # off the storey's floor in height, or nothing of it near: maybe on a stair or a ramp
+        if self._multi_storey() and (s is None or abs(p[1] - g.floor_height) > g.config.max_climb / 2):
+            lay = self._layered()
+            span = lay.span_of(p, max_dist=SNAP_EXTENT)
+            if span >= 0:
+                q = lay.position(span)
+                if lay.span_of(p, max_dist=0.0) == span:  # on the span's own cell: the point itself
+                    q = np.array([p[0], q[1], p[2]])
+                # a stair or a ramp (off the storey's floor) nearer than the grid's point
+                off_floor = abs(q[1] - g.floor_height) > g.config.max_climb / 2
+                if off_floor and (s is None or _xz(q, p) < _xz(s, p) - 1e-9):
+                    return lay, q
+        return None if s is None else (g, s)
+
+    def _island(self, engine: Engine, q: np.ndarray) -> int:
+        """Label of the island (a grid's) or joined surface (the layered surfaces') ``q`` stands on."""
+        if isinstance(engine, NavGrid):
+            return engine.island_id(q)
+        s = engine.span_of(q, max_dist=engine.cell_size)
+        return -1 if s < 0 else int(engine.component[s])
 
     def snap_point(self, point, island_index: int = -1) -> mn.Vector3:
-        p = _vec(point)
-        s = self._snap(p)
-        if s is not None and island_index != -1 and self.get_island(s) != island_index:
-            s = None
-        return mn.Vector3(np.full(3, np.nan) if s is None else s)
+        loc = self._locate(_vec(point))
+        if loc is None or (island_index != -1 and self.get_island(loc[1]) != island_index):
+            return _nan3()
+        return mn.Vector3(loc[1])
 
     def is_navigable(self, point, max_y_delta: float = 0.5) -> bool:
+        """Whether the located point is within ``max_y_delta`` of ``point`` in height and 1 cm of it in xz."""
         p = _vec(point)
-        s = self._snap(p)
-        return s is not None and abs(s[1] - p[1]) <= max_y_delta and math.hypot(s[0] - p[0], s[2] - p[2]) <= 0.01
+        loc = self._locate(p)
+        return loc is not None and abs(loc[1][1] - p[1]) <= max_y_delta and _xz(loc[1], p) <= NAVIGABLE_XZ
 
     def get_island(self, point) -> int:
-        """The point's island (0-based), -1 when it does not snap."""
-        s = self._snap(_vec(point))
-        return -1 if s is None else self.grid.island_id(s) - 1
+        """The island (0-based, the main storey grid's) of the point's located position; -1 when it is not located
+        there."""
+        loc = self._locate(_vec(point))
+        return -1 if loc is None or loc[0] is not self._grid else self.grid.island_id(loc[1]) - 1
 
     @property
     def num_islands(self) -> int:
         return 0 if self._grid is None else int(self._grid.islands.max(initial=0))
 
-    def island_radius(self, point) -> float:
-        """The radius of the circle about the island's centroid containing all of its cells, 0 off the grid."""
-        s = self._snap(_vec(point))
-        if s is None:
+    def _check_island(self, island_index: int) -> None:
+        if island_index != -1 and not 0 <= int(island_index) < self.num_islands:
+            raise ValueError(f"island_index {island_index} not a valid index for this island system "
+                             f"({self.num_islands} islands)")
+
+    @staticmethod
+    def _cells(engine: Engine, label: int) -> np.ndarray:
+        """(x, y, z) of the cell centres of island ``label`` of a grid (0: all its navigable cells) or of the
+        joined surface ``label`` of the layered surfaces."""
+        if isinstance(engine, NavGrid):
+            g = engine
+            ii, jj = np.nonzero(g.navigable if label == 0 else g.islands == label)
+            return np.column_stack([g.origin[0] + jj * g.cell_size, np.full(len(ii), g.floor_height),
+                                    g.origin[1] + ii * g.cell_size])
+        spans = np.flatnonzero(engine.navigable & (engine.component == label))
+        xz = engine.xz(engine.cell[spans])
+        return np.column_stack([xz[:, 0], engine.height[spans], xz[:, 1]])
+
+    def island_radius(self, pt) -> float:
+        """The radius of a sphere about the island's centroid containing all of it (habitat-sim's
+        ``IslandSystem``): of the island the point is located on, a storey grid's or the joined surfaces' (0 when
+        it is not located), or of the main storey's island ``pt`` given as an index."""
+        if isinstance(pt, (int, np.integer)):
+            self._check_island(int(pt))
+            engine, label = self.grid, int(pt) + 1
+        else:
+            loc = self._locate(_vec(pt))
+            if loc is None:
+                return 0.0
+            engine, label = loc[0], self._island(*loc)
+        key = (id(engine), label)
+        if key not in self._island_radius:
+            xyz = self._cells(engine, label)
+            r = float(np.linalg.norm(xyz - xyz.mean(axis=0), axis=1).max()) if len(xyz) else 0.0
+            self._island_radius[key] = r + engine.cell_size / math.sqrt(2.0)
+        return self._island_radius[key]
+
+    @property
+    def navigable_area(self) -> float:
+        """Square metres of the main storey's navigable area."""
+        return self.island_area(-1)
+
+    def island_area(self, island_index: int = -1) -> float:
+        """Square metres of the main storey's island ``island_index`` (-1: of all its islands)."""
+        if self._grid is None:
             return 0.0
-        g = self.grid
-        label = g.island_id(s)
-        if label not in self._island_radius:
-            ii, jj = np.nonzero(g.islands == label)
-            xz = np.column_stack([g.origin[0] + jj * g.cell_size, g.origin[1] + ii * g.cell_size])
-            centre = xz.mean(axis=0)
-            r = float(np.sqrt(((xz - centre) ** 2).sum(axis=1)).max()) + g.cell_size / math.sqrt(2.0)
-            self._island_radius[label] = r
-        return self._island_radius[label]
+        self._check_island(island_index)
+        return float(len(self._cells(self._grid, island_index + 1))) * self._grid.cell_size ** 2
 
     def distance_to_closest_obstacle(self, pt, max_search_radius: float = 2.0) -> float:
-        """xz distance from the snapped point to the navigable area's edge, capped at ``max_search_radius``."""
-        s = self._snap(_vec(pt))
-        if s is None:
+        """xz distance from the located point to the navigable area's edge, ``max_search_radius`` when the edge
+        is farther; ``inf`` when the point is not located (habitat-sim's ``findDistanceToWall``)."""
+        loc = self._locate(_vec(pt))
+        if loc is None:
             return math.inf
-        g = self.grid
-        i, j = (int(v) for v in g.world_to_grid(s))
-        edge = float(g.navigable_clearance()[i, j]) - g.cell_size / 2.0
-        return float(min(max(edge, 0.0), max_search_radius))
+        engine, q = loc
+        r = float(max_search_radius)
+        if isinstance(engine, NavGrid):
+            g = engine
+            cs, (h, w) = g.cell_size, g.navigable.shape
+            i, j = (int(v) for v in g.world_to_grid(q))
+            if g.navigable_clearance()[i, j] - math.sqrt(2.0) * cs >= r:  # the edge's cells are farther than r
+                return r
+            k = int(math.ceil(r / cs)) + 1
+            i0, i1, j0, j1 = i - k, i + k + 1, j - k, j + k + 1
+            window = np.zeros((2 * k + 1, 2 * k + 1), bool)  # cells off the grid are no floor
+            window[max(i0, 0) - i0:min(i1, h) - i0, max(j0, 0) - j0:min(j1, w) - j0] = \
+                g.navigable[max(i0, 0):min(i1, h), max(j0, 0):min(j1, w)]
+            ii, jj = np.nonzero(~window)
+            cx, cz = g.origin[0] + (jj + j0) * cs, g.origin[1] + (ii + i0) * cs
+        else:  # the joined surfaces: a cell with no navigable span within a step (and the slope) of the point's
+            lay = engine
+            cs, (h, w) = lay.cell_size, lay.shape
+            k = int(math.ceil(r / cs)) + 1
+            i, j = lay._cell_ij(float(q[0]), float(q[2]))
+            jj, ii = np.meshgrid(np.arange(j - k, j + k + 1), np.arange(i - k, i + k + 1))
+            cx, cz = lay.origin[0] + jj * cs, lay.origin[1] + ii * cs
+            free = np.zeros(ii.shape, bool)
+            for a, b in zip(*np.nonzero((ii >= 0) & (ii < h) & (jj >= 0) & (jj < w))):
+                c = int(ii[a, b] * w + jj[a, b])
+                own = np.arange(int(lay._start[c]), int(lay._start[c] + lay._count[c]))
+                reach = lay.config.max_climb + math.hypot(cx[a, b] - q[0], cz[a, b] - q[2])
+                free[a, b] = bool((lay.navigable[own] & (np.abs(lay.height[own] - q[1]) <= reach)).any())
+            cx, cz = cx[~free], cz[~free]
+        if len(cx) == 0:
+            return r
+        # distance to the nearest non-navigable cell's square: the navigable area is the union of its cells'
+        dx = np.maximum(np.abs(cx - q[0]) - cs / 2, 0.0)
+        dz = np.maximum(np.abs(cz - q[2]) - cs / 2, 0.0)
+        return float(min(float(np.hypot(dx, dz).min()), r))
 
     # ------------------------------------------------------------------ sampling
+    def _draw(self, xyz: np.ndarray, cs: float) -> np.ndarray:
+        k = int(self._rng.integers(len(xyz)))
+        dx, dz = self._rng.uniform(-0.49, 0.49, size=2) * cs
+        return xyz[k] + np.array([dx, 0.0, dz])
+
     def get_random_navigable_point(self, max_tries: int = 10, island_index: int = -1) -> mn.Vector3:
+        """A point uniform over the navigable area (of island ``island_index``, -1: all), seeded by :meth:`seed`;
+        NaNs when ``max_tries`` allows no draw (every draw succeeds otherwise)."""
         if self._grid is None:
-            return mn.Vector3(np.full(3, np.nan))
-        for _ in range(max(1, int(max_tries))):
-            p = self._grid.sample_navigable_point(self._rng)
-            if island_index == -1 or self._grid.island_id(p) - 1 == island_index:
-                return mn.Vector3(p)
-        return mn.Vector3(np.full(3, np.nan))
+            return _nan3()
+        self._check_island(island_index)
+        if max_tries <= 0:
+            return _nan3()
+        if island_index == -1:  # the grid's own sampler
+            return mn.Vector3(self._grid.sample_navigable_point(self._rng))
+        return mn.Vector3(self._draw(self._cells(self._grid, island_index + 1), self._grid.cell_size))
 
     def get_random_navigable_point_near(self, circle_center, radius: float, max_tries: int = 100,
                                         island_index: int = -1) -> mn.Vector3:
+        """A random navigable point strictly within ``radius`` of ``circle_center`` in xz (any height): drawn over
+        the navigable cells the circle reaches, up to ``max_tries`` draws; NaNs when none lands inside."""
+        if self._grid is None:
+            return _nan3()
+        self._check_island(island_index)
         c = _vec(circle_center)
-        for _ in range(max(1, int(max_tries))):
-            p = np.asarray(self.get_random_navigable_point(1, island_index), np.float64)
-            if np.isfinite(p).all() and math.hypot(p[0] - c[0], p[2] - c[2]) <= radius:
+        xyz, cs = self._cells(self.grid, island_index + 1), self.grid.cell_size
+        xyz = xyz[np.hypot(xyz[:, 0] - c[0], xyz[:, 2] - c[2]) < float(radius) + cs / math.sqrt(2.0)]
+        if len(xyz) == 0:
+            return _nan3()
+        for _ in range(int(max_tries)):
+            p = self._draw(xyz, cs)
+            if (p[0] - c[0]) ** 2 + (p[2] - c[2]) ** 2 < float(radius) ** 2:
                 return mn.Vector3(p)
-        return mn.Vector3(np.full(3, np.nan))
+        return _nan3()
 
     # ------------------------------------------------------------------ paths
     def find_path(self, path: ShortestPath | MultiGoalShortestPath) -> bool:
@@ -227,32 +431,41 @@ class PathFinder:
         path._points = []
         if isinstance(path, MultiGoalShortestPath):
             path.closest_end_point_index = -1
-        start = self._snap(np.round(_vec(path.requested_start), QUERY_DECIMALS))
-        valid = [k for k, e in enumerate(ends) if self._snap(e) is not None]
-        if start is None or not valid:
+        loc = self._locate(np.round(_vec(path.requested_start), QUERY_DECIMALS))
+        valid = [k for k, e in enumerate(ends) if np.isfinite(e).all() and self._locate(e) is not None]
+        if loc is None or not valid:
             return False
-        field = self.grid.distance_field(ends[valid])
+        engine, start = loc
+        targets = ends[valid]
+        if isinstance(engine, NavGrid) and self._multi_storey():
+            # as navbench's env chooses an episode's engine: an end on another storey the joined surfaces reach
+            # from the start puts the query on them (ends on storeys nothing joins never count, on either)
+            off = ~engine.on_storey(targets)
+            if off.any():
+                lay = self._layered()
+                on = lay.snap_point(start, SNAP_EXTENT)
+                if np.isfinite(on).all() and lay.reaches_any(on, targets[off]):
+                    engine = lay
+                    if lay.span_of(start, max_dist=0.0) < 0:
+                        start = on
+        field = engine.distance_field(targets)
         d = float(field.distance(start))
         if not math.isfinite(d):
             return False
         path.geodesic_distance = d
+        line = partial(self._polyline if isinstance(engine, NavGrid) else self._layered_polyline, engine, field, start)
         if isinstance(path, MultiGoalShortestPath):
-            path.closest_end_point_index = valid[self._nearest_end(field, ends[valid], start)]
-        path._points = lambda: self._polyline(field, start)
+            last = line()[-1] if len(targets) > 1 else targets[0]
+            path.closest_end_point_index = valid[int(np.argmin(np.hypot(targets[:, 0] - last[0],
+                                                                          targets[:, 2] - last[2])))]
+        path._points = line
         return True
 
-    def _nearest_end(self, field, ends: np.ndarray, start: np.ndarray) -> int:
-        """Index into ``ends`` of the end the shortest path reaches: the one nearest the path's last point."""
-        if len(ends) == 1:
-            return 0
-        last = self._polyline(field, start)[-1]
-        return int(np.argmin(np.hypot(ends[:, 0] - last[0], ends[:, 2] - last[2])))
-
-    def _polyline(self, field, start: np.ndarray) -> list[np.ndarray]:
-        """Points from ``start`` to the field's nearest goal: down the field's values from cell to neighbouring
-        cell until the goal is in straight navigable line, then each point joined to the farthest later one in
-        straight navigable line."""
-        g = self.grid
+    @staticmethod
+    def _polyline(g: NavGrid, field, start: np.ndarray) -> list[mn.Vector3]:
+        """Points from ``start`` to the field's nearest goal on grid ``g``: down the field's values from cell to
+        neighbouring cell until the goal is in straight navigable line, then each point joined to the farthest
+        later one in straight navigable line."""
         cs = g.cell_size
         y = g.floor_height
         goals = field.goals
@@ -293,16 +506,68 @@ class PathFinder:
                 j += 1
             out.append(trail[j])
             i = j
-        return [np.asarray(q, np.float32) for q in out]
+        return [mn.Vector3(np.asarray(q, np.float32)) for q in out]
+
+    @staticmethod
+    def _layered_polyline(lay: LayeredNav, field, start: np.ndarray) -> list[mn.Vector3]:
+        """Points from ``start`` to the field's nearest goal on the joined surfaces: span to span down the
+        field's values (each step the one that reaches the goal shortest), at the surface's height smoothed over
+        treads (a flight of steps is the ramp through it, as a navmesh's polygons over it are), each point joined
+        to the farthest later one the trail between them stays within half a cell of."""
+        g = lay.graph
+        s = lay.span_of(start, max_dist=SNAP_EXTENT)
+        trail = [np.asarray(start, np.float64)]
+        goal_spans = set(int(v) for v in field._goal_spans)
+        while s >= 0 and s not in goal_spans:
+            row = slice(g.indptr[s], g.indptr[s + 1])
+            t, wt = g.indices[row], g.data[row]
+            if len(t) == 0:
+                break
+            k = int(np.argmin(field.values[t] + wt))
+            if not field.values[t[k]] < field.values[s]:
+                break
+            s = int(t[k])
+            xz = lay.xz(lay.cell[s])
+            trail.append(np.array([xz[0], lay.smooth[s], xz[1]]))
+        goals = field.goals
+        last = trail[-1]
+        trail.append(goals[int(np.argmin(np.hypot(goals[:, 0] - last[0], goals[:, 2] - last[2])))])
+        pts = np.array(trail)
+        out = [0]
+        while out[-1] < len(pts) - 1:  # each point joined to the farthest later one the trail stays near
+            i, j = out[-1], out[-1] + 1
+            while j + 1 < len(pts) and _near_segment(pts[i + 1:j + 1], pts[i], pts[j + 1], lay.cell_size / 2):
+                j += 1
+            out.append(j)
+        return [mn.Vector3(np.asarray(pts[k], np.float32)) for k in out]
 
     # ------------------------------------------------------------------ motion
     def _step(self, start, end, sliding: bool) -> mn.Vector3:
         s, e = _vec(start), _vec(end)
-        ss, se = self._snap(s), self._snap(e)
-        g = self._grid
-        if ss is None or se is None or g is None or g.island_id(ss) != g.island_id(se):
+        ls, le = self._locate(s), self._locate(e)
+        if ls is None or le is None:
             return mn.Vector3(s)
-        new, _ = g.try_step(ss, e, sliding=sliding)
+        engine, ss = ls
+        if isinstance(engine, NavGrid):
+            if le[0] is engine and engine.island_id(ss) == engine.island_id(le[1]):
+                new, collided = engine.try_step(ss, e, sliding=sliding)
+                if not (collided and self._multi_storey()):
+                    return mn.Vector3(new)
+            elif not self._multi_storey():
+                return mn.Vector3(s)
+            else:
+                new = s
+            # the storey's grid stops the step (or the target is off it): the joined surfaces may carry it onto a
+            # stair or a ramp, off the storey's floor
+            lay = self._layered()
+            if self._island(lay, ss) != self._island(lay, e if le[0] is lay else le[1]):
+                return mn.Vector3(new)
+            up, _ = lay.try_step(ss, e, sliding=sliding)
+            off_floor = abs(up[1] - engine.floor_height) > engine.config.max_climb / 2
+            return mn.Vector3(up if off_floor else new)
+        if self._island(engine, ss) != self._island(engine, le[1]):
+            return mn.Vector3(s)
+        new, _ = engine.try_step(ss, e, sliding=sliding)
         return mn.Vector3(new)
 
     def try_step(self, start, end) -> mn.Vector3:
@@ -315,27 +580,42 @@ class PathFinder:
 
     # ------------------------------------------------------------------ maps
     def get_bounds(self) -> tuple[mn.Vector3, mn.Vector3]:
-        """The navigable area's (min, max) corners; y is the storey's floor height."""
+        """(min, max) corners of the scene mesh's box, what habitat-sim reports for the navmesh it builds from a
+        scene (``PathFinder::Impl::build``); without the scene, of the grid's extent at its floor's height."""
+        if self._asset is not None:
+            lo, hi = np.asarray(self._asset.mesh.bounds, np.float64)
+            return mn.Vector3(lo), mn.Vector3(hi)
         g = self.grid
-        ii, jj = np.nonzero(g.navigable)
         cs = g.cell_size
-        lo = (g.origin[0] + jj.min() * cs - cs / 2, g.floor_height, g.origin[1] + ii.min() * cs - cs / 2)
-        hi = (g.origin[0] + jj.max() * cs + cs / 2, g.floor_height, g.origin[1] + ii.max() * cs + cs / 2)
+        h, w = g.navigable.shape
+        lo = (g.origin[0] + cs / 2, g.floor_height, g.origin[1] + cs / 2)
+        hi = (g.origin[0] + (w - 1.5) * cs, g.floor_height, g.origin[1] + (h - 1.5) * cs)
         return mn.Vector3(lo), mn.Vector3(hi)
 
     def get_topdown_view(self, meters_per_pixel: float, height: float, eps: float = 0.5) -> np.ndarray:
         """bool ``[z, x]`` image: ``is_navigable((x, height, z), eps)`` on a grid of ``meters_per_pixel`` from the
         bounds' min corner (navmesh-spec §6 ``getTopDownView``)."""
         lo, hi = (np.asarray(v, np.float64) for v in self.get_bounds())
-        x_res = int(abs(hi[0] - lo[0]) / meters_per_pixel)
-        z_res = int(abs(hi[2] - lo[2]) / meters_per_pixel)
-        g = self.grid
-        if abs(height - g.floor_height) > eps:
-            return np.zeros((z_res, x_res), dtype=bool)
-        x = (lo[0] + np.arange(x_res) * np.float32(meters_per_pixel)).astype(np.float32)
-        z = (lo[2] + np.arange(z_res) * np.float32(meters_per_pixel)).astype(np.float32)
+        x_res = int(np.float32(abs(hi[0] - lo[0])) / np.float32(meters_per_pixel))
+        z_res = int(np.float32(abs(hi[2] - lo[2])) / np.float32(meters_per_pixel))
+        # float32 accumulation from the min corner, as getTopDownView steps
+        x = np.cumsum(np.concatenate([[np.float32(lo[0])], np.full(max(x_res - 1, 0), np.float32(meters_per_pixel))])
+                      .astype(np.float32), dtype=np.float32)[:x_res]
+        z = np.cumsum(np.concatenate([[np.float32(lo[2])], np.full(max(z_res - 1, 0), np.float32(meters_per_pixel))])
+                      .astype(np.float32), dtype=np.float32)[:z_res]
         zz, xx = np.meshgrid(z.astype(np.float64), x.astype(np.float64), indexing="ij")
-        return g._navigable_xz(xx, zz)
+        g = self._grid_for(float(height))
+        view = g._navigable_xz(xx, zz) if abs(height - g.floor_height) <= eps else np.zeros((z_res, x_res), bool)
+        if self._multi_storey():  # the stairs and ramps within eps of the slice, off the storey's floor
+            lay = self._layered()
+            spans = lay.walkable()
+            spans = spans[(np.abs(lay.height[spans] - height) <= eps) &
+                          (np.abs(lay.height[spans] - g.floor_height) > g.config.max_climb / 2)]
+            if len(spans):
+                i = np.floor((zz - lay.origin[1]) / lay.cell_size + 0.5).astype(np.int64)
+                j = np.floor((xx - lay.origin[0]) / lay.cell_size + 0.5).astype(np.int64)
+                view |= np.isin(i * lay.shape[1] + j, lay.cell[spans]) & (i >= 0) & (j >= 0) & (j < lay.shape[1])
+        return view
 
 
 class GreedyFollowerCodes:

@@ -97,7 +97,7 @@ class Simulator:
             raise FileNotFoundError(f"{path}: scene file not found (SimulatorConfiguration.scene_id)")
         self._nb_close_renderers()
         self._nb_asset, grid = load_scene_and_navgrid(path, nav_grid_config(sim_cfg.navmesh_settings))
-        self.pathfinder.load_grid(grid, sim_cfg.navmesh_settings)
+        self.pathfinder.load_grid(grid, sim_cfg.navmesh_settings, self._nb_asset)
         self.semantic_scene, face_ids = _semantic.load_semantics(self._nb_asset)
         self._nb_render_asset = _semantic.render_asset(self._nb_asset, face_ids)
 
