@@ -242,6 +242,8 @@ def cmd_protocol(args) -> int:
 
 
 def cmd_generate(args) -> int:
+    if args.dir and args.what != "habitat-test-data":
+        raise ValueError(f"generate {args.what}: a DIR argument is for habitat-test-data (use --out)")
     if args.what == "habitat-test-data":  # stand-ins at the paths habitat-lab's own tests read
         from navbench.episodes.habitat_test_data import write_habitat_test_data
         out = args.dir or args.out

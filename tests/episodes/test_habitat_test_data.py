@@ -116,6 +116,8 @@ def test_cli_refuses_a_non_empty_directory_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.strip().count("\n") == 0 and str(tmp_path) in err and "--overwrite" in err
     assert not (tmp_path / "data").exists()
+    assert main(["generate", "scenes", str(tmp_path)]) == 2  # DIR belongs to habitat-test-data alone
+    assert "--out" in capsys.readouterr().err
 
 
 def test_habitat_labs_reader_loads_the_test_dataset(data, monkeypatch):
