@@ -150,3 +150,21 @@ def test_habitat_labs_reader_loads_the_objectnav_stand_in(data, monkeypatch):
         ds = ObjectNavDatasetV1(cfg)
         assert len(ds.episodes) == 6 and all((data / s).is_file() for s in ds.scene_ids)
         assert all(ep.goals for ep in ds.episodes)
+
+
+def test_habitat_labs_distance_to_goal_at_reset_is_the_episodes_geodesic(data, monkeypatch):
+    """The episodes are drawn for the body habitat-lab's PointNav test config gives its path finder."""
+    pytest.importorskip("habitat", reason="habitat-lab (the habitat extra) not installed")
+    pytest.importorskip("habitat_sim", reason="navbench-habitat-sim (compat/habitat-sim) not installed")
+    import habitat
+    from habitat.config.default import get_config
+
+    monkeypatch.chdir(data)
+    cfg = get_config("benchmark/nav/pointnav/pointnav_habitat_test.yaml", overrides=[
+        "habitat.dataset.split=val", "habitat.environment.iterator_options.shuffle=False",
+        "habitat.simulator.agents.main_agent.sim_sensors={}"])
+    with habitat.Env(config=cfg) as env:
+        for _ in range(len(env.episodes)):
+            env.reset()
+            d0 = env.current_episode.info["geodesic_distance"]
+            assert env.get_metrics()["distance_to_goal"] == pytest.approx(d0, abs=1e-3)
