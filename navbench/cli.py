@@ -14,6 +14,7 @@
     navbench protocol RUN_DIR [--format markdown|latex|json]
     navbench generate scenes|episodes|imagenav|instance_imagenav|goat|vlnce|policy-train|policy-select [--seed 0]
     navbench generate benchmark --houses 36 --episodes-per-split 3000 --out DIR [--seed 0]
+    navbench generate habitat-test-data DIR [--overwrite] [--seed 0]
     navbench train --config configs/pointnav/2h.toml [--out-dir DIR] [--resume] [--only STAGE] [--out PATH]
     navbench train encoder|dagger|ppo [--FIELD VALUE ...] [--init PATH] [--out PATH] [--resume]
     navbench memory build --scene houses/val/house_008.glb
@@ -241,7 +242,16 @@ def cmd_protocol(args) -> int:
 
 
 def cmd_generate(args) -> int:
-    if args.what == "benchmark":
+    if args.dir and args.what != "habitat-test-data":
+        raise ValueError(f"generate {args.what}: a DIR argument is for habitat-test-data (use --out)")
+    if args.what == "habitat-test-data":  # stand-ins at the paths habitat-lab's own tests read
+        from navbench.episodes.habitat_test_data import write_habitat_test_data
+        out = args.dir or args.out
+        if not out:
+            raise ValueError("generate habitat-test-data needs DIR")
+        write_habitat_test_data(Path(out), seed=args.seed, overwrite=args.overwrite)
+        print(f"run habitat-lab's tests with {out} as the working directory")
+    elif args.what == "benchmark":
         from navbench.episodes.benchmark import generate_benchmark
         if not args.out:
             raise ValueError("generate benchmark needs --out DIR")
@@ -531,11 +541,15 @@ def build_parser() -> argparse.ArgumentParser:
                                         "episodes for choosing among policies (policy-select); or a larger "
                                         "ObjectNav benchmark with houses of its own and checksums (benchmark "
                                         "--out DIR); or one val split: ImageNav's (imagenav), InstanceImageNav's "
-                                        "(instance_imagenav), GOAT-Bench's (goat), the R2R-CE-style one (vlnce)")
+                                        "(instance_imagenav), GOAT-Bench's (goat), the R2R-CE-style one (vlnce); "
+                                        "or stand-ins for habitat-lab's test data (habitat-test-data DIR)")
     g.add_argument("what", choices=("scenes", "episodes", "imagenav", "instance_imagenav", "goat", "policy-train",
-                                    "policy-select", "benchmark", "vlnce"))
+                                    "policy-select", "benchmark", "vlnce", "habitat-test-data"))
+    g.add_argument("dir", nargs="?", help="habitat-test-data: the directory to write habitat-lab's test data "
+                                          "stand-ins in (navbench/episodes/habitat_test_data.py)")
     g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--out")
+    g.add_argument("--overwrite", action="store_true", help="habitat-test-data: write into a non-empty DIR")
     g.add_argument("--houses", type=_count, default=36, help="benchmark: houses of its own (default 36)")
     g.add_argument("--episodes-per-split", type=_count, default=3000,
                    help="benchmark: episodes in each of val_seen, val_seen_synonyms, val_unseen (default 3000)")

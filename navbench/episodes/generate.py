@@ -38,7 +38,7 @@ from navbench.paths import EPISODES_DIR, SCENES_DIR
 from navbench.scene.asset import SceneAsset
 from navbench.scene.cache import load_scene_and_layers, load_scene_and_navgrid, navgrid_for
 from navbench.scene.layers import LayeredNav
-from navbench.scene.navigability import NavGrid
+from navbench.scene.navigability import NavGrid, NavGridConfig
 from navbench.scene.pose import quat_from_yaw, vector_length
 
 # The version of the generated splits, written first in every file and recorded in run directories
@@ -114,11 +114,12 @@ def _pointnav_episode(episode_id: str, scene_id: str, start: np.ndarray, goal: n
 
 def pointnav_episodes(scene_path: Path, scene_dir: Path, n: int, rng: np.random.Generator,
                       cfg: GeneratorConfig = GeneratorConfig(), id_offset: int = 0,
-                      layered: bool = False) -> list[Episode]:
-    """``n`` PointNav episodes in one scene; ``layered`` for a multi-storey scene (module docstring)."""
+                      layered: bool = False, grid_config: NavGridConfig = NavGridConfig()) -> list[Episode]:
+    """``n`` PointNav episodes in one scene, for an agent of ``grid_config``'s body; ``layered`` for a
+    multi-storey scene (module docstring)."""
     if layered:
         return _layered_pointnav_episodes(scene_path, scene_dir, n, rng, cfg, id_offset)
-    _, grid = load_scene_and_navgrid(scene_path)
+    _, grid = load_scene_and_navgrid(scene_path, grid_config)
     scene_id = _rel(scene_path, scene_dir)
     episodes: list[Episode] = []
     for k in range(n):
