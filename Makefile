@@ -13,8 +13,7 @@ BENCH ?= runs/benchmark_h36
 .PHONY: setup osmesa run test test-slow bench clean results-oracle results-localize results-pointnav results-pointnav-2h \
 	results-objectnav results-objectnav-least-tried tables-objectnav results-memory train-pointnav train-pointnav-2h \
 	figures wheel-check lint results-benchmark results-realistic results-vlnce results-tasks test-habitat
-$(BIN)/python:
-	$(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
+$(BIN)/python: ; $(PY) -m venv $(VENV) && $(BIN)/pip install -q --upgrade pip
 osmesa:  # OSMesa (headless software OpenGL) for pyrender; apt runs only when the library is missing
 	@ldconfig -p | grep -q libOSMesa.so || { echo "installing libosmesa6 (apt)"; apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 libosmesa6-dev >/dev/null; }
@@ -22,27 +21,19 @@ $(STAMP): pyproject.toml constraints/ci.txt | $(BIN)/python  # ci.txt: the torch
 	$(BIN)/pip install -q -c constraints/ci.txt -e ".[dev,models,viz,ray]"
 	touch $(STAMP)
 setup: osmesa $(STAMP)
-run: setup  # the memory agent on ObjectNav val_unseen: the README's headline ObjectNav figures
-	$(NB) run --split val_unseen
-test: setup
-	$(BIN)/python -m pytest
+run: setup ; $(NB) run --split val_unseen  # the memory agent on ObjectNav val_unseen: the README's headline figures
+test: setup ; $(BIN)/python -m pytest
 test-slow: setup  # slow end-to-end checks (reference runs reproduce); first triton and SB3, as a CUDA torch from pip brings
 	$(BIN)/pip install -q -c constraints/ci.txt triton==3.8.0 "stable-baselines3>=2.9" && $(BIN)/python -m pytest -m slow
-# habitat-lab and habitat-baselines on navbench (docs/habitat_lab.md) in their own virtualenv: the habitat extra's
-# pins (numpy 1.26.4, torch 2.14.1 + torchvision 0.29.1) and compat/habitat-sim, as the README's install line.
-HVENV := .hvenv
-$(HVENV)/.installed: pyproject.toml compat/habitat-sim/pyproject.toml
-	$(PY) -m venv $(HVENV) && $(HVENV)/bin/pip install -q --upgrade pip
-	$(HVENV)/bin/pip install -q -e ".[habitat]" -e compat/habitat-sim "pytest>=8" "hypothesis>=6.100"
-	touch $@
-test-habitat: osmesa $(HVENV)/.installed
-	NAVBENCH_REQUIRE_HABITAT=1 $(HVENV)/bin/python -m pytest tests/habitat_sim
-wheel-check: setup  # sdist + wheel (dist/), then the wheel alone in a fresh venv: both tasks from an empty dir
-	bash tests/wheel_check.sh $(BIN)/python $(PY)
+# habitat-lab and habitat-baselines on navbench (docs/habitat_lab.md), in their own virtualenv made by the README's line
+.hvenv/.installed: pyproject.toml compat/habitat-sim/pyproject.toml
+	$(PY) -m venv .hvenv && .hvenv/bin/pip install -q -e ".[habitat]" -e compat/habitat-sim "pytest>=8" "hypothesis>=6.100" && touch $@
+test-habitat: osmesa .hvenv/.installed ; NAVBENCH_REQUIRE_HABITAT=1 .hvenv/bin/python -m pytest tests/habitat_sim
+wheel-check: setup ; bash tests/wheel_check.sh $(BIN)/python $(PY)  # sdist + wheel, then the wheel alone in a fresh venv
 bench: setup ; $(NB) bench
 lint: setup  # ruff, pyright on the public modules (pyproject.toml), the import order of docs/layout.md
 	$(BIN)/ruff check . && $(BIN)/pyright && $(BIN)/python -m pytest -q tests/test_layout.py
-clean: ; rm -rf $(VENV) $(HVENV) .pytest_cache dist build
+clean: ; rm -rf $(VENV) .hvenv .pytest_cache dist build
 # Reference tables in results/ (results/README.md); runs land in results/runs/<task>/<split>/<label>/; LIMIT=N: first N each.
 results-oracle: setup
 	for s in $(OBJNAV_SPLITS); do $(RUN) --split $$s --agent oracle $(LIMIT_ARG) || exit 1; done

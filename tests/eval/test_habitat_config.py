@@ -180,12 +180,10 @@ def test_the_config_inside_a_habitat_baselines_checkpoint(tmp_path):
         return AnyNode(node)
 
     path = tmp_path / "ckpt.pth"
-    try:
-        sys.modules.update(mods)
+    with pytest.MonkeyPatch.context() as mp:  # restores a real omegaconf where one is imported (habitat-lab's)
+        for name, mod in mods.items():
+            mp.setitem(sys.modules, name, mod)
         torch.save({"state_dict": {"w": torch.zeros(1)}, "config": wrap(objectnav_config())}, path)
-    finally:
-        for name in mods:
-            sys.modules.pop(name, None)
     s = read_habitat_config(path)
     assert s.task == "objectnav" and s.env.max_steps == 400 and s.success_distance == 0.3
     assert s.used["habitat.simulator.agents.main_agent.sim_sensors.depth_sensor.max_depth"] == 5.0
