@@ -28,7 +28,8 @@ test-slow: setup  # slow end-to-end checks (reference runs reproduce); first tri
 # habitat-lab and habitat-baselines on navbench (docs/habitat_lab.md), in their own virtualenv made by the README's line
 .hvenv/.installed: pyproject.toml compat/habitat-sim/pyproject.toml
 	$(PY) -m venv .hvenv && .hvenv/bin/pip install -q -e ".[habitat]" -e compat/habitat-sim "pytest>=8" "hypothesis>=6.100" && touch $@
-test-habitat: osmesa .hvenv/.installed ; NAVBENCH_REQUIRE_HABITAT=1 .hvenv/bin/python -m pytest tests/habitat_sim
+test-habitat: osmesa .hvenv/.installed  # and navbench's scene, render, env and episode tests on habitat-lab's numpy 1.26.4
+	NAVBENCH_REQUIRE_HABITAT=1 .hvenv/bin/python -m pytest tests/habitat_sim tests/scene tests/render tests/env tests/episodes
 wheel-check: setup ; bash tests/wheel_check.sh $(BIN)/python $(PY)  # sdist + wheel, then the wheel alone in a fresh venv
 bench: setup ; $(NB) bench
 lint: setup  # ruff, pyright on the public modules (pyproject.toml), the import order of docs/layout.md
@@ -93,8 +94,7 @@ results-benchmark: setup  # the generated 36-house benchmark's val_unseen (docs/
 results-realistic: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/realistic.sh all  # docs/realistic.md; resumable
 results-vlnce: setup ; NB="$(NB)" RUNS=$(RUNS) bash results/vlnce.sh > results/vlnce.md  # R2R-CE baselines, ~20 min
 results-tasks: setup ; NB="$(NB)" PY=$(BIN)/python RUNS=$(RUNS) bash results/tasks.sh all  # InstanceImageNav, GOAT, ImageNav
-figures: setup  # docs/img/topdown.png and docs/img/report.png, the README's pictures
-	NB=$(NB) bash docs/figures.sh
+figures: setup ; NB=$(NB) bash docs/figures.sh  # docs/img/topdown.png and docs/img/report.png, the README's pictures
 # The shipped PointNav checkpoints' recipes (policies/MODEL_CARD.md); outputs under runs/pointnav/.
 train-pointnav: setup ; $(NB) train --config configs/pointnav/full.toml
 train-pointnav-2h: setup ; $(NB) train --config configs/pointnav/2h.toml
