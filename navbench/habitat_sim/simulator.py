@@ -56,17 +56,6 @@ def semantic_scene_of(asset) -> SemanticScene:
     return scene
 
 
-def _rgba(rgb: np.ndarray) -> np.ndarray:
-    """(H, W, 4) uint8 RGBA of an (H, W, 3) RGB image, alpha 255: the pixels copied as 3-byte records, which
-    is about three times faster than numpy's channel-strided copy."""
-    h, w = rgb.shape[:2]
-    out = np.empty((h, w, 4), np.uint8)
-    out[..., 3] = 255
-    pixel = np.dtype({"names": ["rgb"], "formats": ["V3"], "offsets": [0], "itemsize": 4})
-    out.reshape(-1).view(pixel)["rgb"] = np.ascontiguousarray(rgb[..., :3]).reshape(-1).view("V3")
-    return out
-
-
 class Simulator:
     """habitat-sim's simulator over a navbench scene; ``config`` is a :class:`Configuration`."""
 
@@ -313,3 +302,14 @@ class Simulator:
             self._nb_close_renderers()
         except Exception:  # interpreter teardown: the GL library may be gone
             pass
+
+
+def _rgba(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 4) uint8 RGBA of an (H, W, 3) RGB image, alpha 255: the pixels copied as 3-byte records, which
+    is about three times faster than numpy's channel-strided copy."""
+    h, w = rgb.shape[:2]
+    out = np.empty((h, w, 4), np.uint8)
+    out[..., 3] = 255
+    pixel = np.dtype({"names": ["rgb"], "formats": ["V3"], "offsets": [0], "itemsize": 4})
+    out.reshape(-1).view(pixel)["rgb"] = np.ascontiguousarray(rgb[..., :3]).reshape(-1).view("V3")
+    return out
