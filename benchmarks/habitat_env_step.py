@@ -3,7 +3,7 @@
 Run in the habitat virtualenv (``pip install -e ".[habitat]" -e compat/habitat-sim``), from the checkout root::
 
     PYOPENGL_PLATFORM=osmesa python benchmarks/habitat_env_step.py                # 5 repeats x 300 steps, chunks of 50
-    PYOPENGL_PLATFORM=osmesa python benchmarks/habitat_env_step.py --profile 300  # cProfile of habitat.Env.step
+    PYOPENGL_PLATFORM=osmesa python benchmarks/habitat_env_step.py --profile 300  # cProfile of habitat.Env.step (CPU)
 
 habitat-lab's ``benchmark/nav/pointnav/pointnav_habitat_test.yaml``, pointed at the bundled split
 (``episodes/pointnav/val/val.json.gz``, ``scenes_dir=envs``), with navbench's default env's sensors and body
@@ -122,7 +122,7 @@ def envs_of(res: dict) -> list[str]:
 
 def profile(pair: Pair, steps: int, episode_steps: int, seed: int, top: int) -> None:
     rng = np.random.default_rng(seed)
-    prof = cProfile.Profile()
+    prof = cProfile.Profile(time.thread_time)  # this thread's CPU: waits for a shared machine's cores not counted
     for start in range(0, steps, episode_steps):
         pair.reset()
         actions = [int(a) for a in rng.integers(1, 4, size=min(episode_steps, steps - start))]
