@@ -94,6 +94,13 @@ class _Vector:
 
     def __init__(self, *args) -> None:
         n = self._N
+        a = args[0] if len(args) == 1 else None
+        if isinstance(a, _Vector) and a._N == n:  # the common copies, without numpy's generic conversion
+            self._v = a._v.copy()
+            return
+        if isinstance(a, np.ndarray) and a.shape == (n,):
+            self._v = a.astype(_F)
+            return
         if not args:
             v = np.zeros(n, _F)
         elif len(args) == 1 and np.ndim(args[0]) == 0:
@@ -113,7 +120,7 @@ class _Vector:
     @classmethod
     def _of(cls, arr):
         out = cls.__new__(cls)
-        out._v = np.asarray(arr, dtype=_F).reshape(cls._N).copy()
+        out._v = np.array(arr, dtype=_F).reshape(cls._N)
         return out
 
     @classmethod
@@ -421,7 +428,7 @@ class Quaternion:
     @staticmethod
     def _rotate(v, x: float, y: float, z: float, w: float, n: float) -> Vector3:
         # q v q* / |q|^2 = (v (w^2 - u.u) + 2 u (u.v) + 2 w (u x v)) / |q|^2, with u the vector part
-        vx, vy, vz = (float(c) for c in np.asarray(v, dtype=_F).reshape(3))
+        vx, vy, vz = v._v.tolist() if isinstance(v, Vector3) else np.asarray(v, dtype=_F).reshape(3).tolist()
         uv = x * vx + y * vy + z * vz
         k = w * w - (x * x + y * y + z * z)
         cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx

@@ -51,7 +51,6 @@ class Simulator:
         self._nb_asset = None
         self._nb_render_asset = None  # the asset with the SEMANTIC sensor's per-face ids (habitat-sim's)
         self._nb_renderers: dict[Any, Any] = {}
-        self._nb_last_state: dict[int, AgentState] = {}
         self._nb_closed = False
         self._nb_noise_rng = np.random.default_rng([0, 1])
         self._nb_configure(config)  # not reconfigure: subclasses (habitat-lab's HabitatSim) override it
@@ -118,7 +117,6 @@ class Simulator:
                 initial_state.rotation = quat_from_angle_axis(float(self.random.uniform(0.0, 2.0 * math.pi)),
                                                               np.array([0.0, 1.0, 0.0]))
         agent.set_state(initial_state, is_initial=True)
-        self._nb_last_state[agent_id] = agent.state
         return agent
 
     def seed(self, new_seed: int) -> None:
@@ -174,6 +172,7 @@ class Simulator:
     def _nb_render(self, sensors: list[Sensor]) -> dict[str, np.ndarray]:
         """Each sensor's observation; sensors with the same camera and pose share one frame."""
         groups: dict[tuple, list[Sensor]] = {}
+        poses: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         for s in sensors:
             pos, rot = s.world_pose()
             spec = s.specification()
@@ -181,23 +180,25 @@ class Simulator:
             key = (tuple(np.asarray(spec.resolution).reshape(2).tolist()), float(spec.hfov), float(spec.near),
                    float(spec.far), ortho, pos.tobytes(), rot.tobytes())
             groups.setdefault(key, []).append(s)
+            poses[key] = pos, rot
         out: dict[str, np.ndarray] = {}
-        for members in groups.values():
+        for key, members in groups.items():
             kinds = {m.specification().sensor_type for m in members}
-            pos, rot = members[0].world_pose()
+            pos, rot = poses[key]
             frame = self._nb_renderer(members[0].specification()).render(
                 pos, rot, rgb=SensorType.COLOR in kinds, depth=SensorType.DEPTH in kinds,
-                ids=SensorType.SEMANTIC in kinds)
+                ids=SensorType.SEMANTIC in kinds, rgba=True)
+            taken: set = set()  # the frame's arrays are the renderer's fresh ones: the first sensor of a kind keeps it
             for m in members:
                 kind = m.specification().sensor_type
                 if kind == SensorType.COLOR:
-                    rgb = frame.rgb
-                    alpha = np.full((*rgb.shape[:2], 1), 255, np.uint8)
-                    obs = np.concatenate([rgb[:, :, :3], alpha], axis=2)
+                    obs = frame.rgb.copy() if kind in taken else frame.rgb
                 elif kind == SensorType.DEPTH:
-                    obs = np.asarray(frame.depth, np.float32).copy()
+                    obs = np.asarray(frame.depth, np.float32)
+                    obs = obs.copy() if kind in taken else obs
                 else:  # navbench's instance ids; structure and background (-1) are 0
                     obs = np.maximum(np.asarray(frame.ids, np.int64), 0).astype(np.uint32)
+                taken.add(kind)
                 out[m.uuid] = apply_noise(m.specification(), obs, self._nb_noise_rng)
         return out
 
@@ -242,7 +243,6 @@ class Simulator:
         for agent_id, act in actions.items():
             agent = self.get_agent(agent_id)
             collided[agent_id] = agent.act(act)
-            self._nb_last_state[agent_id] = agent.get_state()
         self.step_world(dt)
         obs = self.get_sensor_observations(agent_ids=list(actions))
         for agent_id, o in obs.items():

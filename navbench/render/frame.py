@@ -17,9 +17,20 @@ MAX_INSTANCE_ID = (1 << 24) - 2  # id + 1 must fit in 24 bits of RGB
 class RenderOutput:
     """One frame; a field is None when it was not requested."""
 
-    rgb: np.ndarray | None  # (H, W, 3) uint8
+    rgb: np.ndarray | None  # (H, W, 3) uint8; (H, W, 4) RGBA, alpha 255, when rendered with rgba=True
     depth: np.ndarray | None  # (H, W) float32 metres, 0 = nothing hit
     ids: np.ndarray | None  # (H, W) int32 object id, -1 = structure or background
+
+
+def rgba_of(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 4) uint8 RGBA of an (H, W, 3) RGB image, alpha 255 (the pixels copied as 3-byte records: about
+    three times faster than numpy's channel-strided copy)."""
+    h, w = rgb.shape[:2]
+    out = np.empty((h, w, 4), np.uint8)
+    out[..., 3] = 255
+    pixel = np.dtype({"names": ["rgb"], "formats": ["V3"], "offsets": [0], "itemsize": 4})
+    out.reshape(-1).view(pixel)["rgb"] = np.ascontiguousarray(rgb[..., :3]).reshape(-1).view("V3")
+    return out
 
 
 def encode_ids(ids: np.ndarray) -> np.ndarray:

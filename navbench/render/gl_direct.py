@@ -197,8 +197,8 @@ class DirectDraw:
         info["material"] = m
 
     def render(self, pose: np.ndarray, view: np.ndarray, keep: np.ndarray | None, rgb: bool, depth: bool,
-               ids: bool) -> RenderOutput:
-        """One frame; ``keep`` flags the chunks to draw (None: all, in order)."""
+               ids: bool, rgba: bool = False) -> RenderOutput:
+        """One frame; ``keep`` flags the chunks to draw (None: all, in order); ``rgba``: the colour as RGBA."""
         self._make_current()
         if keep is None:
             idx = range(len(self._flat))
@@ -212,8 +212,10 @@ class DirectDraw:
         if rgb or (depth and not ids):
             self._pass(self._flat if rgb else self._depth, idx, v, colour=rgb)
             if rgb:
-                out.rgb = np.empty((self._h, self._w, 3), np.uint8)
-                read(0, 0, self._w, self._h, GL_RGB, GL_UNSIGNED_BYTE, out.rgb.ctypes.data)
+                out.rgb = np.empty((self._h, self._w, 4 if rgba else 3), np.uint8)
+                read(0, 0, self._w, self._h, GL_RGBA if rgba else GL_RGB, GL_UNSIGNED_BYTE, out.rgb.ctypes.data)
+                if rgba:  # the framebuffer's alpha is the clear colour's (0) where nothing was drawn
+                    out.rgb[..., 3] = 255
             if depth:
                 out.depth = self._read_depth()
         if ids:

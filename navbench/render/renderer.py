@@ -59,7 +59,7 @@ from navbench.render.culling import (
     boxes_in_frustum,
     frustum_planes,
 )
-from navbench.render.frame import MAX_INSTANCE_ID, RenderOutput, decode_ids
+from navbench.render.frame import MAX_INSTANCE_ID, RenderOutput, decode_ids, rgba_of
 from navbench.render.gl_direct import DirectDraw
 from navbench.render.gl_platform import AUTO, PLATFORMS, bound_platform
 from navbench.render.pyrender_fixes import multisample_disabled
@@ -205,8 +205,10 @@ class Renderer:
         rgb: bool = True,
         depth: bool = True,
         ids: bool = False,
+        rgba: bool = False,
     ) -> RenderOutput:
-        """Render from the camera at ``position`` (world, metres) with orientation ``rotation_xyzw``."""
+        """Render from the camera at ``position`` (world, metres) with orientation ``rotation_xyzw``; with
+        ``rgba`` the colour is (H, W, 4) RGBA with alpha 255 (read so from GL where the draw is direct)."""
         if not (rgb or depth or ids):
             raise RenderError("render() needs at least one of rgb, depth, ids")
         gl = self._require_open()
@@ -216,7 +218,11 @@ class Renderer:
             # One chunk: drawing it when it is out of view yields what skipping it would (nothing
             # survives clipping), so the test is skipped; it is most of a small house's frames.
             keep = self._visible(pose, view) if self.num_chunks > 1 else None
-            return self._direct.render(pose, view, keep, rgb, depth, ids)
+            return self._direct.render(pose, view, keep, rgb, depth, ids, rgba)
+        if rgba:
+            out = self.render(position, rotation_xyzw, rgb, depth, ids)
+            out.rgb = None if out.rgb is None else rgba_of(out.rgb)
+            return out
         self._scene.set_pose(self._cam_node, pose)
         keep = self._visible(pose)
 

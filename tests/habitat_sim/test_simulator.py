@@ -245,3 +245,20 @@ def test_noise_models_are_navbenchs_seeded_by_the_simulator(scene_path):
         bad.noise_model, bad.noise_model_kwargs = model, kwargs
         with pytest.raises((NotImplementedError, ValueError), match=message):
             hs.Simulator(_config(scene_path, [bad]))
+
+
+def test_sensors_sharing_a_frame_each_get_their_own_array(scene_path):
+    from navbench.render.camera import CameraConfig
+    from navbench.render.renderer import Renderer
+
+    specs = [_spec(u, k) for u, k in (("rgb_a", hs.SensorType.COLOR), ("rgb_b", hs.SensorType.COLOR),
+                                      ("depth_a", hs.SensorType.DEPTH), ("depth_b", hs.SensorType.DEPTH))]
+    with hs.Simulator(_config(scene_path, specs, seed=2)) as s:
+        obs = s.get_sensor_observations()
+        pos, rot = s.sensors["rgb_a"].world_pose()
+        with Renderer(s._nb_asset, CameraConfig(width=96, height=64, hfov_deg=90.0, znear=0.01, zfar=1000.0)) as r:
+            ref = r.render(pos, rot, rgb=True, depth=True)
+    for a, b in (("rgb_a", "rgb_b"), ("depth_a", "depth_b")):
+        assert np.array_equal(obs[a], obs[b]) and not np.shares_memory(obs[a], obs[b])
+    assert np.array_equal(obs["rgb_a"][..., :3], ref.rgb) and (obs["rgb_a"][..., 3] == 255).all()
+    assert obs["rgb_a"].flags.c_contiguous and np.array_equal(obs["depth_a"], ref.depth)

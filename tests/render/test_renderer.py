@@ -399,3 +399,15 @@ def test_auto_platform_is_egl_only_where_a_gpu_and_libegl_are(monkeypatch, room)
     r = Renderer(room, platform="auto")
     assert r.platform == gl_platform.bound_platform() and EnvConfig().gl_platform == "auto"
     r.close()
+
+
+def test_rgba_is_the_rgb_with_alpha_255_on_both_draw_paths(room):
+    with Renderer(room, CameraConfig(width=40, height=30, hfov_deg=90.0)) as r:
+        for path in ("direct", "pyrender"):
+            if path == "pyrender":
+                r._direct = None  # pyrender's draw path (EGL's), on this context
+            rot = pitch(60.0)  # the wall, the floor and empty sky (the clear colour, alpha 0 in the framebuffer)
+            a, b = r.render(C, rot), r.render(C, rot, rgba=True)
+            assert b.rgb.shape == (30, 40, 4) and b.rgb.dtype == np.uint8 and b.rgb.flags.c_contiguous, path
+            assert np.array_equal(b.rgb[..., :3], a.rgb) and (b.rgb[..., 3] == 255).all(), path
+            assert np.array_equal(b.depth, a.depth) and (a.depth == 0).any() and (a.depth > 0).any(), path

@@ -9,6 +9,7 @@ sensors' local poses are derived from the absolute poses given.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -34,7 +35,7 @@ def _unit_quaternion():
 
 def _check_pose(position, rotation, what: str) -> None:
     # habitat-sim utils/validators.py: all_is_finite, is_unit_length (tolerance 1e-4)
-    if not np.isfinite(np.asarray(position, dtype=np.float64)).all():
+    if not all(map(math.isfinite, np.asarray(position, dtype=np.float64).reshape(-1).tolist())):
         raise ValueError(f"{what}.position must be finite, got {np.asarray(position).tolist()}")
     if isinstance(rotation, (list, tuple, np.ndarray)):
         norm = float(np.linalg.norm(np.asarray(rotation, dtype=np.float64)))
@@ -107,10 +108,15 @@ class Agent:
     def get_state(self) -> AgentState:
         node = self._node
         rotation = node.rotation
-        state = AgentState(np.array(node.absolute_translation), quat_from_magnum(rotation))
+        position = node.absolute_translation
+        state = AgentState(np.array(position), quat_from_magnum(rotation))
+        body_rotation = node.absolute_rotation()
         for uuid, sensor in self._sensors.items():
-            state.sensor_states[uuid] = SixDOFPose(np.array(sensor.node.absolute_translation),
-                                                   quat_from_magnum(rotation * sensor.node.rotation))
+            s = sensor.node
+            # a sensor right under the body: SceneNode.absolute_translation's sum, the body's part computed once
+            at = (position + body_rotation.transform_vector(s.translation) if s.parent is node
+                  else s.absolute_translation)
+            state.sensor_states[uuid] = SixDOFPose(np.array(at), quat_from_magnum(rotation * s.rotation))
         return state
 
     def set_state(self, state: AgentState, reset_sensors: bool = True, infer_sensor_states: bool = True,

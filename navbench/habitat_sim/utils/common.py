@@ -32,8 +32,8 @@ def quat_to_coeffs(q) -> np.ndarray:
 
 
 def quat_from_magnum(q: mn.Quaternion) -> np.quaternion:
-    v = q.vector
-    return _qt().quaternion(q.scalar, v[0], v[1], v[2])
+    x, y, z, w = q._floats()
+    return _qt().quaternion(w, x, y, z)
 
 
 def quat_to_magnum(q) -> mn.Quaternion:
