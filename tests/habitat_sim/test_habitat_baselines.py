@@ -4,6 +4,7 @@ splits. Skipped unless the ``habitat`` extra and ``compat/habitat-sim`` are inst
 
 import gzip
 import json
+import logging
 import math
 import os
 import pickle
@@ -30,6 +31,7 @@ import torch  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 CONFIG_DIR = REPO / "configs" / "habitat_baselines"
+POINTNAV_VAL = REPO / "episodes" / "pointnav" / "val" / "val.json.gz"
 
 
 def _free_port() -> int:
@@ -79,7 +81,7 @@ def _check_train(out: Path, output: str, frames: int, config: str) -> Path:
     state = _load(ckpt)
     # the first checkpoint is written after the first update, which collected `frames` steps
     assert state["extra_state"]["step"] == frames
-    assert state["config"].habitat.dataset.scenes_dir == "envs"
+    assert Path(state["config"].habitat.dataset.scenes_dir).name == "envs"
     assert set(state["config"].habitat.simulator.agents.main_agent.sim_sensors) >= {"rgb_sensor", "depth_sensor"}
     weights = state["state_dict"]
     assert any(k.startswith("net.visual_encoder.") for k in weights)
@@ -98,15 +100,70 @@ def _check_eval(output: str, episodes: int, metrics: tuple[str, ...]) -> dict[st
     return got
 
 
+class _Messages(logging.Handler):
+    def __init__(self):
+        super().__init__()
+        self.lines: list[str] = []
+
+    def emit(self, record):
+        self.lines.append(record.getMessage())
+
+
+def _execute(config: str, out: Path, run_type: str, *overrides: str) -> str:
+    """Runs habitat-baselines' ``execute_exp`` (what ``python -m habitat_baselines.run`` calls) in this process on
+    an example config, its outputs under ``out``; returns what it logged."""
+    from habitat import logger
+    from habitat_baselines.config.default import get_config
+    from habitat_baselines.run import execute_exp
+
+    cfg = get_config(str(CONFIG_DIR / f"{config}.yaml"), [
+        f"habitat_baselines.checkpoint_folder={out / 'checkpoints'}", f"habitat_baselines.tensorboard_dir={out / 'tb'}",
+        f"habitat_baselines.video_dir={out / 'video'}", f"habitat_baselines.log_file={out / 'run.log'}",
+        "habitat_baselines.verbose=False", *overrides])
+    handlers = list(logger.handlers)
+    messages = _Messages()
+    logger.addHandler(messages)
+    try:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("PYOPENGL_PLATFORM", os.environ.get("PYOPENGL_PLATFORM", "osmesa"))
+            mp.setenv("TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD", "1")
+            execute_exp(cfg, run_type)
+    finally:
+        for h in set(logger.handlers) - set(handlers):  # the trainer's log file handler too
+            logger.removeHandler(h)
+            h.close()
+    return "\n".join(messages.lines)
+
+
+@pytest.mark.parametrize(("config", "splits"), [("ppo_pointnav", ["val"]),
+                                                ("ddppo_objectnav", ["train", "val_seen"])])
+def test_example_configs_point_at_bundled_data(config, splits):
+    from habitat_baselines.config.default import get_config
+
+    cfg = get_config(str(CONFIG_DIR / f"{config}.yaml"))
+    assert cfg.habitat.dataset.split == splits[0] and cfg.habitat_baselines.eval.split == splits[-1]
+    assert not Path(cfg.habitat.dataset.data_path).is_absolute()  # from the repository root, as the header says
+    for split in splits:
+        path = REPO / cfg.habitat.dataset.data_path.format(split=split)
+        with gzip.open(path, "rt") as f:
+            scenes = {e["scene_id"] for e in json.load(f)["episodes"]}
+        assert scenes and all((REPO / cfg.habitat.dataset.scenes_dir / s).is_file() for s in scenes), path
+    # the headers' commands are the ones the tests run
+    header = (CONFIG_DIR / f"{config}.yaml").read_text().split("\ndefaults:")[0]
+    assert f"--config-dir configs/habitat_baselines --config-name {config}" in header
+    assert "habitat_baselines.evaluate=True" in header
+
+
 @pytest.fixture(scope="module")
 def ppo_pointnav(tmp_path_factory):
     out = tmp_path_factory.mktemp("ppo_pointnav")
     # one episode a scene, so that training and the evaluation (which keeps the checkpoint's config) reconfigure
     # the simulator to another house between episodes
-    output = _run("ppo_pointnav", out, "habitat_baselines.num_environments=1", "habitat_baselines.num_updates=2",
-                  "habitat_baselines.rl.ppo.num_steps=16", "habitat_baselines.rl.ppo.ppo_epoch=1",
-                  "habitat_baselines.log_interval=1",
-                  "habitat.environment.iterator_options.max_scene_repeat_episodes=1")
+    output = _execute("ppo_pointnav", out, "train", f"habitat.dataset.data_path={POINTNAV_VAL}",
+                      f"habitat.dataset.scenes_dir={REPO / 'envs'}", "habitat_baselines.num_environments=1",
+                      "habitat_baselines.num_updates=2", "habitat_baselines.rl.ppo.num_steps=16",
+                      "habitat_baselines.rl.ppo.ppo_epoch=1", "habitat_baselines.log_interval=1",
+                      "habitat.environment.iterator_options.max_scene_repeat_episodes=1")
     return out, output
 
 
@@ -114,28 +171,25 @@ def test_ppo_pointnav_train_writes_checkpoint(ppo_pointnav):
     out, output = ppo_pointnav
     ckpt = _check_train(out, output, frames=16, config="ppo_pointnav")
     config = _load(ckpt)["config"]
-    assert config.habitat.dataset.data_path == "episodes/pointnav/{split}/{split}.json.gz"
+    assert config.habitat.dataset.data_path == str(POINTNAV_VAL)
     assert config.habitat.environment.iterator_options.max_scene_repeat_episodes == 1
     assert "Initialized DD-PPO" not in output
     # torch.load's default (weights_only) refuses the checkpoint: why the runs set TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD
-    env_flag = os.environ.pop("TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD", None)
-    try:
+    with pytest.MonkeyPatch.context() as mp:
+        mp.delenv("TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD", raising=False)
         with pytest.raises(pickle.UnpicklingError, match="DictConfig"):
             torch.load(ckpt, map_location="cpu")
-    finally:
-        if env_flag is not None:
-            os.environ["TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD"] = env_flag
 
 
-def test_ppo_pointnav_eval_of_checkpoint(ppo_pointnav, tmp_path):
+def test_ppo_pointnav_eval_of_checkpoint(ppo_pointnav, tmp_path, capfd):
     out, _ = ppo_pointnav
     # the evaluator builds its environments from the checkpoint's config and its rollout buffers from this one's:
     # both must have the training run's num_environments
-    output = _run("ppo_pointnav", tmp_path, "habitat_baselines.evaluate=True", "habitat_baselines.num_environments=1",
-                  f"habitat_baselines.eval_ckpt_path_dir={out / 'checkpoints' / 'ckpt.0.pth'}",
-                  "habitat_baselines.test_episode_count=3")
+    output = _execute("ppo_pointnav", tmp_path, "eval", "habitat_baselines.evaluate=True",
+                      "habitat_baselines.num_environments=1", "habitat_baselines.test_episode_count=3",
+                      f"habitat_baselines.eval_ckpt_path_dir={out / 'checkpoints' / 'ckpt.0.pth'}")
     assert "Loaded checkpoint trained for 16 steps" in output
-    _check_eval(output, episodes=3, metrics=("distance_to_goal", "distance_to_goal_reward"))
+    _check_eval(output + capfd.readouterr().err, episodes=3, metrics=("distance_to_goal", "distance_to_goal_reward"))
 
 
 @pytest.mark.slow
