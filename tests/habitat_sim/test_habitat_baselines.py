@@ -1,6 +1,7 @@
-"""habitat-baselines' PPO / DD-PPO trainer and evaluator on navbench's habitat_sim, through its public entry
-(``python -m habitat_baselines.run``) with the example configs in ``configs/habitat_baselines/`` and the bundled
-splits. Skipped unless the ``habitat`` extra and ``compat/habitat-sim`` are installed and torchvision imports."""
+"""habitat-baselines' PPO / DD-PPO trainer and evaluator on navbench's habitat_sim, through its entry points
+(``execute_exp``, and ``python -m habitat_baselines.run``, under ``torchrun`` for two DD-PPO workers) with the example
+configs in ``configs/habitat_baselines/`` and the bundled splits. Skipped unless the ``habitat`` extra and
+``compat/habitat-sim`` are installed and torchvision imports."""
 
 import gzip
 import json
