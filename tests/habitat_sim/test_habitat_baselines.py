@@ -53,7 +53,7 @@ def _run(config: str, out: Path, *overrides: str, nproc: int = 0, timeout: int =
            f"habitat_baselines.log_file={out / 'run.log'}", "habitat_baselines.verbose=False", *overrides]
     env = {**os.environ, "PYOPENGL_PLATFORM": os.environ.get("PYOPENGL_PLATFORM", "osmesa"),
            # habitat-baselines' checkpoints hold an omegaconf DictConfig, which torch.load's weights_only refuses
-           "TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD": "1", "MAIN_PORT": str(_free_port())}
+           "TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD": "1", "MAIN_PORT": str(_free_port()), "OMP_NUM_THREADS": "1"}
     proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout)
     output = proc.stdout + proc.stderr
     assert proc.returncode == 0, output[-4000:]
@@ -124,12 +124,16 @@ def _execute(config: str, out: Path, run_type: str, *overrides: str) -> str:
     handlers = list(logger.handlers)
     messages = _Messages()
     logger.addHandler(messages)
+    threads = torch.get_num_threads()
     try:
         with pytest.MonkeyPatch.context() as mp:
             mp.setenv("PYOPENGL_PLATFORM", os.environ.get("PYOPENGL_PLATFORM", "osmesa"))
             mp.setenv("TORCH_FORCE_NO_WEIGHTS_ONLY_LOAD", "1")
+            mp.setenv("OMP_NUM_THREADS", "1")  # the environment workers'; the trainer's below
+            torch.set_num_threads(1)
             execute_exp(cfg, run_type)
     finally:
+        torch.set_num_threads(threads)
         for h in set(logger.handlers) - set(handlers):  # the trainer's log file handler too
             logger.removeHandler(h)
             h.close()
