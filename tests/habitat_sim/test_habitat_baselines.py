@@ -33,6 +33,9 @@ import torch  # noqa: E402
 REPO = Path(__file__).resolve().parents[2]
 CONFIG_DIR = REPO / "configs" / "habitat_baselines"
 POINTNAV_VAL = REPO / "episodes" / "pointnav" / "val" / "val.json.gz"
+# two short updates, a checkpoint after each
+TWO_UPDATES = ("habitat_baselines.num_updates=2", "habitat_baselines.checkpoint_interval=1",
+               "habitat_baselines.rl.ppo.num_steps=16", "habitat_baselines.log_interval=1")
 
 
 def _free_port() -> int:
@@ -77,11 +80,14 @@ def _episodes_evaluated(output: str) -> int:
 
 
 def _check_train(out: Path, output: str, frames: int, config: str) -> Path:
-    ckpt = out / "checkpoints" / "ckpt.0.pth"
-    assert ckpt.is_file() and (out / "checkpoints" / "latest.pth").is_file(), output[-2000:]
+    """Checks a two-update run with a checkpoint after each update (``checkpoint_interval=1``), each update
+    collecting ``frames`` steps; returns the last checkpoint."""
+    folder = out / "checkpoints"
+    assert sorted(p.name for p in folder.iterdir()) == ["ckpt.0.pth", "ckpt.1.pth", "latest.pth"], output[-2000:]
+    assert [_load(folder / f"ckpt.{i}.pth")["extra_state"]["step"] for i in (0, 1)] == [frames, 2 * frames]
+    ckpt = folder / "latest.pth"
     state = _load(ckpt)
-    # the first checkpoint is written after the first update, which collected `frames` steps
-    assert state["extra_state"]["step"] == frames
+    assert state["extra_state"]["step"] == 2 * frames
     assert Path(state["config"].habitat.dataset.scenes_dir).name == "envs"
     assert set(state["config"].habitat.simulator.agents.main_agent.sim_sensors) >= {"rgb_sensor", "depth_sensor"}
     weights = state["state_dict"]
@@ -166,8 +172,7 @@ def ppo_pointnav(tmp_path_factory):
     # the simulator to another house between episodes
     output = _execute("ppo_pointnav", out, "train", f"habitat.dataset.data_path={POINTNAV_VAL}",
                       f"habitat.dataset.scenes_dir={REPO / 'envs'}", "habitat_baselines.num_environments=1",
-                      "habitat_baselines.num_updates=2", "habitat_baselines.rl.ppo.num_steps=16",
-                      "habitat_baselines.rl.ppo.ppo_epoch=1", "habitat_baselines.log_interval=1",
+                      *TWO_UPDATES, "habitat_baselines.rl.ppo.ppo_epoch=1",
                       "habitat.environment.iterator_options.max_scene_repeat_episodes=1")
     return out, output
 
@@ -192,8 +197,8 @@ def test_ppo_pointnav_eval_of_checkpoint(ppo_pointnav, tmp_path, capfd):
     # both must have the training run's num_environments
     output = _execute("ppo_pointnav", tmp_path, "eval", "habitat_baselines.evaluate=True",
                       "habitat_baselines.num_environments=1", "habitat_baselines.test_episode_count=3",
-                      f"habitat_baselines.eval_ckpt_path_dir={out / 'checkpoints' / 'ckpt.0.pth'}")
-    assert "Loaded checkpoint trained for 16 steps" in output
+                      f"habitat_baselines.eval_ckpt_path_dir={out / 'checkpoints' / 'latest.pth'}")
+    assert "Loaded checkpoint trained for 32 steps" in output
     _check_eval(output + capfd.readouterr().err, episodes=3, metrics=("distance_to_goal", "distance_to_goal_reward"))
 
 
@@ -201,8 +206,7 @@ def test_ppo_pointnav_eval_of_checkpoint(ppo_pointnav, tmp_path, capfd):
 def test_ddppo_pointnav_two_processes_train_and_eval(tmp_path):
     train = tmp_path / "train"
     output = _run("ppo_pointnav", train, "habitat_baselines.trainer_name=ddppo", "habitat_baselines.num_environments=1",
-                  "habitat_baselines.num_updates=2", "habitat_baselines.rl.ppo.num_steps=16",
-                  "habitat_baselines.log_interval=1", nproc=2)
+                  *TWO_UPDATES, nproc=2)
     assert "Initialized DD-PPO with 2 workers" in output
     # two workers, one environment each, 16 steps per update
     ckpt = _check_train(train, output, frames=32, config="ppo_pointnav")
@@ -215,8 +219,7 @@ def test_ddppo_pointnav_two_processes_train_and_eval(tmp_path):
 @pytest.mark.slow
 def test_ddppo_objectnav_train_and_eval(tmp_path):
     train = tmp_path / "train"
-    output = _run("ddppo_objectnav", train, "habitat_baselines.num_environments=2", "habitat_baselines.num_updates=2",
-                  "habitat_baselines.rl.ppo.num_steps=16", "habitat_baselines.log_interval=1")
+    output = _run("ddppo_objectnav", train, *TWO_UPDATES)
     assert "Initialized DD-PPO with 1 workers" in output
     ckpt = _check_train(train, output, frames=32, config="ddppo_objectnav")
     state = _load(ckpt)
