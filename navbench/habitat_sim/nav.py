@@ -27,6 +27,7 @@ habitat-sim's conventions (``navmesh-spec.md``: §4 geodesics, §5 try_step, §6
 from __future__ import annotations
 
 import math
+import os
 from functools import partial
 from typing import Any
 
@@ -45,6 +46,8 @@ SNAP_HEIGHT = 4.0
 NAVIGABLE_XZ = 0.01  # isNavigable: the snapped point within 1 cm of the query in xz (PathFinder.cpp)
 QUERY_DECIMALS = 5  # find_path's points, in metres: episode files' precision
 WALKABLE_SLOPE_DEG = 45.0  # navbench's floor-like test: a normal within 45 degrees of vertical
+_JOINED: dict[tuple, bool] = {}  # PathFinder._stairs_join, by scene and floor
+_LAYERS: dict[tuple, LayeredNav] = {}  # PathFinder._layered, the last two scenes
 
 __all__ = ["GreedyFollowerCodes", "GreedyGeodesicFollowerImpl", "MultiGoalShortestPath", "NavMeshSettings",
            "PathFinder", "ShortestPath", "nav_grid_config"]
@@ -207,12 +210,38 @@ class PathFinder:
             self._storeys[floor] = navgrid_for(self._asset, c, floor_hint=float(y))
         return self._storeys[floor]
 
+    def _scene_key(self, *extra) -> tuple:
+        """The scene file (path, size, mtime) and the grid's build settings, for memos kept across reloads."""
+        st = os.stat(self._asset.path)
+        return (str(self._asset.path), st.st_size, st.st_mtime_ns, self.grid.config, *extra)
+
+    def _stairs_join(self, g: NavGrid) -> bool:
+        """Whether a stair or a ramp joins storey ``g``'s floor (a joined surface holds spans on that floor and
+        off it): only then can a step its grid stops go on over the joined surfaces. A roof counts as a level
+        above (:meth:`_multi_storey`) but joins nothing. Memoised per scene across reloads (each reconfigure
+        reloads the scene; only the scene's first stopped step pays for the joined surfaces)."""
+        if not self._multi_storey():
+            return False
+        key = self._scene_key(g.floor_height)
+        if key not in _JOINED:
+            lay = self._layered()
+            nav = lay.component >= 0
+            floor = nav & (np.abs(lay.height - g.floor_height) <= g.config.max_climb / 2)
+            _JOINED[key] = bool(np.intersect1d(lay.component[floor], lay.component[nav & ~floor]).size)
+        return _JOINED[key]
+
     def _layered(self) -> LayeredNav:
-        """The scene's joined walkable surfaces (disk-cached as navbench's env caches them)."""
+        """The scene's joined walkable surfaces (disk-cached as navbench's env caches them; the last two scenes'
+        kept in memory, so that switching back and forth between episodes' scenes does not rebuild them)."""
         if self._layers is None:
             from navbench.scene.cache import layers_for
 
-            self._layers = layers_for(self._asset, self.grid.config)
+            key = self._scene_key()
+            if key not in _LAYERS:
+                if len(_LAYERS) >= 2:
+                    _LAYERS.pop(next(iter(_LAYERS)))
+                _LAYERS[key] = layers_for(self._asset, self.grid.config)
+            self._layers = _LAYERS[key]
         return self._layers
 
     # ------------------------------------------------------------------ locating
@@ -551,7 +580,7 @@ class PathFinder:
         if isinstance(engine, NavGrid):
             if le[0] is engine and engine.island_id(ss) == engine.island_id(le[1]):
                 new, collided = engine.try_step(ss, e, sliding=sliding)
-                if not (collided and self._multi_storey()):
+                if not (collided and self._stairs_join(engine)):
                     return mn.Vector3(new)
             elif not self._multi_storey():
                 return mn.Vector3(s)

@@ -119,3 +119,10 @@ def test_topdown_view_slices_by_height(setup):
     assert at(upper, 9.0, 2.6) and not at(upper, 5.0, 2.6)  # the upper floor, not the stairwell under it
     assert at(ground, 9.0, 2.6) and at(ground, 1.0, 2.6)
     assert at(flight, 5.0, 2.6) == (join == "stairs")
+
+
+def test_only_a_joining_stair_sends_a_stopped_step_over_the_joined_surfaces(setup):
+    join, pf, _ = setup
+    assert pf._multi_storey()
+    # both storeys' floors are walkable in either house; only the flight joins them
+    assert pf._stairs_join(pf.grid) == (join == "stairs")

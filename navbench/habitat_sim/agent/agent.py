@@ -45,6 +45,14 @@ def _check_pose(position, rotation, what: str) -> None:
         raise ValueError(f"{what}.rotation must have unit length, got {rotation} (length {norm})")
 
 
+def _unchecked(cls, position, rotation):
+    """``cls(position, rotation)`` without the checks: for poses read off the scene graph, whose nodes were set
+    from checked states (per-step state reads are habitat-lab's hot path)."""
+    obj = object.__new__(cls)
+    obj.position, obj.rotation = position, rotation
+    return obj
+
+
 class SixDOFPose:
     __slots__ = ("position", "rotation")
 
@@ -109,14 +117,15 @@ class Agent:
         node = self._node
         rotation = node.rotation
         position = node.absolute_translation
-        state = AgentState(np.array(position), quat_from_magnum(rotation))
+        state = _unchecked(AgentState, np.array(position), quat_from_magnum(rotation))
+        state.sensor_states = {}
         body_rotation = node.absolute_rotation()
         for uuid, sensor in self._sensors.items():
             s = sensor.node
             # a sensor right under the body: SceneNode.absolute_translation's sum, the body's part computed once
             at = (position + body_rotation.transform_vector(s.translation) if s.parent is node
                   else s.absolute_translation)
-            state.sensor_states[uuid] = SixDOFPose(np.array(at), quat_from_magnum(rotation * s.rotation))
+            state.sensor_states[uuid] = _unchecked(SixDOFPose, np.array(at), quat_from_magnum(rotation * s.rotation))
         return state
 
     def set_state(self, state: AgentState, reset_sensors: bool = True, infer_sensor_states: bool = True,
