@@ -4,6 +4,7 @@ Run in the habitat virtualenv (``pip install -e ".[habitat]" -e compat/habitat-s
 
     PYOPENGL_PLATFORM=osmesa python benchmarks/habitat_env_step.py                # 5 repeats x 300 steps, chunks of 50
     PYOPENGL_PLATFORM=osmesa python benchmarks/habitat_env_step.py --profile 300  # cProfile of habitat.Env.step (CPU)
+    PYOPENGL_PLATFORM=osmesa python benchmarks/habitat_env_step.py --layers       # whose code the extra time is
 
 habitat-lab's ``benchmark/nav/pointnav/pointnav_habitat_test.yaml``, pointed at the bundled split
 (``episodes/pointnav/val/val.json.gz``, ``scenes_dir=envs``), with navbench's default env's sensors and body
@@ -116,6 +117,30 @@ def measure(pair: Pair, repeats: int, steps: int, episode_steps: int, seed: int)
     return out
 
 
+def layers(pair: Pair, chunks: int, episode_steps: int, seed: int) -> None:
+    """CPU per step of each layer a habitat-lab step passes through, outermost first, against navbench's env:
+    habitat-lab's ``habitat.Env.step`` (its task: measures and task sensors), its ``HabitatSim.step`` (its sensor
+    suite over the simulator's observations), navbench's ``habitat_sim.Simulator.step`` (the simulator API), and
+    navbench's ``PointNavEnv.step``. Each chunk replays the same moves through every layer from the same reset."""
+    import navbench.habitat_sim as hs
+
+    sim = pair.lab.sim
+    fns = {"habitat.Env.step": pair.lab.step, "habitat-lab HabitatSim.step": sim.step,
+           "navbench Simulator.step": lambda a: hs.Simulator.step(sim, a), "navbench env": pair.nb.step}
+    rng = np.random.default_rng(seed)
+    cpu: dict[str, list[float]] = {k: [] for k in fns}
+    for _ in range(chunks):
+        actions = [int(a) for a in rng.integers(1, 4, size=episode_steps)]
+        for name, step in fns.items():
+            pair.reset()
+            cpu[name].append(timed(step, actions)[1])
+    base = statistics.median(cpu["navbench env"])
+    print(f"CPU per step by layer, median of {chunks} chunks of {episode_steps} moves, load average "
+          f"{os.getloadavg()[0]:.1f} at the end")
+    for name, v in cpu.items():
+        print(f"  {name:28s} {1e3 * statistics.median(v):6.3f} ms  ({statistics.median(v) / base:.2f}x navbench env)")
+
+
 def envs_of(res: dict) -> list[str]:
     return [k for k, v in res.items() if isinstance(v, dict)]
 
@@ -142,6 +167,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--profile", type=int, default=0, metavar="STEPS",
                    help="instead: cProfile habitat.Env.step over STEPS steps")
+    p.add_argument("--layers", action="store_true",
+                   help="instead: CPU per step of habitat-lab's and navbench's layers of a step")
     p.add_argument("--top", type=int, default=35, help="functions listed by --profile")
     p.add_argument("--json", action="store_true", help="also print the per-repeat figures as JSON")
     args = p.parse_args(argv)
@@ -160,6 +187,9 @@ def main(argv: list[str] | None = None) -> int:
             pair.nb.step(a)
         if args.profile:
             profile(pair, args.profile, args.episode_steps, args.seed, args.top)
+            return 0
+        if args.layers:
+            layers(pair, 8 * args.repeats, args.episode_steps, args.seed)
             return 0
         res = measure(pair, args.repeats, args.steps, args.episode_steps, args.seed)
     finally:
