@@ -27,8 +27,8 @@ class SceneNodeType(enum.Enum):
 class SceneNode:
     def __init__(self, parent: SceneNode | None = None) -> None:
         self.parent = parent
-        self.translation = mn.Vector3()
-        self.rotation = mn.Quaternion()
+        self._translation = mn.Vector3()
+        self._rotation = mn.Quaternion()
         self.type = SceneNodeType.EMPTY
 
     @property
@@ -39,36 +39,47 @@ class SceneNode:
     def node(self) -> SceneNode:
         return self
 
-    # Magnum's setters accept any 3-vector / quaternion
-    def __setattr__(self, name, value) -> None:
-        if name == "translation":
-            value = mn.Vector3(value)
-        elif name == "rotation" and not isinstance(value, mn.Quaternion):
+    # Magnum's getters return values (a copy: changing it leaves the node alone); its setters take any 3-vector
+    @property
+    def translation(self) -> mn.Vector3:
+        return mn.Vector3(self._translation)
+
+    @translation.setter
+    def translation(self, value) -> None:
+        self._translation = mn.Vector3(value)
+
+    @property
+    def rotation(self) -> mn.Quaternion:
+        return mn.Quaternion._make(*self._rotation._floats())
+
+    @rotation.setter
+    def rotation(self, value) -> None:
+        if not isinstance(value, mn.Quaternion):
             raise TypeError(f"SceneNode.rotation must be a magnum Quaternion, got {type(value).__name__}")
-        object.__setattr__(self, name, value)
+        self._rotation = mn.Quaternion._make(*value._floats())
 
     def reset_transformation(self) -> None:
-        self.translation = mn.Vector3()
-        self.rotation = mn.Quaternion()
+        self._translation = mn.Vector3()
+        self._rotation = mn.Quaternion()
 
     def translate(self, v) -> SceneNode:
         """Translate in the parent's frame."""
-        self.translation = self.translation + mn.Vector3(v)
+        self._translation = self._translation + mn.Vector3(v)
         return self
 
     def translate_local(self, v) -> SceneNode:
         """Translate in the node's own (rotated) frame."""
-        self.translation = self.translation + self.rotation.transform_vector(mn.Vector3(v))
+        self._translation = self._translation + self._rotation.transform_vector(mn.Vector3(v))
         return self
 
     def rotate(self, angle, normalized_axis) -> SceneNode:
         """Rotate in the parent's frame (applied after the current rotation)."""
-        self.rotation = mn.Quaternion.rotation(angle, normalized_axis) * self.rotation
+        self._rotation = mn.Quaternion.rotation(angle, normalized_axis) * self._rotation
         return self
 
     def rotate_local(self, angle, normalized_axis) -> SceneNode:
         """Rotate about the node's own axis (applied before the current rotation)."""
-        self.rotation = self.rotation * mn.Quaternion.rotation(angle, normalized_axis)
+        self._rotation = self._rotation * mn.Quaternion.rotation(angle, normalized_axis)
         return self
 
     def rotate_x(self, angle) -> SceneNode:
@@ -88,7 +99,7 @@ class SceneNode:
 
     @property
     def transformation(self) -> mn.Matrix4:
-        return mn.Matrix4.from_(np.asarray(self.rotation.to_matrix()), np.asarray(self.translation))
+        return mn.Matrix4.from_(np.asarray(self._rotation.to_matrix()), np.asarray(self._translation))
 
     @transformation.setter
     def transformation(self, m: mn.Matrix4) -> None:
@@ -103,11 +114,13 @@ class SceneNode:
     @property
     def absolute_translation(self) -> mn.Vector3:
         if self.parent is None:
-            return mn.Vector3(self.translation)
-        return self.parent.absolute_translation + self.parent.absolute_rotation().transform_vector(self.translation)
+            return mn.Vector3(self._translation)
+        return self.parent.absolute_translation + self.parent.absolute_rotation().transform_vector(self._translation)
 
     def absolute_rotation(self) -> mn.Quaternion:
-        return self.rotation if self.parent is None else self.parent.absolute_rotation() * self.rotation
+        if self.parent is None:
+            return self.rotation
+        return self.parent.absolute_rotation() * self._rotation
 
 
 class SemanticCategory:

@@ -262,3 +262,18 @@ def test_sensors_sharing_a_frame_each_get_their_own_array(scene_path):
         assert np.array_equal(obs[a], obs[b]) and not np.shares_memory(obs[a], obs[b])
     assert np.array_equal(obs["rgb_a"][..., :3], ref.rgb) and (obs["rgb_a"][..., 3] == 255).all()
     assert obs["rgb_a"].flags.c_contiguous and np.array_equal(obs["depth_a"], ref.depth)
+
+
+def test_scene_node_translation_and_rotation_are_values_as_magnums():
+    from navbench.habitat_sim.scene import SceneNode
+
+    node = SceneNode()
+    node.translation = [1.0, 2.0, 3.0]
+    node.rotation = mn.Quaternion.rotation(mn.Deg(90), mn.Vector3.y_axis())
+    t, r = node.translation, node.rotation
+    t.x = 5.0  # changing a value read off the node leaves the node alone (magnum returns copies)
+    r.scalar = 0.0
+    assert node.translation.x == 1.0
+    assert node.rotation.scalar == pytest.approx(math.sqrt(0.5))
+    node.translate([0.0, 0.0, 1.0])
+    assert list(node.translation) == [1.0, 2.0, 4.0] and t.z == 3.0
