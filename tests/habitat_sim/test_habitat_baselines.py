@@ -79,15 +79,21 @@ def _episodes_evaluated(output: str) -> int:
     return int(done)
 
 
-def _check_train(out: Path, output: str, frames: int, config: str) -> Path:
+def _check_train(out: Path, output: str, frames: int, config: str, preemptible: bool = False) -> Path:
     """Checks a two-update run with a checkpoint after each update (``checkpoint_interval=1``), each update
-    collecting ``frames`` steps; returns the last checkpoint."""
+    collecting ``frames`` steps (at most, where DD-PPO's workers are ``preemptible``: one that falls behind cuts
+    its rollout short, habitat-baselines' ``should_end_early``, so the count depends on the machine's load);
+    returns the last checkpoint."""
     folder = out / "checkpoints"
     assert sorted(p.name for p in folder.iterdir()) == ["ckpt.0.pth", "ckpt.1.pth", "latest.pth"], output[-2000:]
-    assert [_load(folder / f"ckpt.{i}.pth")["extra_state"]["step"] for i in (0, 1)] == [frames, 2 * frames]
+    steps = [_load(folder / f"ckpt.{i}.pth")["extra_state"]["step"] for i in (0, 1)]
+    if preemptible:
+        assert 0 < steps[0] <= frames and steps[0] < steps[1] <= steps[0] + frames, steps
+    else:
+        assert steps == [frames, 2 * frames]
     ckpt = folder / "latest.pth"
     state = _load(ckpt)
-    assert state["extra_state"]["step"] == 2 * frames
+    assert state["extra_state"]["step"] == steps[1]
     assert Path(state["config"].habitat.dataset.scenes_dir).name == "envs"
     assert set(state["config"].habitat.simulator.agents.main_agent.sim_sensors) >= {"rgb_sensor", "depth_sensor"}
     weights = state["state_dict"]
@@ -209,7 +215,7 @@ def test_ddppo_pointnav_two_processes_train_and_eval(tmp_path):
                   *TWO_UPDATES, nproc=2)
     assert "Initialized DD-PPO with 2 workers" in output
     # two workers, one environment each, 16 steps per update
-    ckpt = _check_train(train, output, frames=32, config="ppo_pointnav")
+    ckpt = _check_train(train, output, frames=32, config="ppo_pointnav", preemptible=True)
     output = _run("ppo_pointnav", tmp_path / "eval", "habitat_baselines.evaluate=True",
                   "habitat_baselines.num_environments=1", f"habitat_baselines.eval_ckpt_path_dir={ckpt}",
                   "habitat_baselines.test_episode_count=2")
