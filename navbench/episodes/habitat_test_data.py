@@ -6,14 +6,13 @@ habitat-lab's tests read the habitat test scenes and the test PointNav dataset b
 directory: ``data/scene_datasets/habitat-test-scenes/{skokloster-castle,van-gogh-room,apartment_1}.glb`` and
 ``data/datasets/pointnav/habitat-test-scenes/v1/{split}/{split}.json.gz`` (habitat-lab's
 ``habitat/config/habitat/dataset/pointnav/habitat_test.yaml`` and ``default_structured_configs.py``'s
-``SimulatorConfig.scene``), data habitat-lab's repository does not hold. Each scene is one of navbench's
-bundled val houses copied under the test scene's file name with its ``.semantic.json`` sidecar; the episodes are
-drawn on them by
-navbench's seeded PointNav generator (:func:`navbench.episodes.generate.pointnav_episodes`) for the agent body
-of habitat-lab's PointNav test config (radius 0.1 m, height 1.5 m, climb 0.2 m), and written in habitat-lab's
-PointNav-v1 format (``habitat/datasets/pointnav/pointnav_dataset.py``) with the scene path habitat-lab's test
-files hold (``data/scene_datasets/habitat-test-scenes/<name>.glb``). Like habitat's test dataset, the episodes
-lie in two scenes.
+``SimulatorConfig.scene``), data habitat-lab's repository does not hold. Each scene is one of navbench's bundled val
+houses copied under the test scene's file name with its ``.semantic.json`` sidecar; the episodes are drawn on them
+by navbench's seeded PointNav generator (:func:`navbench.episodes.generate.pointnav_episodes`) for the agent body of
+habitat-lab's PointNav test config (radius 0.1 m, height 1.5 m, climb 0.2 m), and written in habitat-lab's
+PointNav-v1 format (``habitat/datasets/pointnav/pointnav_dataset.py``) with the scene path habitat-lab's test files
+hold (``data/scene_datasets/habitat-test-scenes/<name>.glb``). Like habitat's test dataset, the episodes lie in two
+scenes.
 
 habitat-lab's ObjectNav tests (``test/config/habitat/habitat_mp3d_object_nav_test.yaml``) read
 ``data/datasets/objectnav/mp3d/v1/{split}/{split}.json.gz`` with scenes under ``data/scene_datasets/``: ``train`` and
