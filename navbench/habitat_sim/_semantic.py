@@ -158,18 +158,12 @@ def _mp3d_obb(tokens: list[str], at: int) -> OBB:
 
 
 def mp3d_scene(asset, house: Path, ply: Path, frame) -> tuple[SemanticScene, np.ndarray]:
-    from navbench.safeio import read_input
     from navbench.scene.datasets import mp3d
     from navbench.scene.errors import SceneError
 
     if not house.is_file():
         raise SceneError(f"{ply}: its annotation file is missing: {house}")
-    try:
-        lines = read_input(house, gunzip=False).decode().splitlines()
-    except (OSError, ValueError) as exc:
-        raise SceneError(f"{house}: cannot read ({exc})") from None
-    if not lines or lines[0].strip() != "ASCII 1.1":
-        raise SceneError(f"{house}: not a Matterport .house file (first line must be 'ASCII 1.1')")
+    lines = mp3d.house_lines(house, version="1.1")
     scene = SemanticScene()
     for n, line in enumerate(lines[1:], start=2):
         t = line.split()

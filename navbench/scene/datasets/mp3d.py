@@ -34,17 +34,26 @@ REGION_LABELS = {
 }
 
 
+def house_lines(path: Path, version: str = "") -> list[str]:
+    """The lines of a Matterport ``.house`` file, read within the input bounds; its first line must start with
+    ``ASCII`` (``ASCII {version}`` where a version is asked for)."""
+    try:
+        lines = read_input(path, gunzip=False).decode().splitlines()
+    except (OSError, ValueError) as exc:  # UTF-8 and size errors are ValueErrors
+        raise SceneError(f"{path}: cannot read ({exc})") from None
+    header = f"ASCII {version}" if version else "ASCII"
+    if not lines or not (lines[0].strip() == header if version else lines[0].startswith(header)):
+        raise SceneError(f"{path}: not a Matterport .house file (first line must "
+                         f"{'be' if version else 'start with'} '{header}')")
+    return lines
+
+
 def read_house(path: Path) -> tuple[dict[int, tuple[str, str]], dict[int, tuple[int, int]], dict[int, str]]:
     """(categories {index: (raw name, mpcat40 name)}, objects {index: (region, category)}, regions {index: label})."""
     cats: dict[int, tuple[str, str]] = {}
     objs: dict[int, tuple[int, int]] = {}
     regions: dict[int, str] = {}
-    try:
-        lines = read_input(path, gunzip=False).decode().splitlines()
-    except (OSError, ValueError) as exc:  # UTF-8 and size errors are ValueErrors
-        raise SceneError(f"{path}: cannot read ({exc})") from None
-    if not lines or not lines[0].startswith("ASCII"):
-        raise SceneError(f"{path}: not a Matterport .house file (first line must start with 'ASCII')")
+    lines = house_lines(path)
     for n, line in enumerate(lines[1:], start=2):
         t = line.split()
         if not t:
